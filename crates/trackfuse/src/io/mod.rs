@@ -1,0 +1,27 @@
+//! Readers and writers for every file of `FORMATS.md`.
+//!
+//! Readers find columns by header name (any order, extra columns ignored), accept LF and
+//! CRLF, and reject — never repair — missing columns, unparsable or non-finite numbers,
+//! covariances that are not symmetric positive semi-definite, time going backwards within
+//! one `(sensor_id, track_id)` and duplicate rows. Every error names file, line, column and
+//! reason ([`InputError`]). Writers write LF and floats in shortest round-trip form.
+
+mod error;
+mod reader;
+mod writer;
+
+pub use error::InputError;
+pub use reader::{
+    read_associations, read_fused_tracks, read_local_tracks, read_measurements, read_sensors,
+    read_truth, check_covariance,
+};
+pub use writer::{
+    AssociationWriter, CsvRowWriter, FusedTrackWriter, LocalTrackWriter, MeasurementWriter,
+    TruthWriter, write_sensors,
+};
+
+/// Header names of the covariance columns, `P00 … P33`, row-major.
+pub const COV_COLUMNS: [&str; 16] = [
+    "P00", "P01", "P02", "P03", "P10", "P11", "P12", "P13", "P20", "P21", "P22", "P23", "P30",
+    "P31", "P32", "P33",
+];

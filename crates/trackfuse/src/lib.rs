@@ -1,0 +1,22 @@
+//! # trackfuse
+//!
+//! Distributed multi-sensor, multi-target tracking: each sensor runs its own tracker
+//! ([`local`]), a fusion center ([`center`]) associates the local tracks that follow the
+//! same target (track-to-track association) and fuses them (track-to-track fusion).
+//!
+//! Every stage reads and writes the files of `FORMATS.md` ([`io`]) and is one library call,
+//! so the CLI, the Monte Carlo engine ([`montecarlo`]) and a service share one code path.
+//! The library holds no global state and prints nothing.
+
+pub mod center;
+pub mod io;
+pub mod local;
+pub mod metrics;
+pub mod models;
+pub mod rng;
+pub mod scenario;
+pub mod sim;
+pub mod types;
+
+pub use scenario::Scenario;
+pub use types::*;

@@ -1,0 +1,42 @@
+//! Metrics and evaluation (ALGORITHMS.md section 4).
+
+use serde::{Deserialize, Serialize};
+
+/// Evaluation parameters (`[evaluation]` in a scenario).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EvaluationConfig {
+    /// GOSPA / OSPA cut-off `c` (m); also the largest distance at which an estimate is
+    /// assigned to a target for RMSE and association truth (default 1000 m).
+    #[serde(default = "default_c")]
+    pub gospa_c: f64,
+    /// GOSPA / OSPA order `p` (default 2).
+    #[serde(default = "default_p")]
+    pub gospa_p: f64,
+}
+
+fn default_c() -> f64 {
+    1000.0
+}
+fn default_p() -> f64 {
+    2.0
+}
+
+impl Default for EvaluationConfig {
+    fn default() -> Self {
+        EvaluationConfig { gospa_c: default_c(), gospa_p: default_p() }
+    }
+}
+
+impl EvaluationConfig {
+    /// Range-check the values; `Err((key, reason))`.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        if !(self.gospa_c.is_finite() && self.gospa_c > 0.0) {
+            return Err(("gospa_c".into(), format!("{} must be positive", self.gospa_c)));
+        }
+        if !(self.gospa_p.is_finite() && self.gospa_p >= 1.0) {
+            return Err(("gospa_p".into(), format!("{} must be >= 1", self.gospa_p)));
+        }
+        Ok(())
+    }
+}
