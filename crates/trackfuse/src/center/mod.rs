@@ -1,6 +1,118 @@
-//! The fusion center: track-to-track association and fusion (ALGORITHMS.md section 3).
+//! The fusion center: track-to-track association (T2TA) and track-to-track fusion (T2TF)
+//! (ALGORITHMS.md section 3).
+//!
+//! Seams, so methods are interchangeable:
+//! - [`TrackAssociator`]: one scan's local tracks + the global tracks -> groups of local
+//!   tracks, each with member weights and the global track it continues (or none).
+//! - [`FusionRule`]: a group's members + weights + the prior global state -> fused state
+//!   and covariance.
+//! - `FusionCenter` (in `center/fusion_center.rs`): holds the global track table with
+//!   stable ids, runs associator, rule and bias estimator one scan at a time.
+//!
+//! Conventions every method keeps:
+//! - Local tracks reach an associator sorted by `(sensor_id, track_id)`: the center sorts
+//!   them first, so no result depends on the order of the local tracks within a scan.
+//! - Two local tracks of one sensor are never the same target: an associator never
+//!   returns a group holding two tracks of one sensor (each method documents how it
+//!   splits such a cluster).
+//! - Every local track of the scan is in exactly one group.
 
+use crate::types::{Id, LocalTrack, Sensor, StateCov, StateVec};
 use serde::{Deserialize, Serialize};
+
+/// A global (fused) track as the fusion center keeps it between scans.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GlobalTrack {
+    /// Stable id, published as `fused_id`.
+    pub id: Id,
+    /// Scan and time of the last update.
+    pub scan: u32,
+    pub time: f64,
+    /// Fused estimate at the last update.
+    pub state: StateVec,
+    pub cov: StateCov,
+    /// The fused estimate before the last one `(time, state)`, for tracklet methods (002).
+    pub previous: Option<(f64, StateVec)>,
+    /// `(sensor_id, track_id)` of the local tracks fused at the last update, sorted.
+    pub sources: Vec<(Id, Id)>,
+    /// Number of updates so far.
+    pub updates: u32,
+    /// Consecutive scans without any local track.
+    pub misses: u32,
+}
+
+/// What an associator may know when it associates one scan.
+#[derive(Debug, Clone, Copy)]
+pub struct AssociationContext<'a> {
+    pub scan: u32,
+    pub time: f64,
+    /// What the center knows of the sensors (positions, noise; never the true biases), when given.
+    pub sensors: Option<&'a [Sensor]>,
+    /// Each global track's estimate predicted to `time` (same order as the globals slice).
+    pub predicted: &'a [(StateVec, StateCov)],
+}
+
+/// A group of local tracks the associator decided follow one target.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackGroup {
+    /// Indices into the scan's (sorted) local tracks; at most one per sensor.
+    pub members: Vec<usize>,
+    /// One weight per member (fuzzy memberships, or 1 for hard methods).
+    pub weights: Vec<f64>,
+    /// Index into the global tracks of the one this group continues, or `None` for a new one.
+    pub global: Option<usize>,
+}
+
+/// Track-to-track association method.
+pub trait TrackAssociator: Send {
+    /// The ALGORITHMS.md name.
+    fn name(&self) -> &'static str;
+    /// Associate one scan's local tracks (sorted by `(sensor_id, track_id)`) with the
+    /// global tracks.
+    fn associate(
+        &mut self,
+        ctx: &AssociationContext<'_>,
+        tracks: &[LocalTrack],
+        globals: &[GlobalTrack],
+    ) -> Result<Vec<TrackGroup>, CenterError>;
+}
+
+/// What a fusion rule may know when it fuses one group.
+#[derive(Debug, Clone, Copy)]
+pub struct FusionContext<'a> {
+    pub time: f64,
+    /// The global track's predicted estimate, when the group continues one.
+    pub prior: Option<(&'a StateVec, &'a StateCov)>,
+    /// What the center knows of the sensors, when given.
+    pub sensors: Option<&'a [Sensor]>,
+}
+
+/// Track-to-track fusion rule.
+pub trait FusionRule: Send + Sync {
+    /// The ALGORITHMS.md name.
+    fn name(&self) -> &'static str;
+    /// Fuse a group's members with their weights.
+    fn fuse(
+        &self,
+        members: &[&LocalTrack],
+        weights: &[f64],
+        ctx: &FusionContext<'_>,
+    ) -> Result<(StateVec, StateCov), CenterError>;
+}
+
+/// A fusion-center problem.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CenterError {
+    /// A method needs something the input does not give (e.g. sensors.csv).
+    #[error("{method}: {reason}")]
+    Needs { method: String, reason: String },
+    /// A configuration value is wrong.
+    #[error("fusion config: {key}: {reason}")]
+    Config { key: String, reason: String },
+    /// Input that cannot be processed (e.g. a scan going back in time).
+    #[error("{0}")]
+    Input(String),
+}
 
 /// Configuration of the fusion center (`[fusion]` in a scenario).
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
