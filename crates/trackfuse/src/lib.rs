@@ -13,6 +13,7 @@ pub mod io;
 pub mod local;
 pub mod metrics;
 pub mod models;
+pub mod montecarlo;
 pub mod rng;
 pub mod scenario;
 pub mod sim;

@@ -179,7 +179,9 @@ pub struct MonteCarloSpec {
 
 impl Default for MonteCarloSpec {
     fn default() -> Self {
-        MonteCarloSpec { runs: default_runs() }
+        MonteCarloSpec {
+            runs: default_runs(),
+        }
     }
 }
 
@@ -195,7 +197,11 @@ pub enum ScenarioError {
     Parse { file: String, message: String },
     /// A value is out of range.
     #[error("{file}: {key}: {reason}")]
-    Invalid { file: String, key: String, reason: String },
+    Invalid {
+        file: String,
+        key: String,
+        reason: String,
+    },
     /// Reading the file failed.
     #[error("{file}: cannot read: {message}")]
     Io { file: String, message: String },
@@ -204,7 +210,10 @@ pub enum ScenarioError {
 /// The scenarios compiled into the library, by name. The first is the default.
 pub const BUILTIN_SCENARIOS: &[(&str, &str)] = &[
     ("000-s2", include_str!("../../../scenarios/000-s2.toml")),
-    ("grid-bench", include_str!("../../../scenarios/grid-bench.toml")),
+    (
+        "grid-bench",
+        include_str!("../../../scenarios/grid-bench.toml"),
+    ),
 ];
 
 impl Scenario {
@@ -216,7 +225,10 @@ impl Scenario {
                 let (line, col) = line_col(text, span.start);
                 message = format!("line {line}, column {col}: {message}");
             }
-            ScenarioError::Parse { file: file.to_string(), message }
+            ScenarioError::Parse {
+                file: file.to_string(),
+                message,
+            }
         })?;
         sc.validate(file)?;
         Ok(sc)
@@ -225,17 +237,22 @@ impl Scenario {
     /// Read a scenario file.
     pub fn from_file(path: &Path) -> Result<Scenario, ScenarioError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| ScenarioError::Io { file: file.clone(), message: e.to_string() })?;
+        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
+            file: file.clone(),
+            message: e.to_string(),
+        })?;
         Scenario::from_toml(&text, &file)
     }
 
     /// A built-in scenario by name.
     pub fn builtin(name: &str) -> Option<Scenario> {
-        BUILTIN_SCENARIOS.iter().find(|(n, _)| *n == name).map(|(n, text)| {
-            Scenario::from_toml(text, &format!("builtin:{n}"))
-                .unwrap_or_else(|e| panic!("built-in scenario {n} is invalid: {e}"))
-        })
+        BUILTIN_SCENARIOS
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(n, text)| {
+                Scenario::from_toml(text, &format!("builtin:{n}"))
+                    .unwrap_or_else(|e| panic!("built-in scenario {n} is invalid: {e}"))
+            })
     }
 
     /// The built-in default scenario (paper 000 scenario II).
@@ -245,15 +262,25 @@ impl Scenario {
 
     /// TOML text of a built-in scenario.
     pub fn builtin_text(name: &str) -> Option<&'static str> {
-        BUILTIN_SCENARIOS.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
+        BUILTIN_SCENARIOS
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, t)| *t)
     }
 
     /// Range-check every value. Errors name the key.
     pub fn validate(&self, file: &str) -> Result<(), ScenarioError> {
-        let bad = |key: String, reason: String| ScenarioError::Invalid { file: file.to_string(), key, reason };
+        let bad = |key: String, reason: String| ScenarioError::Invalid {
+            file: file.to_string(),
+            key,
+            reason,
+        };
         let finite_pos = |key: &str, v: f64| -> Result<(), ScenarioError> {
             if !(v.is_finite() && v > 0.0) {
-                return Err(bad(key.to_string(), format!("{v} must be a positive number")));
+                return Err(bad(
+                    key.to_string(),
+                    format!("{v} must be a positive number"),
+                ));
             }
             Ok(())
         };
@@ -271,25 +298,40 @@ impl Scenario {
             finite_nonneg(format!("process_noise[{i}]"), *q)?;
         }
         if self.targets.is_empty() && self.target_grid.is_none() {
-            return Err(bad("targets".into(), "the scenario has no targets (give [[targets]] or [target_grid])".into()));
+            return Err(bad(
+                "targets".into(),
+                "the scenario has no targets (give [[targets]] or [target_grid])".into(),
+            ));
         }
         let mut ids = HashSet::new();
         for (i, t) in self.targets.iter().enumerate() {
             let key = |k: &str| format!("targets[{i}].{k}");
             if t.initial.iter().any(|v| !v.is_finite()) {
-                return Err(bad(key("initial"), "must be four finite numbers [x, vx, y, vy]".into()));
+                return Err(bad(
+                    key("initial"),
+                    "must be four finite numbers [x, vx, y, vy]".into(),
+                ));
             }
             if t.start_scan >= self.scans {
-                return Err(bad(key("start_scan"), format!("{} is not below scans = {}", t.start_scan, self.scans)));
+                return Err(bad(
+                    key("start_scan"),
+                    format!("{} is not below scans = {}", t.start_scan, self.scans),
+                ));
             }
             if let Some(e) = t.end_scan {
                 if e < t.start_scan {
-                    return Err(bad(key("end_scan"), format!("{e} is before start_scan {}", t.start_scan)));
+                    return Err(bad(
+                        key("end_scan"),
+                        format!("{e} is before start_scan {}", t.start_scan),
+                    ));
                 }
             }
             let mut prev = f64::NEG_INFINITY;
             for (j, seg) in t.acceleration.iter().enumerate() {
-                if !seg.start.is_finite() || seg.start < prev || seg.accel.iter().any(|a| !a.is_finite()) {
+                if !seg.start.is_finite()
+                    || seg.start < prev
+                    || seg.accel.iter().any(|a| !a.is_finite())
+                {
                     return Err(bad(
                         format!("targets[{i}].acceleration[{j}]"),
                         "segments need finite values and non-decreasing start times".into(),
@@ -310,8 +352,15 @@ impl Scenario {
                 return Err(bad("target_grid.count".into(), "must be at least 1".into()));
             }
             finite_pos("target_grid.spacing", g.spacing)?;
-            if !(g.speed[0].is_finite() && g.speed[1].is_finite() && 0.0 <= g.speed[0] && g.speed[0] <= g.speed[1]) {
-                return Err(bad("target_grid.speed".into(), "must be [min, max] with 0 <= min <= max".into()));
+            if !(g.speed[0].is_finite()
+                && g.speed[1].is_finite()
+                && 0.0 <= g.speed[0]
+                && g.speed[0] <= g.speed[1])
+            {
+                return Err(bad(
+                    "target_grid.speed".into(),
+                    "must be [min, max] with 0 <= min <= max".into(),
+                ));
             }
             if g.origin.iter().any(|v| !v.is_finite()) {
                 return Err(bad("target_grid.origin".into(), "must be finite".into()));
@@ -319,7 +368,13 @@ impl Scenario {
             let first = g.first_id.unwrap_or(self.targets.len() as Id);
             for k in 0..g.count as Id {
                 if !ids.insert(first + k) {
-                    return Err(bad("target_grid.first_id".into(), format!("grid target id {} collides with an explicit target", first + k)));
+                    return Err(bad(
+                        "target_grid.first_id".into(),
+                        format!(
+                            "grid target id {} collides with an explicit target",
+                            first + k
+                        ),
+                    ));
                 }
             }
         }
@@ -330,7 +385,10 @@ impl Scenario {
         finite_nonneg("clutter.density".into(), self.clutter.density)?;
         if let Some(r) = self.clutter.region {
             if r.iter().any(|v| !v.is_finite()) || r[0] >= r[1] || r[2] >= r[3] {
-                return Err(bad("clutter.region".into(), "must be [x_min, x_max, y_min, y_max] with min < max".into()));
+                return Err(bad(
+                    "clutter.region".into(),
+                    "must be [x_min, x_max, y_min, y_max] with min < max".into(),
+                ));
             }
         }
         for (i, s) in self.sensors.iter().enumerate() {
@@ -346,22 +404,39 @@ impl Scenario {
                 return Err(bad(key("position"), "must be finite".into()));
             }
             let (need, forbid) = match s.kind {
-                SensorKind::RangeBearing => ([("sigma_r", s.sigma_r), ("sigma_theta", s.sigma_theta)], [("sigma_x", s.sigma_x), ("sigma_y", s.sigma_y)]),
-                SensorKind::Position => ([("sigma_x", s.sigma_x), ("sigma_y", s.sigma_y)], [("sigma_r", s.sigma_r), ("sigma_theta", s.sigma_theta)]),
+                SensorKind::RangeBearing => (
+                    [("sigma_r", s.sigma_r), ("sigma_theta", s.sigma_theta)],
+                    [("sigma_x", s.sigma_x), ("sigma_y", s.sigma_y)],
+                ),
+                SensorKind::Position => (
+                    [("sigma_x", s.sigma_x), ("sigma_y", s.sigma_y)],
+                    [("sigma_r", s.sigma_r), ("sigma_theta", s.sigma_theta)],
+                ),
             };
             for (k, v) in need {
                 match v {
                     Some(v) => finite_pos(&key(k), v)?,
-                    None => return Err(bad(key(k), format!("required for a {} sensor", s.kind.as_str()))),
+                    None => {
+                        return Err(bad(
+                            key(k),
+                            format!("required for a {} sensor", s.kind.as_str()),
+                        ))
+                    }
                 }
             }
             for (k, v) in forbid {
                 if v.is_some() {
-                    return Err(bad(key(k), format!("does not apply to a {} sensor", s.kind.as_str())));
+                    return Err(bad(
+                        key(k),
+                        format!("does not apply to a {} sensor", s.kind.as_str()),
+                    ));
                 }
             }
             if s.kind == SensorKind::Position && (s.bias_r != 0.0 || s.bias_theta != 0.0) {
-                return Err(bad(key("bias_r"), "range/bearing biases apply to range_bearing sensors only".into()));
+                return Err(bad(
+                    key("bias_r"),
+                    "range/bearing biases apply to range_bearing sensors only".into(),
+                ));
             }
             if !(s.pd.is_finite() && (0.0..=1.0).contains(&s.pd)) {
                 return Err(bad(key("pd"), format!("{} must be in [0, 1]", s.pd)));
@@ -379,7 +454,10 @@ impl Scenario {
             if let Some(v) = &s.visible_targets {
                 for t in v {
                     if !ids.contains(t) {
-                        return Err(bad(key("visible_targets"), format!("target {t} is not in the scenario")));
+                        return Err(bad(
+                            key("visible_targets"),
+                            format!("target {t} is not in the scenario"),
+                        ));
                     }
                 }
             }
@@ -391,9 +469,15 @@ impl Scenario {
                 ));
             }
         }
-        self.tracker.validate().map_err(|(k, r)| bad(format!("tracker.{k}"), r))?;
-        self.fusion.validate().map_err(|(k, r)| bad(format!("fusion.{k}"), r))?;
-        self.evaluation.validate().map_err(|(k, r)| bad(format!("evaluation.{k}"), r))?;
+        self.tracker
+            .validate()
+            .map_err(|(k, r)| bad(format!("tracker.{k}"), r))?;
+        self.fusion
+            .validate()
+            .map_err(|(k, r)| bad(format!("fusion.{k}"), r))?;
+        self.evaluation
+            .validate()
+            .map_err(|(k, r)| bad(format!("evaluation.{k}"), r))?;
         Ok(())
     }
 
@@ -404,7 +488,9 @@ impl Scenario {
             .enumerate()
             .map(|(i, s)| {
                 let (sa, sb) = match s.kind {
-                    SensorKind::RangeBearing => (s.sigma_r.unwrap_or(0.0), s.sigma_theta.unwrap_or(0.0)),
+                    SensorKind::RangeBearing => {
+                        (s.sigma_r.unwrap_or(0.0), s.sigma_theta.unwrap_or(0.0))
+                    }
                     SensorKind::Position => (s.sigma_x.unwrap_or(0.0), s.sigma_y.unwrap_or(0.0)),
                 };
                 Sensor {
@@ -470,11 +556,16 @@ sigma_theta = 0.001
 
     #[test]
     fn out_of_range_is_named() {
-        let e = Scenario::from_toml(&MINIMAL.replace("sigma_theta = 0.001", "sigma_theta = 0.001\npd = 1.5"), "t").unwrap_err();
+        let e = Scenario::from_toml(
+            &MINIMAL.replace("sigma_theta = 0.001", "sigma_theta = 0.001\npd = 1.5"),
+            "t",
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("sensors[0].pd"), "{e}");
         let e = Scenario::from_toml(&MINIMAL.replace("dt = 1.0", "dt = -1.0"), "t").unwrap_err();
         assert!(e.to_string().contains("dt"), "{e}");
-        let e = Scenario::from_toml(&format!("{MINIMAL}\n[clutter]\ndensity = 1.0\n"), "t").unwrap_err();
+        let e = Scenario::from_toml(&format!("{MINIMAL}\n[clutter]\ndensity = 1.0\n"), "t")
+            .unwrap_err();
         assert!(e.to_string().contains("max_range"), "{e}");
     }
 

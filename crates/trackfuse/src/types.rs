@@ -80,7 +80,12 @@ impl Sensor {
     /// Measurement noise covariance in the sensor's own measurement space
     /// (`diag(sigma_r^2, sigma_theta^2)` or `diag(sigma_x^2, sigma_y^2)`).
     pub fn measurement_noise(&self) -> Mat2 {
-        Mat2::new(self.sigma_a * self.sigma_a, 0.0, 0.0, self.sigma_b * self.sigma_b)
+        Mat2::new(
+            self.sigma_a * self.sigma_a,
+            0.0,
+            0.0,
+            self.sigma_b * self.sigma_b,
+        )
     }
 
     /// Whether a point at `(x, y)` is within the sensor's maximum range.

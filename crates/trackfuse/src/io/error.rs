@@ -40,7 +40,13 @@ impl InputError {
     }
 
     /// An error about one cell.
-    pub fn cell(file: &Path, line: u64, column: usize, name: &str, reason: impl Into<String>) -> Self {
+    pub fn cell(
+        file: &Path,
+        line: u64,
+        column: usize,
+        name: &str,
+        reason: impl Into<String>,
+    ) -> Self {
         InputError {
             file: file.to_path_buf(),
             line: Some(line),

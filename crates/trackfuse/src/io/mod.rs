@@ -12,12 +12,12 @@ mod writer;
 
 pub use error::InputError;
 pub use reader::{
-    read_associations, read_fused_tracks, read_local_tracks, read_measurements, read_sensors,
-    read_truth, check_covariance,
+    check_covariance, read_associations, read_fused_tracks, read_local_tracks, read_measurements,
+    read_sensors, read_truth,
 };
 pub use writer::{
-    AssociationWriter, CsvRowWriter, FusedTrackWriter, LocalTrackWriter, MeasurementWriter,
-    TruthWriter, write_sensors,
+    write_sensors, AssociationWriter, CsvRowWriter, FusedTrackWriter, LocalTrackWriter,
+    MeasurementWriter, TruthWriter,
 };
 
 /// Header names of the covariance columns, `P00 … P33`, row-major.

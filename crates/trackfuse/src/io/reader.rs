@@ -46,19 +46,31 @@ impl Table {
         if headers.iter().all(|h| h.is_empty()) {
             return Err(InputError::line(path, 1, "empty file or empty header row"));
         }
-        Ok(Table { meta: Meta { path: path.to_path_buf(), headers }, reader })
+        Ok(Table {
+            meta: Meta {
+                path: path.to_path_buf(),
+                headers,
+            },
+            reader,
+        })
     }
 
     /// Index of a required column.
     fn col(&self, name: &str) -> Result<usize, InputError> {
         let m = &self.meta;
-        m.headers.iter().position(|h| h == name).ok_or_else(|| InputError {
-            file: m.path.clone(),
-            line: Some(1),
-            column: None,
-            column_name: Some(name.to_string()),
-            reason: format!("missing required column (header has: {})", m.headers.join(",")),
-        })
+        m.headers
+            .iter()
+            .position(|h| h == name)
+            .ok_or_else(|| InputError {
+                file: m.path.clone(),
+                line: Some(1),
+                column: None,
+                column_name: Some(name.to_string()),
+                reason: format!(
+                    "missing required column (header has: {})",
+                    m.headers.join(",")
+                ),
+            })
     }
 
     /// Index of an optional column.
@@ -78,7 +90,11 @@ impl Table {
                 Ok(false) => break,
                 Ok(true) => {
                     let line = rec.position().map(|p| p.line()).unwrap_or(0);
-                    f(&Row { table: meta, rec: &rec, line })?;
+                    f(&Row {
+                        table: meta,
+                        rec: &rec,
+                        line,
+                    })?;
                 }
                 Err(e) => return Err(csv_error(&meta.path, e)),
             }
@@ -90,22 +106,40 @@ impl Table {
 fn csv_error(path: &Path, e: csv::Error) -> InputError {
     let line = e.position().map(|p| p.line());
     let reason = match e.kind() {
-        csv::ErrorKind::UnequalLengths { expected_len, len, .. } => {
+        csv::ErrorKind::UnequalLengths {
+            expected_len, len, ..
+        } => {
             format!("row has {len} fields, header has {expected_len}")
         }
         csv::ErrorKind::Utf8 { .. } => "invalid UTF-8".to_string(),
         _ => e.to_string(),
     };
-    InputError { file: path.to_path_buf(), line, column: None, column_name: None, reason }
+    InputError {
+        file: path.to_path_buf(),
+        line,
+        column: None,
+        column_name: None,
+        reason,
+    }
 }
 
 impl Row<'_> {
     fn raw(&self, col: usize) -> &str {
-        self.rec.get(col).and_then(|b| std::str::from_utf8(b).ok()).unwrap_or("").trim()
+        self.rec
+            .get(col)
+            .and_then(|b| std::str::from_utf8(b).ok())
+            .unwrap_or("")
+            .trim()
     }
 
     fn err(&self, col: usize, reason: impl Into<String>) -> InputError {
-        InputError::cell(&self.table.path, self.line, col + 1, &self.table.headers[col], reason)
+        InputError::cell(
+            &self.table.path,
+            self.line,
+            col + 1,
+            &self.table.headers[col],
+            reason,
+        )
     }
 
     fn is_empty(&self, col: usize) -> bool {
@@ -118,7 +152,9 @@ impl Row<'_> {
         if s.is_empty() {
             return Err(self.err(col, "empty cell, a number is required"));
         }
-        let v: f64 = s.parse().map_err(|_| self.err(col, format!("'{s}' is not a number")))?;
+        let v: f64 = s
+            .parse()
+            .map_err(|_| self.err(col, format!("'{s}' is not a number")))?;
         if !v.is_finite() {
             return Err(self.err(col, format!("'{s}' is not finite")));
         }
@@ -161,7 +197,10 @@ impl Row<'_> {
 /// Check that a covariance is symmetric positive semi-definite within `1e-9` relative
 /// (FORMATS.md). Returns the reason when it is not.
 pub fn check_covariance(p: &StateCov) -> Result<(), String> {
-    let scale = p.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(f64::MIN_POSITIVE);
+    let scale = p
+        .iter()
+        .fold(0.0f64, |m, v| m.max(v.abs()))
+        .max(f64::MIN_POSITIVE);
     for r in 0..4 {
         for c in (r + 1)..4 {
             if (p[(r, c)] - p[(c, r)]).abs() > 1e-9 * scale {
@@ -176,7 +215,9 @@ pub fn check_covariance(p: &StateCov) -> Result<(), String> {
     let eig = nalgebra::SymmetricEigen::new(crate::types::symmetrize(p));
     let min = eig.eigenvalues.iter().fold(f64::INFINITY, |m, v| m.min(*v));
     if min < -1e-9 * scale {
-        return Err(format!("covariance is not positive semi-definite (smallest eigenvalue {min})"));
+        return Err(format!(
+            "covariance is not positive semi-definite (smallest eigenvalue {min})"
+        ));
     }
     Ok(())
 }
@@ -192,7 +233,10 @@ impl StateCols {
         for (i, name) in COV_COLUMNS.iter().enumerate() {
             cov[i] = t.col(name)?;
         }
-        Ok(StateCols { state: [t.col("x")?, t.col("vx")?, t.col("y")?, t.col("vy")?], cov })
+        Ok(StateCols {
+            state: [t.col("x")?, t.col("vx")?, t.col("y")?, t.col("vy")?],
+            cov,
+        })
     }
 
     fn read(&self, row: &Row<'_>) -> Result<(StateVec, StateCov), InputError> {
@@ -204,7 +248,8 @@ impl StateCols {
         for i in 0..16 {
             p[(i / 4, i % 4)] = row.f64(self.cov[i])?;
         }
-        check_covariance(&p).map_err(|reason| InputError::line(&row.table.path, row.line, reason))?;
+        check_covariance(&p)
+            .map_err(|reason| InputError::line(&row.table.path, row.line, reason))?;
         Ok((s, p))
     }
 }
@@ -235,14 +280,20 @@ pub fn read_sensors(path: &Path) -> Result<Vec<Sensor>, InputError> {
     t.for_each_row(|row| {
         let id = row.int(c_id)?;
         if let Some(prev) = seen.insert(id, row.line) {
-            return Err(row.err(c_id, format!("duplicate sensor_id {id} (first on line {prev})")));
+            return Err(row.err(
+                c_id,
+                format!("duplicate sensor_id {id} (first on line {prev})"),
+            ));
         }
         let kind = match c_kind {
             Some(c) if !row.is_empty(c) => match row.raw(c) {
                 "range_bearing" => SensorKind::RangeBearing,
                 "position" => SensorKind::Position,
                 other => {
-                    return Err(row.err(c, format!("unknown kind '{other}' (expected range_bearing or position)")))
+                    return Err(row.err(
+                        c,
+                        format!("unknown kind '{other}' (expected range_bearing or position)"),
+                    ))
                 }
             },
             _ => SensorKind::RangeBearing,
@@ -289,7 +340,10 @@ pub fn read_sensors(path: &Path) -> Result<Vec<Sensor>, InputError> {
         Ok(())
     })?;
     if out.is_empty() {
-        return Err(InputError::file(path, "no sensors (the file has a header but no rows)"));
+        return Err(InputError::file(
+            path,
+            "no sensors (the file has a header but no rows)",
+        ));
     }
     Ok(out)
 }
@@ -321,7 +375,12 @@ pub fn read_truth(path: &Path) -> Result<Vec<TruthState>, InputError> {
         for i in 0..4 {
             state[i] = row.f64(cs[i])?;
         }
-        out.push(TruthState { scan, time, target_id, state });
+        out.push(TruthState {
+            scan,
+            time,
+            target_id,
+            state,
+        });
         Ok(())
     })?;
     Ok(out)
@@ -339,7 +398,9 @@ fn check_time<K: std::hash::Hash + Eq + std::fmt::Debug>(
         if time < t_prev {
             return Err(row.err(
                 c_time,
-                format!("time goes backwards for {key:?}: {time} after {t_prev} (line {line_prev})"),
+                format!(
+                    "time goes backwards for {key:?}: {time} after {t_prev} (line {line_prev})"
+                ),
             ));
         }
     }
@@ -352,7 +413,10 @@ fn check_time<K: std::hash::Hash + Eq + std::fmt::Debug>(
 /// and each row must carry the cells of its sensor's kind. Rows are returned sorted by
 /// `(scan, sensor_id)` (stable, so the file's order within a scan and sensor is kept).
 /// The `target_id` column is read for evaluation; trackers must not use it.
-pub fn read_measurements(path: &Path, sensors: Option<&[Sensor]>) -> Result<Vec<Measurement>, InputError> {
+pub fn read_measurements(
+    path: &Path,
+    sensors: Option<&[Sensor]>,
+) -> Result<Vec<Measurement>, InputError> {
     let mut t = Table::open(path)?;
     let c_scan = t.col("scan")?;
     let c_time = t.col("time")?;
@@ -373,7 +437,8 @@ pub fn read_measurements(path: &Path, sensors: Option<&[Sensor]>) -> Result<Vec<
             reason: "missing measurement columns: need range and bearing, or x and y".into(),
         });
     }
-    let kinds: Option<HashMap<Id, SensorKind>> = sensors.map(|s| s.iter().map(|s| (s.id, s.kind)).collect());
+    let kinds: Option<HashMap<Id, SensorKind>> =
+        sensors.map(|s| s.iter().map(|s| (s.id, s.kind)).collect());
     let mut out: Vec<(Measurement, u64)> = Vec::new();
     let mut seen: HashSet<(u32, Id, u64, u64)> = HashSet::new();
     let mut scan_time: HashMap<(Id, u32), f64> = HashMap::new();
@@ -386,24 +451,35 @@ pub fn read_measurements(path: &Path, sensors: Option<&[Sensor]>) -> Result<Vec<
         let kind = match (has_rb, has_pos) {
             (true, false) => SensorKind::RangeBearing,
             (false, true) => SensorKind::Position,
-            (true, true) => {
+            (true, true) => return Err(InputError::line(
+                &row.table.path,
+                row.line,
+                "row has both range/bearing and x/y cells; fill only those of the sensor's kind",
+            )),
+            (false, false) => {
                 return Err(InputError::line(
                     &row.table.path,
                     row.line,
-                    "row has both range/bearing and x/y cells; fill only those of the sensor's kind",
+                    "row has no measurement cells",
                 ))
-            }
-            (false, false) => {
-                return Err(InputError::line(&row.table.path, row.line, "row has no measurement cells"))
             }
         };
         if let Some(k) = &kinds {
             match k.get(&sensor_id) {
-                None => return Err(row.err(c_sid, format!("sensor_id {sensor_id} is not in sensors.csv"))),
+                None => {
+                    return Err(row.err(
+                        c_sid,
+                        format!("sensor_id {sensor_id} is not in sensors.csv"),
+                    ))
+                }
                 Some(&sk) if sk != kind => {
                     return Err(row.err(
                         c_sid,
-                        format!("sensor {sensor_id} is a {} sensor but this row has {} cells", sk.as_str(), kind.as_str()),
+                        format!(
+                            "sensor {sensor_id} is a {} sensor but this row has {} cells",
+                            sk.as_str(),
+                            kind.as_str()
+                        ),
                     ))
                 }
                 _ => {}
@@ -426,16 +502,33 @@ pub fn read_measurements(path: &Path, sensors: Option<&[Sensor]>) -> Result<Vec<
         };
         match scan_time.get(&(sensor_id, scan)) {
             Some(&t0) if t0 != time => {
-                return Err(row.err(c_time, format!("scan {scan} of sensor {sensor_id} has two times: {t0} and {time}")))
+                return Err(row.err(
+                    c_time,
+                    format!("scan {scan} of sensor {sensor_id} has two times: {t0} and {time}"),
+                ))
             }
             _ => {
                 scan_time.insert((sensor_id, scan), time);
             }
         }
         if !seen.insert((scan, sensor_id, value[0].to_bits(), value[1].to_bits())) {
-            return Err(InputError::line(&row.table.path, row.line, "duplicate row (same scan, sensor and measurement as an earlier row)"));
+            return Err(InputError::line(
+                &row.table.path,
+                row.line,
+                "duplicate row (same scan, sensor and measurement as an earlier row)",
+            ));
         }
-        out.push((Measurement { scan, time, sensor_id, kind, value, target_id }, row.line));
+        out.push((
+            Measurement {
+                scan,
+                time,
+                sensor_id,
+                kind,
+                value,
+                target_id,
+            },
+            row.line,
+        ));
         Ok(())
     })?;
     out.sort_by_key(|(m, _)| (m.scan, m.sensor_id));
@@ -525,20 +618,34 @@ pub fn read_fused_tracks(path: &Path) -> Result<Vec<FusedTrack>, InputError> {
             let s = row.raw(c);
             if !s.is_empty() {
                 for part in s.split('|') {
-                    let parsed = part
-                        .split_once(':')
-                        .and_then(|(a, b)| Some((a.trim().parse::<Id>().ok()?, b.trim().parse::<Id>().ok()?)));
+                    let parsed = part.split_once(':').and_then(|(a, b)| {
+                        Some((a.trim().parse::<Id>().ok()?, b.trim().parse::<Id>().ok()?))
+                    });
                     match parsed {
                         Some(p) => sources.push(p),
-                        None => return Err(row.err(c, format!("'{part}' is not a sensor:track_id pair"))),
+                        None => {
+                            return Err(
+                                row.err(c, format!("'{part}' is not a sensor:track_id pair"))
+                            )
+                        }
                     }
                 }
                 if sources.len() as i64 != n {
-                    return Err(row.err(c, format!("{} sources listed but n_sources is {n}", sources.len())));
+                    return Err(row.err(
+                        c,
+                        format!("{} sources listed but n_sources is {n}", sources.len()),
+                    ));
                 }
             }
         }
-        out.push(FusedTrack { scan, time, fused_id, state, cov, sources });
+        out.push(FusedTrack {
+            scan,
+            time,
+            fused_id,
+            state,
+            cov,
+            sources,
+        });
         Ok(())
     })?;
     out.sort_by_key(|f| (f.scan, f.fused_id));
@@ -565,7 +672,10 @@ pub fn read_associations(path: &Path) -> Result<Vec<Association>, InputError> {
             return Err(InputError::line(
                 &row.table.path,
                 row.line,
-                format!("duplicate row: scan {}, sensor {}, track {} already on line {prev}", a.scan, a.sensor_id, a.track_id),
+                format!(
+                    "duplicate row: scan {}, sensor {}, track {} already on line {prev}",
+                    a.scan, a.sensor_id, a.track_id
+                ),
             ));
         }
         out.push(a);

@@ -32,7 +32,12 @@ impl<W: Write> CsvRowWriter<W> {
     pub fn new(mut out: W, header: &str) -> io::Result<Self> {
         out.write_all(header.as_bytes())?;
         out.write_all(b"\n")?;
-        Ok(CsvRowWriter { out, line: Vec::with_capacity(512), float: ryu::Buffer::new(), first: true })
+        Ok(CsvRowWriter {
+            out,
+            line: Vec::with_capacity(512),
+            float: ryu::Buffer::new(),
+            first: true,
+        })
     }
 
     #[inline]
@@ -200,7 +205,10 @@ pub struct MeasurementWriter<W: Write> {
 impl MeasurementWriter<BufWriter<File>> {
     /// Create the file with the columns the given sensors need.
     pub fn create(path: &Path, sensors: &[Sensor]) -> io::Result<Self> {
-        Self::new(BufWriter::with_capacity(1 << 20, File::create(path)?), sensors)
+        Self::new(
+            BufWriter::with_capacity(1 << 20, File::create(path)?),
+            sensors,
+        )
     }
 }
 
@@ -209,11 +217,23 @@ impl<W: Write> MeasurementWriter<W> {
         let rb = sensors.iter().any(|s| s.kind == SensorKind::RangeBearing);
         let pos = sensors.iter().any(|s| s.kind == SensorKind::Position);
         let (cols, header) = match (rb, pos) {
-            (true, true) => (MeasurementColumns::Mixed, "scan,time,sensor_id,range,bearing,x,y,target_id"),
-            (false, true) => (MeasurementColumns::Position, "scan,time,sensor_id,x,y,target_id"),
-            _ => (MeasurementColumns::RangeBearing, "scan,time,sensor_id,range,bearing,target_id"),
+            (true, true) => (
+                MeasurementColumns::Mixed,
+                "scan,time,sensor_id,range,bearing,x,y,target_id",
+            ),
+            (false, true) => (
+                MeasurementColumns::Position,
+                "scan,time,sensor_id,x,y,target_id",
+            ),
+            _ => (
+                MeasurementColumns::RangeBearing,
+                "scan,time,sensor_id,range,bearing,target_id",
+            ),
         };
-        Ok(MeasurementWriter { w: CsvRowWriter::new(out, header)?, cols })
+        Ok(MeasurementWriter {
+            w: CsvRowWriter::new(out, header)?,
+            cols,
+        })
     }
 
     pub fn write(&mut self, m: &Measurement) -> io::Result<()> {
@@ -221,7 +241,10 @@ impl<W: Write> MeasurementWriter<W> {
         w.int(m.scan as i64).float(m.time).int(m.sensor_id);
         match (self.cols, m.kind) {
             (MeasurementColumns::Mixed, SensorKind::RangeBearing) => {
-                w.float(m.value[0]).float(wrap_angle(m.value[1])).empty().empty();
+                w.float(m.value[0])
+                    .float(wrap_angle(m.value[1]))
+                    .empty()
+                    .empty();
             }
             (MeasurementColumns::Mixed, SensorKind::Position) => {
                 w.empty().empty().float(m.value[0]).float(m.value[1]);
@@ -269,7 +292,10 @@ impl<W: Write> LocalTrackWriter<W> {
     }
     pub fn write(&mut self, t: &LocalTrack) -> io::Result<()> {
         let w = &mut self.0;
-        w.int(t.scan as i64).float(t.time).int(t.sensor_id).int(t.track_id);
+        w.int(t.scan as i64)
+            .float(t.time)
+            .int(t.sensor_id)
+            .int(t.track_id);
         w.state_cov(&t.state, &t.cov);
         w.end_row()
     }
@@ -330,7 +356,10 @@ impl<W: Write> AssociationWriter<W> {
     }
     pub fn write(&mut self, a: &Association) -> io::Result<()> {
         let w = &mut self.0;
-        w.int(a.scan as i64).int(a.sensor_id).int(a.track_id).int(a.fused_id);
+        w.int(a.scan as i64)
+            .int(a.sensor_id)
+            .int(a.track_id)
+            .int(a.fused_id);
         w.end_row()
     }
     pub fn finish(self) -> io::Result<W> {

@@ -1,5 +1,13 @@
 //! Metrics and evaluation (ALGORITHMS.md section 4).
 
+pub mod assignment;
+pub mod evaluate;
+pub mod gospa;
+
+pub use assignment::gated_assignment;
+pub use evaluate::{evaluate_run, EvalInput, RunMetrics, Summary};
+pub use gospa::{gospa, ospa, Gospa};
+
 use serde::{Deserialize, Serialize};
 
 /// Evaluation parameters (`[evaluation]` in a scenario).
@@ -13,6 +21,15 @@ pub struct EvaluationConfig {
     /// GOSPA / OSPA order `p` (default 2).
     #[serde(default = "default_p")]
     pub gospa_p: f64,
+    /// Largest distance (m) at which a local track is labelled as following a target
+    /// (default 2000 m: wide, because local tracks of biased sensors sit far off the truth;
+    /// labels use squared-distance optimal assignment, which a common bias cannot scramble).
+    #[serde(default = "default_label_gate")]
+    pub label_gate: f64,
+}
+
+fn default_label_gate() -> f64 {
+    2000.0
 }
 
 fn default_c() -> f64 {
@@ -24,7 +41,11 @@ fn default_p() -> f64 {
 
 impl Default for EvaluationConfig {
     fn default() -> Self {
-        EvaluationConfig { gospa_c: default_c(), gospa_p: default_p() }
+        EvaluationConfig {
+            gospa_c: default_c(),
+            gospa_p: default_p(),
+            label_gate: default_label_gate(),
+        }
     }
 }
 
@@ -32,10 +53,19 @@ impl EvaluationConfig {
     /// Range-check the values; `Err((key, reason))`.
     pub fn validate(&self) -> Result<(), (String, String)> {
         if !(self.gospa_c.is_finite() && self.gospa_c > 0.0) {
-            return Err(("gospa_c".into(), format!("{} must be positive", self.gospa_c)));
+            return Err((
+                "gospa_c".into(),
+                format!("{} must be positive", self.gospa_c),
+            ));
         }
         if !(self.gospa_p.is_finite() && self.gospa_p >= 1.0) {
             return Err(("gospa_p".into(), format!("{} must be >= 1", self.gospa_p)));
+        }
+        if !(self.label_gate.is_finite() && self.label_gate > 0.0) {
+            return Err((
+                "label_gate".into(),
+                format!("{} must be positive", self.label_gate),
+            ));
         }
         Ok(())
     }

@@ -4,7 +4,6 @@ pub mod measurement;
 pub mod motion;
 
 pub use measurement::{
-    range_bearing, range_bearing_jacobian, range_bearing_to_position, wrap_angle,
-    POSITION_H,
+    range_bearing, range_bearing_jacobian, range_bearing_to_position, wrap_angle, POSITION_H,
 };
 pub use motion::{cv_transition, noise_gain, process_noise, AccelerationSegment};

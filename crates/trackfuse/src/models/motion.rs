@@ -94,8 +94,14 @@ mod tests {
     #[test]
     fn schedule_lookup() {
         let s = [
-            AccelerationSegment { start: 0.0, accel: [0.0, 0.0] },
-            AccelerationSegment { start: 21.0, accel: [5.0, -10.0] },
+            AccelerationSegment {
+                start: 0.0,
+                accel: [0.0, 0.0],
+            },
+            AccelerationSegment {
+                start: 21.0,
+                accel: [5.0, -10.0],
+            },
         ];
         assert_eq!(acceleration_at(&s, 20.0), Vec2::new(0.0, 0.0));
         assert_eq!(acceleration_at(&s, 21.0), Vec2::new(5.0, -10.0));

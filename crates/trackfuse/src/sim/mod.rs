@@ -16,11 +16,11 @@
 //! if given, else over the sensor's coverage disc of radius `max_range`.
 
 use crate::models::motion::{acceleration_at, input_effect};
+use crate::models::AccelerationSegment;
 use crate::models::{cv_transition, noise_gain, range_bearing, wrap_angle};
 use crate::rng::{stream, StreamRng};
 use crate::scenario::Scenario;
 use crate::types::{Id, Measurement, Sensor, SensorKind, StateCov, StateVec, TruthState, Vec2};
-use crate::models::AccelerationSegment;
 use rand::RngExt;
 use rand_distr::{Distribution, Poisson, StandardNormal};
 use std::collections::HashSet;
@@ -119,10 +119,17 @@ impl Simulation {
                 } else if let Some(b) = sc.clutter.region {
                     ClutterRegion::Box(b)
                 } else {
-                    ClutterRegion::Disc { cx: sensor.x, cy: sensor.y, r: sensor.max_range }
+                    ClutterRegion::Disc {
+                        cx: sensor.x,
+                        cy: sensor.y,
+                        r: sensor.max_range,
+                    }
                 };
                 SimSensor {
-                    visible: spec.visible_targets.as_ref().map(|v| v.iter().copied().collect()),
+                    visible: spec
+                        .visible_targets
+                        .as_ref()
+                        .map(|v| v.iter().copied().collect()),
                     detect_rng: stream(seed, run, "detect", i as u64),
                     clutter_rng: stream(seed, run, "clutter", i as u64),
                     clutter_mean: density * region.area_km2(),
@@ -149,7 +156,11 @@ impl Simulation {
 
     /// Produce the next scan's truth and measurements into the buffers (cleared first).
     /// Returns `false` when the scenario has no more scans.
-    pub fn next_scan(&mut self, truth: &mut Vec<TruthState>, measurements: &mut Vec<Measurement>) -> bool {
+    pub fn next_scan(
+        &mut self,
+        truth: &mut Vec<TruthState>,
+        measurements: &mut Vec<Measurement>,
+    ) -> bool {
         truth.clear();
         measurements.clear();
         if self.scan >= self.scans {
@@ -159,7 +170,12 @@ impl Simulation {
         let time = scan as f64 * self.dt;
         for t in &self.targets {
             if scan >= t.start_scan && scan <= t.end_scan {
-                truth.push(TruthState { scan, time, target_id: t.id, state: t.state });
+                truth.push(TruthState {
+                    scan,
+                    time,
+                    target_id: t.id,
+                    state: t.state,
+                });
             }
         }
         for s in &mut self.sensors {
@@ -193,10 +209,19 @@ impl Simulation {
                     }
                     SensorKind::Position => Vec2::new(t.state[0] + sa * n1, t.state[2] + sb * n2),
                 };
-                measurements.push(Measurement { scan, time, sensor_id: sensor.id, kind: sensor.kind, value, target_id: t.target_id });
+                measurements.push(Measurement {
+                    scan,
+                    time,
+                    sensor_id: sensor.id,
+                    kind: sensor.kind,
+                    value,
+                    target_id: t.target_id,
+                });
             }
             if s.clutter_mean > 0.0 {
-                let n = Poisson::new(s.clutter_mean).map(|p| p.sample(&mut s.clutter_rng) as u64).unwrap_or(0);
+                let n = Poisson::new(s.clutter_mean)
+                    .map(|p| p.sample(&mut s.clutter_rng) as u64)
+                    .unwrap_or(0);
                 for _ in 0..n {
                     let p = match s.clutter_region {
                         ClutterRegion::Box(b) => Vec2::new(
@@ -217,7 +242,14 @@ impl Simulation {
                         }
                         SensorKind::Position => p,
                     };
-                    measurements.push(Measurement { scan, time, sensor_id: sensor.id, kind: sensor.kind, value, target_id: -1 });
+                    measurements.push(Measurement {
+                        scan,
+                        time,
+                        sensor_id: sensor.id,
+                        kind: sensor.kind,
+                        value,
+                        target_id: -1,
+                    });
                 }
             }
         }
@@ -258,7 +290,11 @@ pub fn simulate(sc: &Scenario, run: u64) -> SimulationOutput {
         truth.extend_from_slice(&t);
         measurements.extend_from_slice(&m);
     }
-    SimulationOutput { sensors: sim.sensors(), truth, measurements }
+    SimulationOutput {
+        sensors: sim.sensors(),
+        truth,
+        measurements,
+    }
 }
 
 #[cfg(test)]
@@ -291,7 +327,12 @@ max_range = 20000.0
         let a = simulate(&scenario(""), 0);
         let b = simulate(&scenario("[clutter]\ndensity = 0.5"), 0);
         assert_eq!(a.truth, b.truth);
-        let tb: Vec<_> = b.measurements.iter().filter(|m| m.target_id >= 0).copied().collect();
+        let tb: Vec<_> = b
+            .measurements
+            .iter()
+            .filter(|m| m.target_id >= 0)
+            .copied()
+            .collect();
         assert_eq!(a.measurements, tb);
         assert!(b.measurements.len() > a.measurements.len());
     }
@@ -303,7 +344,10 @@ max_range = 20000.0
         let n = b.measurements.iter().filter(|m| m.target_id < 0).count() as f64 / 50.0;
         assert!((n - 628.3).abs() < 15.0, "{n}");
         for m in b.measurements.iter().filter(|m| m.target_id < 0) {
-            assert!(m.value[0] <= 20000.0 && (-std::f64::consts::PI..std::f64::consts::PI).contains(&m.value[1]));
+            assert!(
+                m.value[0] <= 20000.0
+                    && (-std::f64::consts::PI..std::f64::consts::PI).contains(&m.value[1])
+            );
         }
     }
 
@@ -313,7 +357,8 @@ max_range = 20000.0
         let out = simulate(&sc, 2);
         let n = out.measurements.len() as f64;
         assert!((n / 50.0 - 0.9).abs() < 0.1, "{n}");
-        let truth: std::collections::HashMap<u32, StateVec> = out.truth.iter().map(|t| (t.scan, t.state)).collect();
+        let truth: std::collections::HashMap<u32, StateVec> =
+            out.truth.iter().map(|t| (t.scan, t.state)).collect();
         let s = Vec2::new(0.0, 0.0);
         let var_r = out
             .measurements
@@ -332,6 +377,9 @@ max_range = 20000.0
         let out = simulate(&sc, 0);
         assert_eq!(out.truth.len(), 10);
         assert_eq!(out.truth[0].scan, 10);
-        assert_eq!(out.truth[0].state, StateVec::new(1000.0, 10.0, 2000.0, -5.0));
+        assert_eq!(
+            out.truth[0].state,
+            StateVec::new(1000.0, 10.0, 2000.0, -5.0)
+        );
     }
 }

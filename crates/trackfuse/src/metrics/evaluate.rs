@@ -1,0 +1,582 @@
+//! Evaluation of one run, and its aggregation over Monte Carlo runs.
+//!
+//! Which estimate follows which target is decided per scan by the gated optimal assignment
+//! of [`super::assignment`] (squared distance, so a common sensor bias does not scramble
+//! the labels): fused tracks against the truth within `gospa_c`, and each sensor's local
+//! tracks against the truth within `label_gate`.
+//!
+//! - Position RMSE per target: `sqrt(mean of |p_est - p_true|^2)` over every scan and run
+//!   where the target has an assigned estimate (000 eq. 11); per scan over runs (001 eq. 17).
+//! - GOSPA / OSPA per scan, averaged over scans and runs ([`super::gospa`]).
+//! - NEES `e^T P^-1 e` of the 4-dim state error of assigned estimates, averaged.
+//! - P_c (000 eq. 19): at each scan, a *common* target is one followed by local tracks of
+//!   at least two sensors; it is correctly associated when all those local tracks went to
+//!   one fused track and no local track of anything else went to that fused track.
+//!   `P_c = mean over (run, scan) with common targets of N_c / N_public`.
+//! - Association rates (004 Sec. III), per local track per scan: a track is *falsely*
+//!   associated if a local track of another sensor following another target (or nothing)
+//!   shares its fused track; else *correctly* if one following its target does; else
+//!   *missed* if another sensor has a local track of its target at that scan. Tracks in
+//!   none of these cases (alone and rightly so) are not counted; the three rates sum to 1.
+
+use super::assignment::gated_assignment;
+use super::gospa::{gospa, ospa};
+use super::EvaluationConfig;
+use crate::types::{
+    position_of, Association, FusedTrack, Id, LocalTrack, StateCov, StateVec, TruthState, Vec2,
+};
+use serde::Serialize;
+use std::collections::{BTreeMap, HashMap};
+
+/// A running sum and count.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct SumCount {
+    pub sum: f64,
+    pub n: u64,
+}
+
+impl SumCount {
+    #[inline]
+    pub fn add(&mut self, v: f64) {
+        self.sum += v;
+        self.n += 1;
+    }
+    pub fn merge(&mut self, o: &SumCount) {
+        self.sum += o.sum;
+        self.n += o.n;
+    }
+    /// `sum / n`, or `None` without samples.
+    pub fn mean(&self) -> Option<f64> {
+        (self.n > 0).then(|| self.sum / self.n as f64)
+    }
+    /// `sqrt(sum / n)` (for sums of squares).
+    pub fn rms(&self) -> Option<f64> {
+        self.mean().map(f64::sqrt)
+    }
+}
+
+/// Counts behind the association rates.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct AssociationCounts {
+    pub correct: u64,
+    #[serde(rename = "false")]
+    pub false_: u64,
+    pub missed: u64,
+}
+
+/// Everything accumulated over one or more runs. Merging is exact (sums and counts), so
+/// Monte Carlo aggregation does not depend on how runs are grouped.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunMetrics {
+    pub runs: u64,
+    pub fused_per_target: BTreeMap<Id, SumCount>,
+    pub fused_per_scan: BTreeMap<u32, SumCount>,
+    pub local_per_sensor_target: BTreeMap<(Id, Id), SumCount>,
+    pub gospa: SumCount,
+    pub gospa_localisation: SumCount,
+    pub gospa_missed: SumCount,
+    pub gospa_false: SumCount,
+    pub gospa_n_missed: SumCount,
+    pub gospa_n_false: SumCount,
+    pub ospa: SumCount,
+    pub nees_fused: SumCount,
+    pub nees_local: SumCount,
+    pub pc: SumCount,
+    pub rates: Option<AssociationCounts>,
+    /// Truth points (target, scan) and how many had an assigned fused estimate.
+    pub truth_points: u64,
+    pub covered_points: u64,
+}
+
+fn merge_map<K: Ord + Copy>(a: &mut BTreeMap<K, SumCount>, b: &BTreeMap<K, SumCount>) {
+    for (k, v) in b {
+        a.entry(*k).or_default().merge(v);
+    }
+}
+
+impl RunMetrics {
+    /// Add another run's (or group of runs') metrics.
+    pub fn merge(&mut self, o: &RunMetrics) {
+        self.runs += o.runs;
+        merge_map(&mut self.fused_per_target, &o.fused_per_target);
+        merge_map(&mut self.fused_per_scan, &o.fused_per_scan);
+        merge_map(
+            &mut self.local_per_sensor_target,
+            &o.local_per_sensor_target,
+        );
+        for (a, b) in [
+            (&mut self.gospa, &o.gospa),
+            (&mut self.gospa_localisation, &o.gospa_localisation),
+            (&mut self.gospa_missed, &o.gospa_missed),
+            (&mut self.gospa_false, &o.gospa_false),
+            (&mut self.gospa_n_missed, &o.gospa_n_missed),
+            (&mut self.gospa_n_false, &o.gospa_n_false),
+            (&mut self.ospa, &o.ospa),
+            (&mut self.nees_fused, &o.nees_fused),
+            (&mut self.nees_local, &o.nees_local),
+            (&mut self.pc, &o.pc),
+        ] {
+            a.merge(b);
+        }
+        if let Some(r) = o.rates {
+            let s = self.rates.get_or_insert_with(AssociationCounts::default);
+            s.correct += r.correct;
+            s.false_ += r.false_;
+            s.missed += r.missed;
+        }
+        self.truth_points += o.truth_points;
+        self.covered_points += o.covered_points;
+    }
+}
+
+/// What to evaluate.
+#[derive(Debug, Clone, Copy)]
+pub struct EvalInput<'a> {
+    pub truth: &'a [TruthState],
+    pub fused: &'a [FusedTrack],
+    /// Associations; when absent they are taken from the fused tracks' `sources`.
+    pub associations: Option<&'a [Association]>,
+    pub local: Option<&'a [LocalTrack]>,
+}
+
+fn nees(err: &StateVec, cov: &StateCov) -> Option<f64> {
+    let chol = nalgebra::Cholesky::new(*cov)?;
+    Some(err.dot(&chol.solve(err)))
+}
+
+fn group_by_scan<T, F: Fn(&T) -> u32>(items: &[T], scan: F) -> BTreeMap<u32, Vec<&T>> {
+    let mut m: BTreeMap<u32, Vec<&T>> = BTreeMap::new();
+    for it in items {
+        m.entry(scan(it)).or_default().push(it);
+    }
+    m
+}
+
+/// Evaluate one run.
+pub fn evaluate_run(input: &EvalInput<'_>, cfg: &EvaluationConfig) -> RunMetrics {
+    let mut m = RunMetrics {
+        runs: 1,
+        ..Default::default()
+    };
+    let truth = group_by_scan(input.truth, |t| t.scan);
+    let fused = group_by_scan(input.fused, |f| f.scan);
+    let (c, p) = (cfg.gospa_c, cfg.gospa_p);
+    let mut scans: Vec<u32> = truth.keys().chain(fused.keys()).copied().collect();
+    scans.sort_unstable();
+    scans.dedup();
+    let empty_t: Vec<&TruthState> = Vec::new();
+    let empty_f: Vec<&FusedTrack> = Vec::new();
+    let mut tpos: Vec<Vec2> = Vec::new();
+    let mut fpos: Vec<Vec2> = Vec::new();
+    for &scan in &scans {
+        let ts = truth.get(&scan).unwrap_or(&empty_t);
+        let fs = fused.get(&scan).unwrap_or(&empty_f);
+        tpos.clear();
+        tpos.extend(ts.iter().map(|t| position_of(&t.state)));
+        fpos.clear();
+        fpos.extend(fs.iter().map(|f| position_of(&f.state)));
+        let g = gospa(&tpos, &fpos, c, p);
+        m.gospa.add(g.distance);
+        m.gospa_localisation.add(g.localisation);
+        m.gospa_missed.add(g.missed);
+        m.gospa_false.add(g.false_);
+        m.gospa_n_missed.add(g.n_missed as f64);
+        m.gospa_n_false.add(g.n_false as f64);
+        m.ospa.add(ospa(&tpos, &fpos, c, p));
+        m.truth_points += ts.len() as u64;
+        for (fi, ti) in gated_assignment(&fpos, &tpos, c).into_iter().enumerate() {
+            if let Some(ti) = ti {
+                let e2 = (fpos[fi] - tpos[ti]).norm_squared();
+                m.fused_per_target
+                    .entry(ts[ti].target_id)
+                    .or_default()
+                    .add(e2);
+                m.fused_per_scan.entry(scan).or_default().add(e2);
+                m.covered_points += 1;
+                if let Some(v) = nees(&(fs[fi].state - ts[ti].state), &fs[fi].cov) {
+                    m.nees_fused.add(v);
+                }
+            }
+        }
+    }
+
+    let Some(local) = input.local else { return m };
+    // label local tracks per scan and sensor
+    let mut labels: HashMap<(u32, Id, Id), Id> = HashMap::with_capacity(local.len());
+    let by_scan = group_by_scan(local, |l| l.scan);
+    for (scan, ls) in &by_scan {
+        let ts = truth.get(scan).unwrap_or(&empty_t);
+        tpos.clear();
+        tpos.extend(ts.iter().map(|t| position_of(&t.state)));
+        let mut by_sensor: BTreeMap<Id, Vec<&LocalTrack>> = BTreeMap::new();
+        for l in ls {
+            by_sensor.entry(l.sensor_id).or_default().push(l);
+        }
+        for (sensor, tracks) in by_sensor {
+            let lpos: Vec<Vec2> = tracks.iter().map(|l| position_of(&l.state)).collect();
+            for (li, ti) in gated_assignment(&lpos, &tpos, cfg.label_gate)
+                .into_iter()
+                .enumerate()
+            {
+                if let Some(ti) = ti {
+                    let l = tracks[li];
+                    labels.insert((*scan, sensor, l.track_id), ts[ti].target_id);
+                    m.local_per_sensor_target
+                        .entry((sensor, ts[ti].target_id))
+                        .or_default()
+                        .add((lpos[li] - tpos[ti]).norm_squared());
+                    if let Some(v) = nees(&(l.state - ts[ti].state), &l.cov) {
+                        m.nees_local.add(v);
+                    }
+                }
+            }
+        }
+    }
+
+    // associations: given, or from the fused tracks' sources
+    let derived: Vec<Association>;
+    let assoc: &[Association] = match input.associations {
+        Some(a) => a,
+        None => {
+            derived = input
+                .fused
+                .iter()
+                .flat_map(|f| {
+                    f.sources
+                        .iter()
+                        .map(move |&(sensor_id, track_id)| Association {
+                            scan: f.scan,
+                            sensor_id,
+                            track_id,
+                            fused_id: f.fused_id,
+                        })
+                })
+                .collect();
+            &derived
+        }
+    };
+    if assoc.is_empty() {
+        return m;
+    }
+    let mut counts = AssociationCounts::default();
+    for (scan, rows) in group_by_scan(assoc, |a| a.scan) {
+        // fused id -> members (sensor, label)
+        let mut members: HashMap<Id, Vec<(Id, Option<Id>)>> = HashMap::new();
+        // target -> sensors following it
+        let mut followers: HashMap<Id, Vec<(Id, Id)>> = HashMap::new();
+        for a in &rows {
+            let label = labels.get(&(scan, a.sensor_id, a.track_id)).copied();
+            members
+                .entry(a.fused_id)
+                .or_default()
+                .push((a.sensor_id, label));
+            if let Some(t) = label {
+                followers
+                    .entry(t)
+                    .or_default()
+                    .push((a.sensor_id, a.fused_id));
+            }
+        }
+        // P_c
+        let mut n_public = 0u64;
+        let mut n_correct = 0u64;
+        for (t, fl) in &followers {
+            let mut sensors: Vec<Id> = fl.iter().map(|x| x.0).collect();
+            sensors.sort_unstable();
+            sensors.dedup();
+            if sensors.len() < 2 {
+                continue;
+            }
+            n_public += 1;
+            let f0 = fl[0].1;
+            let same = fl.iter().all(|x| x.1 == f0);
+            let clean = members[&f0].iter().all(|&(_, l)| l == Some(*t));
+            if same && clean {
+                n_correct += 1;
+            }
+        }
+        if n_public > 0 {
+            m.pc.add(n_correct as f64 / n_public as f64);
+        }
+        // rates
+        for a in &rows {
+            let label = labels.get(&(scan, a.sensor_id, a.track_id)).copied();
+            let group = &members[&a.fused_id];
+            let partners = group.iter().filter(|(s, _)| *s != a.sensor_id);
+            let mut wrong = false;
+            let mut right = false;
+            for &(_, l) in partners {
+                if l.is_some() && l == label {
+                    right = true;
+                } else {
+                    wrong = true;
+                }
+            }
+            let true_partner_exists =
+                label.is_some_and(|t| followers[&t].iter().any(|&(s, _)| s != a.sensor_id));
+            if wrong {
+                counts.false_ += 1;
+            } else if right {
+                counts.correct += 1;
+            } else if true_partner_exists {
+                counts.missed += 1;
+            }
+        }
+    }
+    m.rates = Some(counts);
+    m
+}
+
+/// A per-target RMSE line.
+#[derive(Debug, Clone, Serialize)]
+pub struct TargetRmse {
+    pub target_id: Id,
+    pub rmse: f64,
+    pub samples: u64,
+}
+
+/// A per-sensor, per-target local RMSE line.
+#[derive(Debug, Clone, Serialize)]
+pub struct LocalRmse {
+    pub sensor_id: Id,
+    pub target_id: Id,
+    pub rmse: f64,
+    pub samples: u64,
+}
+
+/// GOSPA means (parts in p-th power form, see [`super::gospa`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct GospaSummary {
+    pub c: f64,
+    pub p: f64,
+    pub mean: f64,
+    pub localisation: f64,
+    pub missed: f64,
+    #[serde(rename = "false")]
+    pub false_: f64,
+    pub mean_missed_targets: f64,
+    pub mean_false_tracks: f64,
+}
+
+/// Association-rate summary (004).
+#[derive(Debug, Clone, Serialize)]
+pub struct RatesSummary {
+    pub correct: f64,
+    #[serde(rename = "false")]
+    pub false_: f64,
+    pub missed: f64,
+    pub samples: u64,
+}
+
+/// What `summary.json` holds.
+#[derive(Debug, Clone, Serialize)]
+pub struct Summary {
+    pub runs: u64,
+    pub fused_rmse_per_target: Vec<TargetRmse>,
+    pub fused_rmse: Option<f64>,
+    pub track_coverage: Option<f64>,
+    pub gospa: GospaSummary,
+    pub ospa: Option<f64>,
+    pub nees_fused: Option<f64>,
+    pub nees_local: Option<f64>,
+    pub local_rmse: Vec<LocalRmse>,
+    pub probability_correct_association: Option<f64>,
+    pub association_rates: Option<RatesSummary>,
+    pub fused_rmse_per_scan: Vec<(u32, f64)>,
+}
+
+impl RunMetrics {
+    /// Summarise.
+    pub fn summary(&self, cfg: &EvaluationConfig) -> Summary {
+        let mut all = SumCount::default();
+        for v in self.fused_per_target.values() {
+            all.merge(v);
+        }
+        Summary {
+            runs: self.runs,
+            fused_rmse_per_target: self
+                .fused_per_target
+                .iter()
+                .filter_map(|(t, s)| {
+                    Some(TargetRmse {
+                        target_id: *t,
+                        rmse: s.rms()?,
+                        samples: s.n,
+                    })
+                })
+                .collect(),
+            fused_rmse: all.rms(),
+            track_coverage: (self.truth_points > 0)
+                .then(|| self.covered_points as f64 / self.truth_points as f64),
+            gospa: GospaSummary {
+                c: cfg.gospa_c,
+                p: cfg.gospa_p,
+                mean: self.gospa.mean().unwrap_or(0.0),
+                localisation: self.gospa_localisation.mean().unwrap_or(0.0),
+                missed: self.gospa_missed.mean().unwrap_or(0.0),
+                false_: self.gospa_false.mean().unwrap_or(0.0),
+                mean_missed_targets: self.gospa_n_missed.mean().unwrap_or(0.0),
+                mean_false_tracks: self.gospa_n_false.mean().unwrap_or(0.0),
+            },
+            ospa: self.ospa.mean(),
+            nees_fused: self.nees_fused.mean(),
+            nees_local: self.nees_local.mean(),
+            local_rmse: self
+                .local_per_sensor_target
+                .iter()
+                .filter_map(|((s, t), v)| {
+                    Some(LocalRmse {
+                        sensor_id: *s,
+                        target_id: *t,
+                        rmse: v.rms()?,
+                        samples: v.n,
+                    })
+                })
+                .collect(),
+            probability_correct_association: self.pc.mean(),
+            association_rates: self.rates.and_then(|r| {
+                let n = r.correct + r.false_ + r.missed;
+                (n > 0).then(|| RatesSummary {
+                    correct: r.correct as f64 / n as f64,
+                    false_: r.false_ as f64 / n as f64,
+                    missed: r.missed as f64 / n as f64,
+                    samples: n,
+                })
+            }),
+            fused_rmse_per_scan: self
+                .fused_per_scan
+                .iter()
+                .filter_map(|(k, v)| Some((*k, v.rms()?)))
+                .collect(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn truth(scan: u32, id: Id, x: f64, y: f64) -> TruthState {
+        TruthState {
+            scan,
+            time: scan as f64,
+            target_id: id,
+            state: StateVec::new(x, 0.0, y, 0.0),
+        }
+    }
+    fn local(scan: u32, s: Id, t: Id, x: f64, y: f64) -> LocalTrack {
+        LocalTrack {
+            scan,
+            time: scan as f64,
+            sensor_id: s,
+            track_id: t,
+            state: StateVec::new(x, 0.0, y, 0.0),
+            cov: StateCov::identity() * 100.0,
+        }
+    }
+    fn assoc(scan: u32, s: Id, t: Id, f: Id) -> Association {
+        Association {
+            scan,
+            sensor_id: s,
+            track_id: t,
+            fused_id: f,
+        }
+    }
+
+    /// Two targets, two sensors, two scans. Scan 0 associates correctly; at scan 1 the
+    /// fusion center swaps sensor 1's tracks (both targets wrong).
+    #[test]
+    fn pc_and_rates_hand_case() {
+        let tr = vec![
+            truth(0, 0, 0.0, 0.0),
+            truth(0, 1, 0.0, 1000.0),
+            truth(1, 0, 0.0, 0.0),
+            truth(1, 1, 0.0, 1000.0),
+        ];
+        let lt = vec![
+            local(0, 0, 10, 5.0, 0.0),
+            local(0, 0, 11, 5.0, 1000.0),
+            local(0, 1, 20, -5.0, 0.0),
+            local(0, 1, 21, -5.0, 1000.0),
+            local(1, 0, 10, 5.0, 0.0),
+            local(1, 0, 11, 5.0, 1000.0),
+            local(1, 1, 20, -5.0, 0.0),
+            local(1, 1, 21, -5.0, 1000.0),
+        ];
+        let asc = vec![
+            assoc(0, 0, 10, 1),
+            assoc(0, 1, 20, 1),
+            assoc(0, 0, 11, 2),
+            assoc(0, 1, 21, 2),
+            assoc(1, 0, 10, 1),
+            assoc(1, 1, 21, 1),
+            assoc(1, 0, 11, 2),
+            assoc(1, 1, 20, 2),
+        ];
+        let cfg = EvaluationConfig::default();
+        let m = evaluate_run(
+            &EvalInput {
+                truth: &tr,
+                fused: &[],
+                associations: Some(&asc),
+                local: Some(&lt),
+            },
+            &cfg,
+        );
+        // P_c = (2/2 + 0/2) / 2
+        assert_eq!(m.pc.mean(), Some(0.5));
+        let r = m.rates.expect("rates");
+        assert_eq!((r.correct, r.false_, r.missed), (4, 4, 0));
+        // local RMSE 5 m for each sensor-target
+        assert!((m.local_per_sensor_target[&(0, 0)].rms().expect("rms") - 5.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn missed_association_counted() {
+        let tr = vec![truth(0, 0, 0.0, 0.0)];
+        let lt = vec![local(0, 0, 1, 1.0, 0.0), local(0, 1, 1, -1.0, 0.0)];
+        let asc = vec![assoc(0, 0, 1, 7), assoc(0, 1, 1, 8)];
+        let m = evaluate_run(
+            &EvalInput {
+                truth: &tr,
+                fused: &[],
+                associations: Some(&asc),
+                local: Some(&lt),
+            },
+            &EvaluationConfig::default(),
+        );
+        let r = m.rates.expect("rates");
+        assert_eq!((r.correct, r.false_, r.missed), (0, 0, 2));
+        assert_eq!(m.pc.mean(), Some(0.0));
+    }
+
+    #[test]
+    fn fused_rmse_and_gospa() {
+        let tr = vec![truth(0, 0, 0.0, 0.0), truth(1, 0, 10.0, 0.0)];
+        let f = |scan: u32, x: f64| FusedTrack {
+            scan,
+            time: scan as f64,
+            fused_id: 1,
+            state: StateVec::new(x, 0.0, 0.0, 0.0),
+            cov: StateCov::identity(),
+            sources: vec![],
+        };
+        let fused = vec![f(0, 3.0), f(1, 6.0)];
+        let m = evaluate_run(
+            &EvalInput {
+                truth: &tr,
+                fused: &fused,
+                associations: None,
+                local: None,
+            },
+            &EvaluationConfig::default(),
+        );
+        // errors 3 and 4 -> rmse sqrt(12.5)
+        assert!((m.fused_per_target[&0].rms().expect("rms") - 12.5f64.sqrt()).abs() < 1e-12);
+        assert!((m.gospa.mean().expect("gospa") - 3.5).abs() < 1e-12);
+        let mut agg = m.clone();
+        agg.merge(&m);
+        assert_eq!(agg.runs, 2);
+        assert_eq!(agg.fused_per_target[&0].n, 4);
+    }
+}
