@@ -1,0 +1,137 @@
+//! Drive the `trackfuse` binary as a user would.
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+use std::path::Path;
+
+fn trackfuse() -> Command {
+    Command::cargo_bin("trackfuse").expect("binary")
+}
+
+fn read(p: &Path) -> Vec<u8> {
+    std::fs::read(p).expect("read output")
+}
+
+#[test]
+fn simulate_is_deterministic_and_writes_formats_headers() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    for d in [&a, &b] {
+        trackfuse()
+            .args(["simulate", "--seed", "42", "--out"])
+            .arg(d)
+            .assert()
+            .success();
+    }
+    for f in [
+        "sensors.csv",
+        "truth.csv",
+        "measurements.csv",
+        "scenario.toml",
+    ] {
+        assert_eq!(
+            read(&a.join(f)),
+            read(&b.join(f)),
+            "{f} differs between two runs with one seed"
+        );
+    }
+    let truth = String::from_utf8(read(&a.join("truth.csv"))).expect("utf8");
+    assert!(truth.starts_with("scan,time,target_id,x,vx,y,vy\n"));
+    let meas = String::from_utf8(read(&a.join("measurements.csv"))).expect("utf8");
+    assert!(meas.starts_with("scan,time,sensor_id,range,bearing,target_id\n"));
+    // another seed gives other measurements
+    let c = dir.path().join("c");
+    trackfuse()
+        .args(["simulate", "--seed", "43", "--out"])
+        .arg(&c)
+        .assert()
+        .success();
+    assert_ne!(
+        read(&a.join("measurements.csv")),
+        read(&c.join("measurements.csv"))
+    );
+    // the copied scenario reproduces the run
+    let d = dir.path().join("d");
+    trackfuse()
+        .arg("simulate")
+        .arg(a.join("scenario.toml"))
+        .arg("--out")
+        .arg(&d)
+        .assert()
+        .success();
+    assert_eq!(
+        read(&a.join("measurements.csv")),
+        read(&d.join("measurements.csv"))
+    );
+}
+
+#[test]
+fn bad_scenario_key_is_named() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let p = dir.path().join("bad.toml");
+    std::fs::write(
+        &p,
+        "dt = 1.0\nscans = 5\nfrobnicate = 2\n[[targets]]\ninitial = [0.0,0.0,0.0,0.0]\n",
+    )
+    .expect("write");
+    trackfuse()
+        .arg("simulate")
+        .arg(&p)
+        .arg("--out")
+        .arg(dir.path().join("o"))
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("frobnicate"));
+}
+
+#[test]
+fn malformed_file_exits_nonzero_with_location() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let truth = dir.path().join("truth.csv");
+    std::fs::write(&truth, "scan,time,target_id,x,vx,y,vy\n0,0,1,0,0,0,0\n").expect("write");
+    let fused = dir.path().join("fused_tracks.csv");
+    let cov = "P00,P01,P02,P03,P10,P11,P12,P13,P20,P21,P22,P23,P30,P31,P32,P33";
+    std::fs::write(&fused, format!("scan,time,fused_id,x,vx,y,vy,{cov},n_sources\n0,0,1,abc,0,0,0,1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1,1\n"))
+        .expect("write");
+    trackfuse()
+        .args(["evaluate", "--truth"])
+        .arg(&truth)
+        .arg("--tracks")
+        .arg(&fused)
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains(
+            "fused_tracks.csv:2:4: column 'x': 'abc' is not a number",
+        ));
+}
+
+#[test]
+fn evaluate_prints_table_and_writes_summary() {
+    let dir = tempfile::tempdir().expect("tmp");
+    trackfuse()
+        .args(["simulate", "--out"])
+        .arg(dir.path())
+        .assert()
+        .success();
+    // the truth itself as "fused tracks": RMSE 0, GOSPA 0
+    let truth = std::fs::read_to_string(dir.path().join("truth.csv")).expect("truth");
+    let mut fused = String::from("scan,time,fused_id,x,vx,y,vy,P00,P01,P02,P03,P10,P11,P12,P13,P20,P21,P22,P23,P30,P31,P32,P33,n_sources\n");
+    for line in truth.lines().skip(1) {
+        fused.push_str(line);
+        fused.push_str(",1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1,0\n");
+    }
+    std::fs::write(dir.path().join("fused_tracks.csv"), fused).expect("write");
+    trackfuse()
+        .args(["evaluate", "--truth"])
+        .arg(dir.path().join("truth.csv"))
+        .arg("--tracks")
+        .arg(dir.path().join("fused_tracks.csv"))
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("Fused position RMSE per target"))
+        .stdout(predicate::str::contains("0.00"));
+    let s: serde_json::Value =
+        serde_json::from_slice(&read(&dir.path().join("summary.json"))).expect("json");
+    assert_eq!(s["fused_rmse"].as_f64(), Some(0.0));
+    assert_eq!(s["gospa"]["mean"].as_f64(), Some(0.0));
+}
