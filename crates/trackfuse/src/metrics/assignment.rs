@@ -24,7 +24,7 @@ fn find(parent: &mut [usize], mut i: usize) -> usize {
 /// are never assigned.
 pub fn gated_assignment(rows: &[Vec2], cols: &[Vec2], gate: f64) -> Vec<Option<usize>> {
     let mut out = vec![None; rows.len()];
-    if rows.is_empty() || cols.is_empty() || !(gate > 0.0) {
+    if rows.is_empty() || cols.is_empty() || gate.is_nan() || gate <= 0.0 {
         return out;
     }
     let gate2 = gate * gate;

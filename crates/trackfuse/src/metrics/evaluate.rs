@@ -201,38 +201,7 @@ pub fn evaluate_run(input: &EvalInput<'_>, cfg: &EvaluationConfig) -> RunMetrics
     }
 
     let Some(local) = input.local else { return m };
-    // label local tracks per scan and sensor
-    let mut labels: HashMap<(u32, Id, Id), Id> = HashMap::with_capacity(local.len());
-    let by_scan = group_by_scan(local, |l| l.scan);
-    for (scan, ls) in &by_scan {
-        let ts = truth.get(scan).unwrap_or(&empty_t);
-        tpos.clear();
-        tpos.extend(ts.iter().map(|t| position_of(&t.state)));
-        let mut by_sensor: BTreeMap<Id, Vec<&LocalTrack>> = BTreeMap::new();
-        for l in ls {
-            by_sensor.entry(l.sensor_id).or_default().push(l);
-        }
-        for (sensor, tracks) in by_sensor {
-            let lpos: Vec<Vec2> = tracks.iter().map(|l| position_of(&l.state)).collect();
-            for (li, ti) in gated_assignment(&lpos, &tpos, cfg.label_gate)
-                .into_iter()
-                .enumerate()
-            {
-                if let Some(ti) = ti {
-                    let l = tracks[li];
-                    labels.insert((*scan, sensor, l.track_id), ts[ti].target_id);
-                    m.local_per_sensor_target
-                        .entry((sensor, ts[ti].target_id))
-                        .or_default()
-                        .add((lpos[li] - tpos[ti]).norm_squared());
-                    if let Some(v) = nees(&(l.state - ts[ti].state), &l.cov) {
-                        m.nees_local.add(v);
-                    }
-                }
-            }
-        }
-    }
-
+    let labels = label_local_tracks_into(&truth, local, cfg.label_gate, Some(&mut m));
     // associations: given, or from the fused tracks' sources
     let derived: Vec<Association>;
     let assoc: &[Association] = match input.associations {
@@ -325,6 +294,57 @@ pub fn evaluate_run(input: &EvalInput<'_>, cfg: &EvaluationConfig) -> RunMetrics
     }
     m.rates = Some(counts);
     m
+}
+
+/// Which target each local track follows at each scan: `(scan, sensor_id, track_id) ->
+/// target_id`, by the gated squared-distance assignment of each sensor's tracks to the
+/// truth of that scan (see the module docs). Tracks farther than `gate` from every
+/// target are unlabelled (absent).
+pub fn label_local_tracks(
+    truth: &[TruthState],
+    local: &[LocalTrack],
+    gate: f64,
+) -> HashMap<(u32, Id, Id), Id> {
+    let truth = group_by_scan(truth, |t| t.scan);
+    label_local_tracks_into(&truth, local, gate, None)
+}
+
+fn label_local_tracks_into(
+    truth: &BTreeMap<u32, Vec<&TruthState>>,
+    local: &[LocalTrack],
+    gate: f64,
+    mut metrics: Option<&mut RunMetrics>,
+) -> HashMap<(u32, Id, Id), Id> {
+    let mut labels: HashMap<(u32, Id, Id), Id> = HashMap::with_capacity(local.len());
+    let empty_t: Vec<&TruthState> = Vec::new();
+    let mut tpos: Vec<Vec2> = Vec::new();
+    for (scan, ls) in &group_by_scan(local, |l| l.scan) {
+        let ts = truth.get(scan).unwrap_or(&empty_t);
+        tpos.clear();
+        tpos.extend(ts.iter().map(|t| position_of(&t.state)));
+        let mut by_sensor: BTreeMap<Id, Vec<&LocalTrack>> = BTreeMap::new();
+        for l in ls {
+            by_sensor.entry(l.sensor_id).or_default().push(l);
+        }
+        for (sensor, tracks) in by_sensor {
+            let lpos: Vec<Vec2> = tracks.iter().map(|l| position_of(&l.state)).collect();
+            for (li, ti) in gated_assignment(&lpos, &tpos, gate).into_iter().enumerate() {
+                let Some(ti) = ti else { continue };
+                let l = tracks[li];
+                labels.insert((*scan, sensor, l.track_id), ts[ti].target_id);
+                if let Some(m) = metrics.as_deref_mut() {
+                    m.local_per_sensor_target
+                        .entry((sensor, ts[ti].target_id))
+                        .or_default()
+                        .add((lpos[li] - tpos[ti]).norm_squared());
+                    if let Some(v) = nees(&(l.state - ts[ti].state), &l.cov) {
+                        m.nees_local.add(v);
+                    }
+                }
+            }
+        }
+    }
+    labels
 }
 
 /// A per-target RMSE line.
