@@ -3,6 +3,7 @@
 mod bench;
 mod common;
 mod evaluate;
+mod plot;
 mod simulate;
 
 use anyhow::Result;
@@ -26,6 +27,8 @@ enum Command {
     Simulate(simulate::SimulateArgs),
     /// Evaluate fused (and local) tracks against the truth; writes summary.json.
     Evaluate(evaluate::EvaluateArgs),
+    /// SVG plots of a run directory: trajectories and RMSE per scan.
+    Plot(plot::PlotArgs),
     /// Throughput benchmarks.
     Bench(bench::BenchArgs),
     /// List the built-in scenarios.
@@ -50,6 +53,7 @@ fn real_main() -> Result<()> {
         Command::Simulate(a) => simulate::run(a),
         Command::Evaluate(a) => evaluate::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Plot(a) => plot::run(a),
         Command::Scenarios => {
             for (name, text) in trackfuse::scenario::BUILTIN_SCENARIOS {
                 let desc = trackfuse::Scenario::from_toml(text, name)
