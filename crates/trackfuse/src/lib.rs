@@ -14,6 +14,7 @@ pub mod local;
 pub mod metrics;
 pub mod models;
 pub mod montecarlo;
+pub mod params;
 pub mod rng;
 pub mod scenario;
 pub mod sim;

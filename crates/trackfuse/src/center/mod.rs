@@ -17,6 +17,14 @@
 //!   splits such a cluster).
 //! - Every local track of the scan is in exactly one group.
 
+pub mod bias;
+pub mod fusion;
+pub mod registry;
+pub mod t2ta;
+#[cfg(test)]
+pub mod testing;
+
+use crate::params::ParamTables;
 use crate::types::{Id, LocalTrack, Sensor, StateCov, StateVec};
 use serde::{Deserialize, Serialize};
 
@@ -50,6 +58,12 @@ pub struct AssociationContext<'a> {
     pub sensors: Option<&'a [Sensor]>,
     /// Each global track's estimate predicted to `time` (same order as the globals slice).
     pub predicted: &'a [(StateVec, StateCov)],
+    /// Seconds since the previous scan the center processed (0 for the first).
+    pub dt: f64,
+    /// The truth label (target id) of each local track of the scan, same order as the
+    /// tracks, when the truth is given (evaluation runs); `-1` for an unlabelled track.
+    /// Only the `mmse` reference (optimal fusion given the true association) reads it.
+    pub labels: Option<&'a [Id]>,
 }
 
 /// A group of local tracks the associator decided follow one target.
@@ -85,12 +99,25 @@ pub struct FusionContext<'a> {
     pub prior: Option<(&'a StateVec, &'a StateCov)>,
     /// What the center knows of the sensors, when given.
     pub sensors: Option<&'a [Sensor]>,
+    /// Seconds since the global track's last update (for cross-covariance models), 0 for
+    /// a new global track.
+    pub dt: f64,
+    /// White-acceleration standard deviation (m/s^2) the center assumes for targets (the
+    /// common process noise of Bar-Shalom–Campo).
+    pub process_noise: f64,
 }
 
 /// Track-to-track fusion rule.
 pub trait FusionRule: Send + Sync {
     /// The ALGORITHMS.md name.
     fn name(&self) -> &'static str;
+    /// Whether the rule is a reference that needs the true association (the `mmse`
+    /// Bayesian reference of 000): the center then groups the local tracks by their truth
+    /// labels instead of running the associator, and fails with a clear error when no
+    /// truth is given.
+    fn needs_true_association(&self) -> bool {
+        false
+    }
     /// Fuse a group's members with their weights.
     fn fuse(
         &self,
@@ -114,10 +141,23 @@ pub enum CenterError {
     Input(String),
 }
 
+impl From<crate::params::ParamError> for CenterError {
+    fn from(e: crate::params::ParamError) -> Self {
+        CenterError::Config {
+            key: e.key,
+            reason: e.reason,
+        }
+    }
+}
+
 /// Configuration of the fusion center (`[fusion]` in a scenario).
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct FusionConfig {}
+pub struct FusionConfig {
+    /// Per-method parameter tables, `[fusion.params.<method or rule name>]`.
+    #[serde(default)]
+    pub params: ParamTables,
+}
 
 impl FusionConfig {
     /// Range-check the values; `Err((key, reason))`.

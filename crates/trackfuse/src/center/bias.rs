@@ -1,0 +1,40 @@
+//! Sensor-bias estimation and correction at the fusion center (000 eq. 15, Table 3).
+//!
+//! The seam: a [`BiasEstimator`] corrects each scan's local tracks with its current
+//! estimates before association, and updates its estimates from the scan's decisions
+//! after fusion. The center knows the sensor positions (sensors.csv) but never the true
+//! biases.
+
+use super::TrackGroup;
+use crate::types::{Id, LocalTrack, Sensor, StateCov, StateVec};
+
+/// One sensor's current bias estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BiasEstimate {
+    pub sensor_id: Id,
+    /// Range bias (m).
+    pub range: f64,
+    /// Bearing bias (rad).
+    pub bearing: f64,
+}
+
+/// Sensor-bias estimator.
+pub trait BiasEstimator: Send {
+    /// The name (as `[fusion] bias = "..."` selects it).
+    fn name(&self) -> &'static str;
+    /// Correct `tracks` (one scan, sorted by `(sensor_id, track_id)`) in place with the
+    /// current estimates.
+    fn correct(&self, tracks: &mut [LocalTrack], sensors: &[Sensor]);
+    /// Update the estimates from one scan: `raw` are the uncorrected local tracks (same
+    /// order as the corrected ones the associator saw), `groups` the association, `fused`
+    /// the fused estimate of each group (same order as `groups`).
+    fn update(
+        &mut self,
+        raw: &[LocalTrack],
+        groups: &[TrackGroup],
+        fused: &[(StateVec, StateCov)],
+        sensors: &[Sensor],
+    );
+    /// The current estimates, sorted by sensor id.
+    fn estimates(&self) -> Vec<BiasEstimate>;
+}

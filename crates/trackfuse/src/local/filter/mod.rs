@@ -1,0 +1,160 @@
+//! Filters: predict / update of a Gaussian state `[x, vx, y, vy]` (ALGORITHMS.md section 2).
+//!
+//! A [`Filter`] works in its own *measurement space*: the raw sensor space for the Kalman
+//! filter (position sensors) and the extended Kalman filter (range-bearing), Cartesian
+//! position for the converted-measurement Kalman filter. The tracker converts each scan's
+//! measurements once with [`Filter::convert`], asks each track for its
+//! [`PredictedMeasurement`], lets a data associator weigh the measurements, then calls
+//! [`Filter::update`] with those weights.
+//!
+//! One file per filter, named after it. The registry (`local::registry`) maps the
+//! ALGORITHMS.md names to constructors.
+
+use crate::types::{Mat2, Sensor, StateCov, StateVec, Vec2};
+use nalgebra::SMatrix;
+
+/// One model's estimate inside a multiple-model filter (IMM), or a filter's auxiliary
+/// estimate (e.g. the input estimate of input estimation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModeEstimate {
+    /// Mode probability (IMM) or a filter-defined scalar.
+    pub probability: f64,
+    pub mean: StateVec,
+    pub cov: StateCov,
+}
+
+/// A track's filter state. Single-model filters use `mean` and `cov` only; multiple-model
+/// and input-estimation filters keep their sub-estimates in `modes` and keep `mean` /
+/// `cov` equal to the combined estimate (what the track reports).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FilterState {
+    pub mean: StateVec,
+    pub cov: StateCov,
+    pub modes: Vec<ModeEstimate>,
+}
+
+impl FilterState {
+    /// A single-model state.
+    pub fn new(mean: StateVec, cov: StateCov) -> Self {
+        FilterState {
+            mean,
+            cov,
+            modes: Vec::new(),
+        }
+    }
+}
+
+/// A track's predicted measurement in the filter's measurement space.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PredictedMeasurement {
+    /// Predicted measurement `z_hat`.
+    pub z: Vec2,
+    /// Innovation covariance `S = H P H^T + R`.
+    pub s: Mat2,
+    /// `S^-1`.
+    pub s_inv: Mat2,
+    /// `ln(2 pi sqrt(det S))`: the Gaussian likelihood of an innovation `nu` is
+    /// `exp(-nu^T S^-1 nu / 2 - log_norm)`.
+    pub log_norm: f64,
+    /// Measurement Jacobian (or matrix) `H` at the prediction.
+    pub h: SMatrix<f64, 2, 4>,
+    /// Whether the second component is an angle (range-bearing space): innovations wrap.
+    pub angular: bool,
+    /// Expected false alarms per unit volume of this measurement space around `z`
+    /// (per m^2 in Cartesian space, per m·rad in range-bearing space), filled in by the
+    /// tracker from the sensor's clutter density; 0 when unknown.
+    pub clutter_density: f64,
+}
+
+impl PredictedMeasurement {
+    /// Build from `z_hat`, `S` and `H`; `None` if `S` is not positive definite.
+    pub fn new(z: Vec2, s: Mat2, h: SMatrix<f64, 2, 4>, angular: bool) -> Option<Self> {
+        let s = crate::types::symmetrize(&s);
+        let det = s.determinant();
+        if !(det.is_finite() && det > 0.0 && s[(0, 0)] > 0.0) {
+            return None;
+        }
+        let s_inv = s.try_inverse()?;
+        Some(PredictedMeasurement {
+            z,
+            s,
+            s_inv,
+            log_norm: (2.0 * std::f64::consts::PI * det.sqrt()).ln(),
+            h,
+            angular,
+            clutter_density: 0.0,
+        })
+    }
+
+    /// Innovation `z - z_hat`, the angle wrapped into `[-pi, pi)` in range-bearing space.
+    #[inline]
+    pub fn innovation(&self, z: &Vec2) -> Vec2 {
+        let mut nu = z - self.z;
+        if self.angular {
+            nu[1] = crate::models::wrap_angle(nu[1]);
+        }
+        nu
+    }
+
+    /// Squared Mahalanobis distance `nu^T S^-1 nu` of a measurement.
+    #[inline]
+    pub fn distance2(&self, z: &Vec2) -> f64 {
+        let nu = self.innovation(z);
+        nu.dot(&(self.s_inv * nu))
+    }
+
+    /// Gaussian likelihood `N(z; z_hat, S)`.
+    #[inline]
+    pub fn likelihood(&self, z: &Vec2) -> f64 {
+        (-0.5 * self.distance2(z) - self.log_norm).exp()
+    }
+
+    /// Volume of the validation gate `{nu : nu^T S^-1 nu <= gamma}`: `pi gamma sqrt(det S)`.
+    #[inline]
+    pub fn gate_volume(&self, gamma: f64) -> f64 {
+        std::f64::consts::PI * gamma * self.s.determinant().max(0.0).sqrt()
+    }
+}
+
+/// A filter: a state model plus a measurement model.
+///
+/// Filters are stateless values shared by all tracks of a sensor; each track owns its
+/// [`FilterState`]. Numerical failure (a singular innovation covariance) is reported as
+/// `None` / `false`, never a panic.
+pub trait Filter: Send + Sync {
+    /// The ALGORITHMS.md name.
+    fn name(&self) -> &'static str;
+
+    /// A state from an initial estimate (an IMM spreads it over its modes).
+    fn init(&self, mean: StateVec, cov: StateCov) -> FilterState;
+
+    /// Predict `state` forward by `dt` seconds (`dt >= 0`).
+    fn predict(&self, state: &mut FilterState, dt: f64);
+
+    /// A raw measurement (`(range, bearing)` or `(x, y)`, as `sensor.kind` says) in this
+    /// filter's measurement space.
+    fn convert(&self, z: &Vec2, sensor: &Sensor) -> Vec2;
+
+    /// The predicted measurement of `state` (after [`Filter::predict`]); `None` if the
+    /// innovation covariance is singular. `clutter_density` is left 0 (the tracker sets it).
+    fn predict_measurement(
+        &self,
+        state: &FilterState,
+        sensor: &Sensor,
+    ) -> Option<PredictedMeasurement>;
+
+    /// Update with measurements (in measurement space, from [`Filter::convert`]) weighted
+    /// by association probabilities: `weights[i] = (index into measurements, beta_i)`, and
+    /// `1 - sum beta_i` is the probability that none is the target's (PDA, Bar-Shalom &
+    /// Fortmann 1988). One weight 1 is the plain Kalman update. Empty weights: no update.
+    /// The covariance includes the spread-of-innovations term, so soft weights stay
+    /// consistent. Returns `false` (state unchanged) on numerical failure.
+    fn update(
+        &self,
+        state: &mut FilterState,
+        predicted: &PredictedMeasurement,
+        measurements: &[Vec2],
+        weights: &[(u32, f64)],
+        sensor: &Sensor,
+    ) -> bool;
+}

@@ -1,0 +1,113 @@
+//! Method parameters: each method reads its own TOML table (`[tracker.params.fdb-daf]`,
+//! `[fusion.params.fdbsc-ta]`, or `--param key=value` on the command line) into a serde
+//! struct with `deny_unknown_fields`, so an unknown or mistyped key is an error naming it.
+
+use serde::de::DeserializeOwned;
+use std::collections::BTreeMap;
+
+/// A parameter problem: which key, and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{key}: {reason}")]
+pub struct ParamError {
+    pub key: String,
+    pub reason: String,
+}
+
+impl ParamError {
+    /// A new error for `key`.
+    pub fn new(key: impl Into<String>, reason: impl Into<String>) -> Self {
+        ParamError {
+            key: key.into(),
+            reason: reason.into(),
+        }
+    }
+}
+
+/// The parameter tables of a config section, by method name.
+pub type ParamTables = BTreeMap<String, toml::Table>;
+
+/// Parse method `name`'s table (absent = all defaults) into `P`. Errors name
+/// `params.<name>.<key>`.
+pub fn parse_params<P: DeserializeOwned>(
+    tables: &ParamTables,
+    name: &str,
+) -> Result<P, ParamError> {
+    let table = tables.get(name).cloned().unwrap_or_default();
+    P::deserialize(toml::Value::Table(table))
+        .map_err(|e| ParamError::new(format!("params.{name}"), e.message().to_string()))
+}
+
+/// Require `value` to be finite and positive; error names `key`.
+pub fn positive(key: &str, value: f64) -> Result<(), ParamError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(ParamError::new(key, format!("{value} must be positive")))
+    }
+}
+
+/// Require `value` in `[lo, hi]`; error names `key`.
+pub fn in_range(key: &str, value: f64, lo: f64, hi: f64) -> Result<(), ParamError> {
+    if value.is_finite() && value >= lo && value <= hi {
+        Ok(())
+    } else {
+        Err(ParamError::new(
+            key,
+            format!("{value} must be in [{lo}, {hi}]"),
+        ))
+    }
+}
+
+/// Parse a `key=value` command-line parameter; the value is read as a TOML value
+/// (`3`, `0.5`, `true`, `"det"`), and a bare word as a string.
+pub fn parse_cli_param(text: &str) -> Result<(String, toml::Value), ParamError> {
+    let (key, value) = text
+        .split_once('=')
+        .ok_or_else(|| ParamError::new(text, "expected key=value"))?;
+    let key = key.trim().to_string();
+    if key.is_empty() {
+        return Err(ParamError::new(text, "empty key"));
+    }
+    let value = value.trim();
+    let parsed = toml::from_str::<toml::Table>(&format!("v = {value}"))
+        .ok()
+        .and_then(|mut t| t.remove("v"))
+        .unwrap_or_else(|| toml::Value::String(value.to_string()));
+    Ok((key, parsed))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde::Deserialize;
+
+    #[derive(Debug, Deserialize, PartialEq)]
+    #[serde(deny_unknown_fields)]
+    struct P {
+        #[serde(default = "two")]
+        k: u32,
+    }
+    fn two() -> u32 {
+        2
+    }
+
+    #[test]
+    fn defaults_unknown_keys_and_cli_values() {
+        let mut t = ParamTables::new();
+        assert_eq!(parse_params::<P>(&t, "m").expect("defaults"), P { k: 2 });
+        let mut table = toml::Table::new();
+        table.insert("kk".into(), toml::Value::Integer(3));
+        t.insert("m".into(), table);
+        let e = parse_params::<P>(&t, "m").expect_err("unknown key");
+        assert!(e.to_string().contains("kk"), "{e}");
+        assert_eq!(
+            parse_cli_param("k=3").expect("int"),
+            ("k".into(), toml::Value::Integer(3))
+        );
+        assert_eq!(
+            parse_cli_param("w=det").expect("word"),
+            ("w".into(), toml::Value::String("det".into()))
+        );
+        assert!(parse_cli_param("novalue").is_err());
+    }
+}
