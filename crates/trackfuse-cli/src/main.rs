@@ -2,9 +2,14 @@
 
 mod bench;
 mod common;
+mod config;
 mod evaluate;
+mod fuse;
+mod mc;
 mod plot;
+mod run;
 mod simulate;
+mod track;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -23,16 +28,26 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Simulate -> track -> fuse -> evaluate in one go (default: the built-in scenario).
+    Run(run::RunArgs),
     /// Simulate a scenario: sensors.csv, truth.csv, measurements.csv.
     Simulate(simulate::SimulateArgs),
+    /// Local tracking: one tracker per sensor -> local_tracks.csv.
+    Track(track::TrackArgs),
+    /// Fusion center: track-to-track association and fusion -> fused_tracks.csv, associations.csv.
+    Fuse(fuse::FuseArgs),
     /// Evaluate fused (and local) tracks against the truth; writes summary.json.
     Evaluate(evaluate::EvaluateArgs),
     /// SVG plots of a run directory: trajectories and RMSE per scan.
     Plot(plot::PlotArgs),
+    /// Monte Carlo: N seeded runs of the whole chain, aggregated.
+    Mc(mc::McArgs),
     /// Throughput benchmarks.
     Bench(bench::BenchArgs),
     /// List the built-in scenarios.
     Scenarios,
+    /// List the registered filters, associators, fusion methods, rules and bias estimators.
+    Methods,
 }
 
 fn main() {
@@ -50,7 +65,15 @@ fn real_main() -> Result<()> {
             .build_global()?;
     }
     match &cli.command {
+        Command::Run(a) => run::run(a),
         Command::Simulate(a) => simulate::run(a),
+        Command::Track(a) => track::run(a),
+        Command::Fuse(a) => fuse::run(a),
+        Command::Mc(a) => mc::run(a),
+        Command::Methods => {
+            print!("{}", config::methods_text());
+            Ok(())
+        }
         Command::Evaluate(a) => evaluate::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Plot(a) => plot::run(a),

@@ -15,6 +15,7 @@ pub mod metrics;
 pub mod models;
 pub mod montecarlo;
 pub mod params;
+pub mod pipeline;
 pub mod rng;
 pub mod scenario;
 pub mod sim;

@@ -6,7 +6,7 @@
 //!   tracks, each with member weights and the global track it continues (or none).
 //! - [`FusionRule`]: a group's members + weights + the prior global state -> fused state
 //!   and covariance.
-//! - `FusionCenter` (in `center/fusion_center.rs`): holds the global track table with
+//! - [`FusionCenter`]: holds the global track table with
 //!   stable ids, runs associator, rule and bias estimator one scan at a time.
 //!
 //! Conventions every method keeps:
@@ -19,10 +19,14 @@
 
 pub mod bias;
 pub mod fusion;
+pub mod fusion_center;
 pub mod registry;
 pub mod t2ta;
+
 #[cfg(test)]
 pub mod testing;
+
+pub use fusion_center::{fuse_all, FusedRun, FusionCenter, ScanOutput};
 
 use crate::params::ParamTables;
 use crate::types::{Id, LocalTrack, Sensor, StateCov, StateVec};
@@ -150,18 +154,95 @@ impl From<crate::params::ParamError> for CenterError {
     }
 }
 
-/// Configuration of the fusion center (`[fusion]` in a scenario).
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+/// Configuration of the fusion center (`[fusion]` in a scenario, or the flags of
+/// `trackfuse fuse`).
+///
+/// Defaults: `fdbsc-ta` association with `fuzzy` fusion (000), no bias estimation, a
+/// white-acceleration standard deviation of 1 m/s^2 for predicting global tracks, and a
+/// global track deleted after 3 scans in which no local track continued it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FusionConfig {
+    /// Track-to-track association method, by ALGORITHMS.md name (default `fdbsc-ta`).
+    #[serde(default = "default_method")]
+    pub method: String,
+    /// Fusion rule, by ALGORITHMS.md name (default `fuzzy`).
+    #[serde(default = "default_rule")]
+    pub rule: String,
+    /// Sensor-bias estimator by name, or none (default). Needs sensors.csv.
+    #[serde(default)]
+    pub bias: Option<String>,
+    /// White-acceleration standard deviation (m/s^2) used to predict global tracks and as
+    /// the common process noise of fusion rules that model it (default 1).
+    #[serde(default = "default_center_q")]
+    pub process_noise: f64,
+    /// Scans without any local track after which a global track is deleted (default 3).
+    #[serde(default = "default_center_delete")]
+    pub delete_after: u32,
     /// Per-method parameter tables, `[fusion.params.<method or rule name>]`.
     #[serde(default)]
     pub params: ParamTables,
 }
 
+fn default_method() -> String {
+    "fdbsc-ta".into()
+}
+fn default_rule() -> String {
+    "fuzzy".into()
+}
+fn default_center_q() -> f64 {
+    1.0
+}
+fn default_center_delete() -> u32 {
+    3
+}
+
+impl Default for FusionConfig {
+    fn default() -> Self {
+        FusionConfig {
+            method: default_method(),
+            rule: default_rule(),
+            bias: None,
+            process_noise: default_center_q(),
+            delete_after: default_center_delete(),
+            params: ParamTables::new(),
+        }
+    }
+}
+
 impl FusionConfig {
-    /// Range-check the values; `Err((key, reason))`.
+    /// Range-check the values and that the named methods exist and accept their
+    /// parameters; `Err((key, reason))`.
     pub fn validate(&self) -> Result<(), (String, String)> {
+        let err = |e: CenterError| match e {
+            CenterError::Config { key, reason } => (key, reason),
+            other => ("fusion".to_string(), other.to_string()),
+        };
+        if !(self.process_noise.is_finite() && self.process_noise >= 0.0) {
+            return Err((
+                "process_noise".into(),
+                format!("{} must be a finite number >= 0", self.process_noise),
+            ));
+        }
+        if self.delete_after == 0 {
+            return Err(("delete_after".into(), "must be at least 1".into()));
+        }
+        registry::make_method(&self.method, &self.params).map_err(err)?;
+        registry::make_rule(&self.rule, &self.params).map_err(err)?;
+        if let Some(b) = &self.bias {
+            registry::make_bias(b, &self.params).map_err(err)?;
+        }
+        for name in self.params.keys() {
+            let known = registry::METHODS.iter().any(|m| m.name == name)
+                || registry::RULES.iter().any(|r| r.name == name)
+                || registry::BIAS_ESTIMATORS.iter().any(|b| b.name == name);
+            if !known {
+                return Err((
+                    format!("params.{name}"),
+                    "no method, rule or bias estimator of that name".into(),
+                ));
+            }
+        }
         Ok(())
     }
 }

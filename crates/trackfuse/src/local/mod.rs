@@ -9,22 +9,227 @@ pub mod association;
 pub mod filter;
 pub mod gating;
 pub mod registry;
+pub mod tracker;
 
-use crate::params::ParamTables;
+pub use tracker::{track_sensors, KnownTarget, SensorTracker, TrackerError};
+
+use crate::params::{ParamError, ParamTables};
 use serde::{Deserialize, Serialize};
 
-/// Configuration of the local trackers (`[tracker]` in a scenario).
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+/// How local tracks start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum InitiationMethod {
+    /// Automatic two-point initiation confirmed by M of N (for real data, where nothing is
+    /// known in advance). The default.
+    #[default]
+    MOfN,
+    /// One track per known target, started at its known initial state (to reproduce the
+    /// papers, which start their trackers that way). A known track is reported from its
+    /// first hit on (so a sensor that never sees a target reports no track of it) and is
+    /// deleted after `delete_after` consecutive misses like any other.
+    Known,
+}
+
+/// Track management (`[tracker.initiation]`).
+///
+/// Defaults (chosen to work on radar data nobody tuned them for): two-point initiation
+/// with a speed gate of 500 m/s (fast aircraft), confirmation at 3 hits in the first 4
+/// scans of a tentative track, deletion after 5 consecutive misses.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitiationConfig {
+    /// `m-of-n` (default) or `known`.
+    #[serde(default)]
+    pub method: InitiationMethod,
+    /// Hits needed to confirm a tentative track (default 3, counting its first two points).
+    #[serde(default = "default_m")]
+    pub m: u32,
+    /// ... within this many scans from its first point (default 4).
+    #[serde(default = "default_n")]
+    pub n: u32,
+    /// Largest target speed (m/s) two measurements of consecutive scans may imply to
+    /// start a tentative track (default 500).
+    #[serde(default = "default_max_speed")]
+    pub max_speed: f64,
+    /// Consecutive scans without a measurement after which a confirmed track is deleted
+    /// (default 5).
+    #[serde(default = "default_delete_after")]
+    pub delete_after: u32,
+    /// Standard deviation (m) of a known initial position (default 100).
+    #[serde(default = "default_known_pos")]
+    pub known_position_std: f64,
+    /// Standard deviation (m/s) of a known initial velocity (default 10).
+    #[serde(default = "default_known_vel")]
+    pub known_velocity_std: f64,
+}
+
+fn default_m() -> u32 {
+    3
+}
+fn default_n() -> u32 {
+    4
+}
+fn default_max_speed() -> f64 {
+    500.0
+}
+fn default_delete_after() -> u32 {
+    5
+}
+fn default_known_pos() -> f64 {
+    100.0
+}
+fn default_known_vel() -> f64 {
+    10.0
+}
+
+impl Default for InitiationConfig {
+    fn default() -> Self {
+        InitiationConfig {
+            method: InitiationMethod::default(),
+            m: default_m(),
+            n: default_n(),
+            max_speed: default_max_speed(),
+            delete_after: default_delete_after(),
+            known_position_std: default_known_pos(),
+            known_velocity_std: default_known_vel(),
+        }
+    }
+}
+
+/// Configuration of the local trackers (`[tracker]` in a scenario, or the flags of
+/// `trackfuse track`).
+///
+/// Defaults: `gnn` association, `auto` filter (`kf` for position sensors, `ekf` for
+/// range-bearing ones), process noise 1 m/s^2 per axis when neither the config nor the
+/// scenario gives one, gate probability 0.999, M-of-N initiation.
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrackerConfig {
+    /// Data associator, by ALGORITHMS.md name (default `gnn`).
+    #[serde(default = "default_associator")]
+    pub associator: String,
+    /// Filter by name, or `auto` (default): `kf` for position sensors, `ekf` for
+    /// range-bearing sensors.
+    #[serde(default = "default_filter")]
+    pub filter: String,
+    /// White-acceleration standard deviations `[q_x, q_y]` (m/s^2) of the filters' motion
+    /// model. Default: the scenario's `process_noise` when it is non-zero (the matched
+    /// model), else 1 m/s^2.
+    #[serde(default)]
+    pub process_noise: Option<[f64; 2]>,
+    /// Gate probability `P_G` of the chi-square validation gate (default 0.999).
+    #[serde(default = "default_gate_probability")]
+    pub gate_probability: f64,
+    /// Clutter density (false alarms per km^2 per scan) for sensors whose sensors.csv row
+    /// gives none; unset = unknown (PDA-type methods then estimate it per gate).
+    #[serde(default)]
+    pub clutter_density: Option<f64>,
+    /// Track management.
+    #[serde(default)]
+    pub initiation: InitiationConfig,
     /// Per-method parameter tables, `[tracker.params.<method name>]`.
     #[serde(default)]
     pub params: ParamTables,
 }
 
+fn default_associator() -> String {
+    "gnn".into()
+}
+fn default_filter() -> String {
+    "auto".into()
+}
+fn default_gate_probability() -> f64 {
+    0.999
+}
+
+/// Process noise used when neither the tracker config nor the scenario gives one (m/s^2).
+pub const DEFAULT_PROCESS_NOISE: f64 = 1.0;
+
+impl Default for TrackerConfig {
+    fn default() -> Self {
+        TrackerConfig {
+            associator: default_associator(),
+            filter: default_filter(),
+            process_noise: None,
+            gate_probability: default_gate_probability(),
+            clutter_density: None,
+            initiation: InitiationConfig::default(),
+            params: ParamTables::new(),
+        }
+    }
+}
+
 impl TrackerConfig {
-    /// Range-check the values; `Err((key, reason))`.
+    /// Range-check the values and that the named methods exist and accept their
+    /// parameters; `Err((key, reason))`.
     pub fn validate(&self) -> Result<(), (String, String)> {
+        self.check().map_err(|e| (e.key, e.reason))
+    }
+
+    fn check(&self) -> Result<(), ParamError> {
+        use crate::params::{in_range, positive};
+        in_range("gate_probability", self.gate_probability, 0.5, 1.0 - 1e-12)?;
+        if let Some(q) = self.process_noise {
+            for (i, v) in q.iter().enumerate() {
+                if !(v.is_finite() && *v >= 0.0) {
+                    return Err(ParamError::new(
+                        format!("process_noise[{i}]"),
+                        format!("{v} must be a finite number >= 0"),
+                    ));
+                }
+            }
+        }
+        if let Some(c) = self.clutter_density {
+            if !(c.is_finite() && c >= 0.0) {
+                return Err(ParamError::new(
+                    "clutter_density",
+                    format!("{c} must be a finite number >= 0"),
+                ));
+            }
+        }
+        let i = &self.initiation;
+        if i.m < 2 || i.n < i.m {
+            return Err(ParamError::new(
+                "initiation.m",
+                format!("need 2 <= m <= n, got m = {}, n = {}", i.m, i.n),
+            ));
+        }
+        positive("initiation.max_speed", i.max_speed)?;
+        if i.delete_after == 0 {
+            return Err(ParamError::new(
+                "initiation.delete_after",
+                "must be at least 1",
+            ));
+        }
+        positive("initiation.known_position_std", i.known_position_std)?;
+        positive("initiation.known_velocity_std", i.known_velocity_std)?;
+        let settings = registry::FilterSettings {
+            process_noise: self.process_noise.unwrap_or([DEFAULT_PROCESS_NOISE; 2]),
+            params: &self.params,
+        };
+        if self.filter != "auto" {
+            registry::make_filter(&self.filter, &settings)?;
+        }
+        registry::make_associator(
+            &self.associator,
+            &registry::AssociatorSettings {
+                seed: 0,
+                run: 0,
+                sensor_index: 0,
+                params: &self.params,
+            },
+        )?;
+        for name in self.params.keys() {
+            let known = registry::FILTERS.iter().any(|f| f.name == name)
+                || registry::ASSOCIATORS.iter().any(|a| a.name == name);
+            if !known {
+                return Err(ParamError::new(
+                    format!("params.{name}"),
+                    "no filter or associator of that name",
+                ));
+            }
+        }
         Ok(())
     }
 }

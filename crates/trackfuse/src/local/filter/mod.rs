@@ -10,7 +10,7 @@
 //! One file per filter, named after it. The registry (`local::registry`) maps the
 //! ALGORITHMS.md names to constructors.
 
-use crate::types::{Mat2, Sensor, StateCov, StateVec, Vec2};
+use crate::types::{Mat2, Sensor, SensorKind, StateCov, StateVec, Vec2};
 use nalgebra::SMatrix;
 
 /// One model's estimate inside a multiple-model filter (IMM), or a filter's auxiliary
@@ -124,6 +124,12 @@ impl PredictedMeasurement {
 pub trait Filter: Send + Sync {
     /// The ALGORITHMS.md name.
     fn name(&self) -> &'static str;
+
+    /// Whether the filter can track a sensor of this kind (default: both kinds).
+    fn supports(&self, kind: SensorKind) -> bool {
+        let _ = kind;
+        true
+    }
 
     /// A state from an initial estimate (an IMM spreads it over its modes).
     fn init(&self, mean: StateVec, cov: StateCov) -> FilterState;

@@ -1,0 +1,206 @@
+//! Command-line overrides of the `[tracker]` and `[fusion]` configs, shared by `track`,
+//! `fuse`, `run` and `mc`: a flag given on the command line wins over the scenario file,
+//! which wins over the library defaults.
+
+use anyhow::{anyhow, Result};
+use clap::Args;
+use trackfuse::center::registry as center_registry;
+use trackfuse::center::FusionConfig;
+use trackfuse::local::registry as local_registry;
+use trackfuse::local::{InitiationMethod, TrackerConfig};
+use trackfuse::params::{parse_cli_param, ParamTables};
+
+fn set_params(tables: &mut ParamTables, name: &str, params: &[String]) -> Result<()> {
+    for p in params {
+        let (k, v) = parse_cli_param(p).map_err(|e| anyhow!("--param {p}: {e}"))?;
+        tables.entry(name.to_string()).or_default().insert(k, v);
+    }
+    Ok(())
+}
+
+/// Local-tracker flags.
+#[derive(Args, Debug, Clone, Default)]
+pub struct TrackerFlags {
+    /// Local data associator (nn, gnn, pda, jpda, fnn, mef-jpda, fdb-daf, fuzzy-ga; see
+    /// `trackfuse methods`). Default: the scenario's, else gnn.
+    #[arg(long)]
+    pub associator: Option<String>,
+    /// Filter (kf, ekf, cmkf, imm, ... or auto). Default: the scenario's, else auto (kf for
+    /// position sensors, ekf for radars).
+    #[arg(long)]
+    pub filter: Option<String>,
+    /// Associator parameter key=value (repeatable), e.g. --param selection=top-k --param k=2.
+    #[arg(long = "param", value_name = "KEY=VALUE")]
+    pub params: Vec<String>,
+    /// Filter parameter key=value (repeatable).
+    #[arg(long = "filter-param", value_name = "KEY=VALUE")]
+    pub filter_params: Vec<String>,
+    /// Track initiation: m-of-n (automatic) or known (the scenario's initial states).
+    #[arg(long)]
+    pub init: Option<String>,
+    /// Filter process noise, white-acceleration standard deviation (m/s^2), both axes.
+    #[arg(long)]
+    pub process_noise: Option<f64>,
+    /// Validation-gate probability.
+    #[arg(long)]
+    pub gate_probability: Option<f64>,
+    /// Clutter density (false alarms per km^2 per scan) for sensors whose sensors.csv row
+    /// gives none.
+    #[arg(long)]
+    pub clutter_density: Option<f64>,
+    /// M of M-of-N confirmation.
+    #[arg(long)]
+    pub confirm_m: Option<u32>,
+    /// N of M-of-N confirmation.
+    #[arg(long)]
+    pub confirm_n: Option<u32>,
+    /// Largest target speed (m/s) for two-point initiation.
+    #[arg(long)]
+    pub max_speed: Option<f64>,
+    /// Delete a confirmed track after this many consecutive misses.
+    #[arg(long)]
+    pub delete_after: Option<u32>,
+}
+
+impl TrackerFlags {
+    /// `base` with these flags applied, validated.
+    pub fn apply(&self, base: &TrackerConfig) -> Result<TrackerConfig> {
+        let mut c = base.clone();
+        if let Some(a) = &self.associator {
+            c.associator = a.clone();
+        }
+        if let Some(f) = &self.filter {
+            c.filter = f.clone();
+        }
+        let assoc = c.associator.clone();
+        set_params(&mut c.params, &assoc, &self.params)?;
+        if !self.filter_params.is_empty() {
+            if c.filter == "auto" {
+                return Err(anyhow!("--filter-param needs --filter NAME (not auto)"));
+            }
+            let f = c.filter.clone();
+            set_params(&mut c.params, &f, &self.filter_params)?;
+        }
+        if let Some(i) = &self.init {
+            c.initiation.method = match i.as_str() {
+                "m-of-n" | "mofn" => InitiationMethod::MOfN,
+                "known" => InitiationMethod::Known,
+                other => return Err(anyhow!("--init {other}: expected m-of-n or known")),
+            };
+        }
+        if let Some(q) = self.process_noise {
+            c.process_noise = Some([q, q]);
+        }
+        if let Some(p) = self.gate_probability {
+            c.gate_probability = p;
+        }
+        if let Some(d) = self.clutter_density {
+            c.clutter_density = Some(d);
+        }
+        if let Some(m) = self.confirm_m {
+            c.initiation.m = m;
+        }
+        if let Some(n) = self.confirm_n {
+            c.initiation.n = n;
+        }
+        if let Some(v) = self.max_speed {
+            c.initiation.max_speed = v;
+        }
+        if let Some(d) = self.delete_after {
+            c.initiation.delete_after = d;
+        }
+        c.validate()
+            .map_err(|(k, r)| anyhow!("tracker: {k}: {r}"))?;
+        Ok(c)
+    }
+}
+
+/// Fusion-center flags.
+#[derive(Args, Debug, Clone, Default)]
+pub struct FusionFlags {
+    /// Track-to-track association method (see `trackfuse methods`). Default: the
+    /// scenario's, else fdbsc-ta.
+    #[arg(long)]
+    pub method: Option<String>,
+    /// Fusion rule (see `trackfuse methods`). Default: the scenario's, else fuzzy.
+    #[arg(long)]
+    pub rule: Option<String>,
+    /// Sensor-bias estimator (see `trackfuse methods`), or `none`. Needs sensors.csv.
+    #[arg(long)]
+    pub bias: Option<String>,
+    /// Association-method parameter key=value (repeatable).
+    #[arg(long = "method-param", value_name = "KEY=VALUE")]
+    pub method_params: Vec<String>,
+    /// Fusion-rule parameter key=value (repeatable).
+    #[arg(long = "rule-param", value_name = "KEY=VALUE")]
+    pub rule_params: Vec<String>,
+    /// Bias-estimator parameter key=value (repeatable).
+    #[arg(long = "bias-param", value_name = "KEY=VALUE")]
+    pub bias_params: Vec<String>,
+    /// White acceleration (m/s^2) the center assumes to predict global tracks.
+    #[arg(long)]
+    pub center_process_noise: Option<f64>,
+    /// Delete a global track after this many scans without a local track.
+    #[arg(long)]
+    pub global_delete_after: Option<u32>,
+}
+
+impl FusionFlags {
+    /// `base` with these flags applied, validated.
+    pub fn apply(&self, base: &FusionConfig) -> Result<FusionConfig> {
+        let mut c = base.clone();
+        if let Some(m) = &self.method {
+            c.method = m.clone();
+        }
+        if let Some(r) = &self.rule {
+            c.rule = r.clone();
+        }
+        if let Some(b) = &self.bias {
+            c.bias = (b != "none").then(|| b.clone());
+        }
+        let (m, r) = (c.method.clone(), c.rule.clone());
+        set_params(&mut c.params, &m, &self.method_params)?;
+        set_params(&mut c.params, &r, &self.rule_params)?;
+        if !self.bias_params.is_empty() {
+            let b = c
+                .bias
+                .clone()
+                .ok_or_else(|| anyhow!("--bias-param needs --bias NAME"))?;
+            set_params(&mut c.params, &b, &self.bias_params)?;
+        }
+        if let Some(q) = self.center_process_noise {
+            c.process_noise = q;
+        }
+        if let Some(d) = self.global_delete_after {
+            c.delete_after = d;
+        }
+        c.validate().map_err(|(k, r)| anyhow!("fusion: {k}: {r}"))?;
+        Ok(c)
+    }
+}
+
+/// The registered methods, as text (for `trackfuse methods`).
+pub fn methods_text() -> String {
+    let mut s = String::new();
+    s.push_str("Local filters (--filter):\n");
+    for f in local_registry::FILTERS {
+        s.push_str(&format!("  {:<10} {}\n", f.name, f.summary));
+    }
+    s.push_str("\nLocal data associators (--associator):\n");
+    for a in local_registry::ASSOCIATORS {
+        s.push_str(&format!("  {:<10} {}\n", a.name, a.summary));
+    }
+    s.push_str("\nTrack-to-track association methods (--method):\n");
+    for m in center_registry::METHODS {
+        s.push_str(&format!("  {:<10} {}\n", m.name, m.summary));
+    }
+    s.push_str("\nFusion rules (--rule):\n");
+    for r in center_registry::RULES {
+        s.push_str(&format!("  {:<10} {}\n", r.name, r.summary));
+    }
+    s.push_str("\nBias estimators (--bias):\n");
+    for b in center_registry::BIAS_ESTIMATORS {
+        s.push_str(&format!("  {:<10} {}\n", b.name, b.summary));
+    }
+    s
+}

@@ -1,0 +1,507 @@
+//! The fusion center: the global track table with stable ids, run one scan at a time.
+//!
+//! Each scan ([`FusionCenter::process_scan`]):
+//! 1. the local tracks are sorted by `(sensor_id, track_id)` (so nothing depends on the
+//!    order they arrived in; a `(sensor_id, track_id)` twice in one scan is an error) and
+//!    any whose `time` differs from the scan time (the latest time in the scan) is
+//!    predicted to it with the nearly-constant-velocity model;
+//! 2. every global track is predicted from its last update to the scan time (CV model,
+//!    white acceleration `process_noise`);
+//! 3. the bias estimator, if any, corrects the local tracks;
+//! 4. the association method groups the local tracks and says which global track each
+//!    group continues (or, for the `mmse` reference, the truth labels do);
+//! 5. the fusion rule fuses each group; groups that continue a global track update it,
+//!    the others start global tracks with new ids;
+//! 6. the bias estimator learns from the scan; global tracks no local track continued
+//!    for `delete_after` scans are deleted.
+//!
+//! Ids are never reused. The center keeps all its state itself, so the CLI, the Monte
+//! Carlo engine and a streaming service drive it the same way.
+
+use super::bias::{BiasEstimate, BiasEstimator};
+use super::registry::{make_bias, make_method, make_rule};
+use super::{
+    AssociationContext, CenterError, FusionConfig, FusionContext, FusionRule, GlobalTrack,
+    TrackAssociator, TrackGroup,
+};
+use crate::models::{cv_transition, process_noise};
+use crate::types::{
+    symmetrize, Association, FusedTrack, Id, LocalTrack, Sensor, StateCov, StateVec,
+};
+use std::collections::{BTreeMap, HashMap};
+
+/// What the center published for one scan.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ScanOutput {
+    /// The global tracks updated this scan, sorted by `fused_id`.
+    pub fused: Vec<FusedTrack>,
+    /// One decision per local track of the scan, sorted by `(sensor_id, track_id)`.
+    pub associations: Vec<Association>,
+}
+
+/// Key of a global track in the true-association (reference) mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+enum TruthKey {
+    Target(Id),
+    Unlabelled(Id, Id),
+}
+
+/// The fusion center.
+pub struct FusionCenter {
+    cfg: FusionConfig,
+    method: Box<dyn TrackAssociator>,
+    rule: Box<dyn FusionRule>,
+    bias: Option<Box<dyn BiasEstimator>>,
+    /// What the center knows of the sensors (true biases zeroed).
+    sensors: Option<Vec<Sensor>>,
+    globals: Vec<GlobalTrack>,
+    next_id: Id,
+    last: Option<(u32, f64)>,
+    truth_globals: HashMap<TruthKey, Id>,
+    // reused buffers
+    predicted: Vec<(StateVec, StateCov)>,
+}
+
+impl FusionCenter {
+    /// A center configured by `cfg`; `sensors` is what it may know of the sensors (their
+    /// true biases are zeroed here and never read).
+    pub fn new(cfg: &FusionConfig, sensors: Option<&[Sensor]>) -> Result<Self, CenterError> {
+        cfg.validate()
+            .map_err(|(key, reason)| CenterError::Config { key, reason })?;
+        let method = make_method(&cfg.method, &cfg.params)?;
+        let rule = make_rule(&cfg.rule, &cfg.params)?;
+        let bias = match &cfg.bias {
+            Some(b) => {
+                if sensors.is_none() {
+                    return Err(CenterError::Needs {
+                        method: format!("bias estimator {b}"),
+                        reason: "needs the sensor positions: give sensors.csv (--sensors)".into(),
+                    });
+                }
+                Some(make_bias(b, &cfg.params)?)
+            }
+            None => None,
+        };
+        let sensors = sensors.map(|s| {
+            s.iter()
+                .cloned()
+                .map(|mut s| {
+                    s.bias_r = 0.0;
+                    s.bias_theta = 0.0;
+                    s
+                })
+                .collect()
+        });
+        Ok(FusionCenter {
+            cfg: cfg.clone(),
+            method,
+            rule,
+            bias,
+            sensors,
+            globals: Vec::new(),
+            next_id: 0,
+            last: None,
+            truth_globals: HashMap::new(),
+            predicted: Vec::new(),
+        })
+    }
+
+    /// The global tracks alive after the last scan, sorted by id.
+    pub fn globals(&self) -> &[GlobalTrack] {
+        &self.globals
+    }
+
+    /// The bias estimates so far (empty without a bias estimator).
+    pub fn bias_estimates(&self) -> Vec<BiasEstimate> {
+        self.bias
+            .as_ref()
+            .map(|b| b.estimates())
+            .unwrap_or_default()
+    }
+
+    /// Whether the rule needs the true association (truth labels per local track).
+    pub fn needs_truth(&self) -> bool {
+        self.rule.needs_true_association()
+    }
+
+    /// Process one scan of local tracks (any order). `labels`, when given, is the target
+    /// each local track follows (same order as `tracks`, `-1` unknown): only the `mmse`
+    /// reference reads it.
+    pub fn process_scan(
+        &mut self,
+        tracks: &[LocalTrack],
+        labels: Option<&[Id]>,
+    ) -> Result<ScanOutput, CenterError> {
+        if tracks.is_empty() {
+            self.age_globals(&[]);
+            return Ok(ScanOutput::default());
+        }
+        if let Some(l) = labels {
+            if l.len() != tracks.len() {
+                return Err(CenterError::Input(format!(
+                    "{} labels for {} local tracks",
+                    l.len(),
+                    tracks.len()
+                )));
+            }
+        }
+        let scan = tracks[0].scan;
+        if let Some(t) = tracks.iter().find(|t| t.scan != scan) {
+            return Err(CenterError::Input(format!(
+                "one scan at a time: scan {scan} and scan {} given together",
+                t.scan
+            )));
+        }
+        let time = tracks
+            .iter()
+            .map(|t| t.time)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let dt = match self.last {
+            Some((last_scan, last_time)) => {
+                if scan <= last_scan || time < last_time {
+                    return Err(CenterError::Input(format!(
+                        "scan {scan} at time {time} does not come after scan {last_scan} at time {last_time}"
+                    )));
+                }
+                time - last_time
+            }
+            None => 0.0,
+        };
+        // 1. sort, check, bring to the scan time
+        let mut order: Vec<usize> = (0..tracks.len()).collect();
+        order.sort_by_key(|&i| (tracks[i].sensor_id, tracks[i].track_id));
+        let mut sorted: Vec<LocalTrack> = order.iter().map(|&i| tracks[i]).collect();
+        let sorted_labels: Option<Vec<Id>> = labels.map(|l| order.iter().map(|&i| l[i]).collect());
+        for w in sorted.windows(2) {
+            if w[0].sensor_id == w[1].sensor_id && w[0].track_id == w[1].track_id {
+                return Err(CenterError::Input(format!(
+                    "scan {scan}: local track {}:{} given twice",
+                    w[0].sensor_id, w[0].track_id
+                )));
+            }
+        }
+        let q = self.cfg.process_noise;
+        for t in &mut sorted {
+            let lag = time - t.time;
+            if lag > 0.0 {
+                let f = cv_transition(lag);
+                t.state = f * t.state;
+                t.cov = symmetrize(&(f * t.cov * f.transpose() + process_noise(lag, q, q)));
+                t.time = time;
+            }
+        }
+        // 2. predict globals
+        self.predicted.clear();
+        for g in &self.globals {
+            let lag = (time - g.time).max(0.0);
+            let f = cv_transition(lag);
+            self.predicted.push((
+                f * g.state,
+                symmetrize(&(f * g.cov * f.transpose() + process_noise(lag, q, q))),
+            ));
+        }
+        // 3. bias correction
+        let raw = sorted.clone();
+        if let (Some(b), Some(s)) = (&self.bias, &self.sensors) {
+            b.correct(&mut sorted, s);
+        }
+        // 4. associate
+        let groups = if self.rule.needs_true_association() {
+            let Some(l) = &sorted_labels else {
+                return Err(CenterError::Needs {
+                    method: format!("rule {}", self.rule.name()),
+                    reason: "is the reference given the true association: it needs the truth (--truth truth.csv)".into(),
+                });
+            };
+            self.truth_groups(&sorted, l)
+        } else {
+            let ctx = AssociationContext {
+                scan,
+                time,
+                sensors: self.sensors.as_deref(),
+                predicted: &self.predicted,
+                dt,
+                labels: sorted_labels.as_deref(),
+            };
+            self.method.associate(&ctx, &sorted, &self.globals)?
+        };
+        check_groups(self.method.name(), &sorted, &groups, self.globals.len())?;
+        // 5. fuse, update the table
+        let mut fused_est: Vec<(StateVec, StateCov)> = Vec::with_capacity(groups.len());
+        let mut members: Vec<&LocalTrack> = Vec::new();
+        for g in &groups {
+            members.clear();
+            members.extend(g.members.iter().map(|&m| &sorted[m]));
+            let (prior, gdt) = match g.global {
+                Some(gi) => (
+                    Some((&self.predicted[gi].0, &self.predicted[gi].1)),
+                    time - self.globals[gi].time,
+                ),
+                None => (None, 0.0),
+            };
+            let ctx = FusionContext {
+                time,
+                prior,
+                sensors: self.sensors.as_deref(),
+                dt: gdt,
+                process_noise: q,
+            };
+            let (x, p) = self.rule.fuse(&members, &g.weights, &ctx)?;
+            if !(x.iter().all(|v| v.is_finite()) && p.iter().all(|v| v.is_finite())) {
+                return Err(CenterError::Input(format!(
+                    "rule {} gave a non-finite estimate at scan {scan}",
+                    self.rule.name()
+                )));
+            }
+            fused_est.push((x, symmetrize(&p)));
+        }
+        let mut out = ScanOutput::default();
+        let mut continued = vec![false; self.globals.len()];
+        let mut fused_ids = Vec::with_capacity(groups.len());
+        for (g, (x, p)) in groups.iter().zip(&fused_est) {
+            let mut sources: Vec<(Id, Id)> = g
+                .members
+                .iter()
+                .map(|&m| (sorted[m].sensor_id, sorted[m].track_id))
+                .collect();
+            sources.sort_unstable();
+            let id = match g.global {
+                Some(gi) => {
+                    continued[gi] = true;
+                    let gt = &mut self.globals[gi];
+                    gt.previous = Some((gt.time, gt.state));
+                    gt.scan = scan;
+                    gt.time = time;
+                    gt.state = *x;
+                    gt.cov = *p;
+                    gt.sources = sources.clone();
+                    gt.updates += 1;
+                    gt.misses = 0;
+                    gt.id
+                }
+                None => {
+                    let id = self.next_id;
+                    self.next_id += 1;
+                    self.globals.push(GlobalTrack {
+                        id,
+                        scan,
+                        time,
+                        state: *x,
+                        cov: *p,
+                        previous: None,
+                        sources: sources.clone(),
+                        updates: 1,
+                        misses: 0,
+                    });
+                    continued.push(true);
+                    id
+                }
+            };
+            fused_ids.push(id);
+            for &m in &g.members {
+                out.associations.push(Association {
+                    scan,
+                    sensor_id: sorted[m].sensor_id,
+                    track_id: sorted[m].track_id,
+                    fused_id: id,
+                });
+            }
+            out.fused.push(FusedTrack {
+                scan,
+                time,
+                fused_id: id,
+                state: *x,
+                cov: *p,
+                sources,
+            });
+        }
+        if self.rule.needs_true_association() {
+            self.remember_truth_globals(&sorted, sorted_labels.as_deref(), &groups, &fused_ids);
+        }
+        // 6. learn biases, age and delete
+        if let (Some(b), Some(s)) = (&mut self.bias, &self.sensors) {
+            b.update(&raw, &groups, &fused_est, s);
+        }
+        self.age_globals(&continued);
+        self.last = Some((scan, time));
+        out.fused.sort_by_key(|f| f.fused_id);
+        out.associations.sort_by_key(|a| (a.sensor_id, a.track_id));
+        Ok(out)
+    }
+
+    fn age_globals(&mut self, continued: &[bool]) {
+        for (i, g) in self.globals.iter_mut().enumerate() {
+            if !continued.get(i).copied().unwrap_or(false) {
+                g.misses += 1;
+            }
+        }
+        let limit = self.cfg.delete_after;
+        self.globals.retain(|g| g.misses < limit);
+        let alive: std::collections::HashSet<Id> = self.globals.iter().map(|g| g.id).collect();
+        self.truth_globals.retain(|_, id| alive.contains(id));
+    }
+
+    fn truth_key(t: &LocalTrack, label: Id) -> TruthKey {
+        if label >= 0 {
+            TruthKey::Target(label)
+        } else {
+            TruthKey::Unlabelled(t.sensor_id, t.track_id)
+        }
+    }
+
+    /// Groups by truth label (the reference given the true association): one group per
+    /// target; a second track of one sensor on the same target (a duplicate local track)
+    /// gets a group of its own; an unlabelled track is its own group.
+    fn truth_groups(&self, tracks: &[LocalTrack], labels: &[Id]) -> Vec<TrackGroup> {
+        let mut by_key: BTreeMap<TruthKey, Vec<usize>> = BTreeMap::new();
+        let mut extra: Vec<usize> = Vec::new();
+        for (i, t) in tracks.iter().enumerate() {
+            let key = Self::truth_key(t, labels[i]);
+            let g = by_key.entry(key).or_default();
+            if g.iter().any(|&j| tracks[j].sensor_id == t.sensor_id) {
+                extra.push(i);
+            } else {
+                g.push(i);
+            }
+        }
+        let index_of: HashMap<Id, usize> = self
+            .globals
+            .iter()
+            .enumerate()
+            .map(|(i, g)| (g.id, i))
+            .collect();
+        let mut groups: Vec<TrackGroup> = by_key
+            .into_iter()
+            .map(|(key, members)| TrackGroup {
+                weights: vec![1.0; members.len()],
+                members,
+                global: self
+                    .truth_globals
+                    .get(&key)
+                    .and_then(|id| index_of.get(id).copied()),
+            })
+            .collect();
+        groups.extend(extra.into_iter().map(|i| TrackGroup {
+            members: vec![i],
+            weights: vec![1.0],
+            global: None,
+        }));
+        groups
+    }
+
+    fn remember_truth_globals(
+        &mut self,
+        tracks: &[LocalTrack],
+        labels: Option<&[Id]>,
+        groups: &[TrackGroup],
+        ids: &[Id],
+    ) {
+        let Some(labels) = labels else { return };
+        for (g, &id) in groups.iter().zip(ids) {
+            let first = g.members[0];
+            self.truth_globals
+                .entry(Self::truth_key(&tracks[first], labels[first]))
+                .or_insert(id);
+        }
+    }
+}
+
+/// The invariants every association method keeps (`center/mod.rs`); a method that breaks
+/// one is reported as an error naming it, never silently mended.
+fn check_groups(
+    method: &str,
+    tracks: &[LocalTrack],
+    groups: &[TrackGroup],
+    n_globals: usize,
+) -> Result<(), CenterError> {
+    let bad = |why: String| Err(CenterError::Input(format!("method {method}: {why}")));
+    let mut seen = vec![false; tracks.len()];
+    let mut global_seen = vec![false; n_globals];
+    for g in groups {
+        if g.members.is_empty() || g.members.len() != g.weights.len() {
+            return bad("a group is empty or has not one weight per member".into());
+        }
+        for (k, &m) in g.members.iter().enumerate() {
+            if m >= tracks.len() || seen[m] {
+                return bad(format!(
+                    "local track index {m} out of range or in two groups"
+                ));
+            }
+            seen[m] = true;
+            if g.members[..k]
+                .iter()
+                .any(|&o| tracks[o].sensor_id == tracks[m].sensor_id)
+            {
+                return bad(format!(
+                    "two tracks of sensor {} in one group",
+                    tracks[m].sensor_id
+                ));
+            }
+            if !(g.weights[k].is_finite() && g.weights[k] >= 0.0) {
+                return bad(format!(
+                    "weight {} is not a finite number >= 0",
+                    g.weights[k]
+                ));
+            }
+        }
+        if let Some(gi) = g.global {
+            if gi >= n_globals || global_seen[gi] {
+                return bad(format!("global index {gi} out of range or continued twice"));
+            }
+            global_seen[gi] = true;
+        }
+    }
+    if let Some(m) = seen.iter().position(|s| !s) {
+        return bad(format!("local track index {m} is in no group"));
+    }
+    Ok(())
+}
+
+/// Everything the center produced over a whole run.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FusedRun {
+    pub fused: Vec<FusedTrack>,
+    pub associations: Vec<Association>,
+    /// The bias estimates after the last scan (empty without a bias estimator).
+    pub bias: Vec<BiasEstimate>,
+}
+
+/// Run a fusion center over a whole set of local tracks (any order), scan by scan.
+/// `labels` maps `(scan, sensor_id, track_id)` to the target a local track follows, for
+/// the reference rule that needs the true association.
+pub fn fuse_all(
+    tracks: &[LocalTrack],
+    cfg: &FusionConfig,
+    sensors: Option<&[Sensor]>,
+    labels: Option<&HashMap<(u32, Id, Id), Id>>,
+) -> Result<FusedRun, CenterError> {
+    let mut center = FusionCenter::new(cfg, sensors)?;
+    if center.needs_truth() && labels.is_none() {
+        return Err(CenterError::Needs {
+            method: format!("rule {}", cfg.rule),
+            reason: "is the reference given the true association: it needs the truth (--truth truth.csv)".into(),
+        });
+    }
+    let mut by_scan: BTreeMap<u32, Vec<LocalTrack>> = BTreeMap::new();
+    for t in tracks {
+        by_scan.entry(t.scan).or_default().push(*t);
+    }
+    let mut run = FusedRun::default();
+    let mut scan_labels: Vec<Id> = Vec::new();
+    for (scan, ts) in &by_scan {
+        let l = labels.map(|m| {
+            scan_labels.clear();
+            scan_labels.extend(ts.iter().map(|t| {
+                m.get(&(*scan, t.sensor_id, t.track_id))
+                    .copied()
+                    .unwrap_or(-1)
+            }));
+            scan_labels.as_slice()
+        });
+        let out = center.process_scan(ts, l)?;
+        run.fused.extend(out.fused);
+        run.associations.extend(out.associations);
+    }
+    run.bias = center.bias_estimates();
+    Ok(run)
+}

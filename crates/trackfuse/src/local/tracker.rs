@@ -1,0 +1,628 @@
+//! One sensor's multi-target tracker: a composition of a filter, a data associator and
+//! track management (ALGORITHMS.md section 2; DESIGN.md, after Stone Soup's
+//! `MultiTargetTracker`: predict, associate, update or coast, delete, initiate from what
+//! is left).
+//!
+//! Each scan, for one sensor:
+//! 1. every track is predicted to the scan time;
+//! 2. the scan's measurements are converted into the filter's measurement space, indexed,
+//!    and gated against the confirmed tracks ([`super::gating`]);
+//! 3. the associator weighs them ([`super::association::DataAssociator`]) and each
+//!    confirmed track is updated with its weights, or coasts on its prediction;
+//! 4. tentative tracks take the measurements no confirmed track used (nearest first, one
+//!    measurement per tentative track), and are confirmed by M hits within their first N
+//!    scans or dropped when M can no longer be reached;
+//! 5. the measurements still unused pair with the previous scan's unused measurements
+//!    (two-point initiation: the implied speed must be below `max_speed`) into new
+//!    tentative tracks, and the rest are kept as single points for the next scan;
+//! 6. confirmed tracks missed `delete_after` scans in a row are deleted.
+//!
+//! Only confirmed tracks are reported; a track gets its `track_id` when it is confirmed
+//! and keeps it for its life. A measurement counts as used by a confirmed track when the
+//! associator gave it a weight above 0 for that track.
+//!
+//! The tracker never reads the truth: not the `target_id` of measurements, not the true
+//! biases of the sensor (they are zeroed before the sensor reaches the filter).
+
+use super::association::{AssociationProblem, AssociationWeights, DataAssociator};
+use super::filter::{Filter, FilterState, PredictedMeasurement};
+use super::gating::{gate_threshold, Gates, MeasurementIndex};
+use super::registry::{self, AssociatorSettings, FilterSettings};
+use super::{InitiationMethod, TrackerConfig, DEFAULT_PROCESS_NOISE};
+use crate::models::range_bearing_to_position;
+use crate::params::ParamError;
+use crate::types::{
+    Id, LocalTrack, Mat2, Measurement, Sensor, SensorKind, StateCov, StateVec, Vec2,
+};
+use rayon::prelude::*;
+use std::collections::BTreeMap;
+
+/// A local-tracking problem.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TrackerError {
+    /// A configuration value is wrong (names the key).
+    #[error("tracker config: {0}")]
+    Config(#[from] ParamError),
+    /// Input that cannot be processed.
+    #[error("{0}")]
+    Input(String),
+}
+
+/// A target whose initial state is known in advance (for [`InitiationMethod::Known`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KnownTarget {
+    /// The scan at which `state` holds (the track starts there).
+    pub start_scan: u32,
+    pub state: StateVec,
+}
+
+#[derive(Debug, Clone)]
+struct Track {
+    state: FilterState,
+    /// `Some(id)` once confirmed.
+    id: Option<Id>,
+    /// Scans since the first point (tentative tracks), hits so far.
+    age: u32,
+    hits: u32,
+    misses: u32,
+    last_time: f64,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Seed {
+    position: Vec2,
+    /// Position covariance of the converted measurement.
+    cov: Mat2,
+    time: f64,
+}
+
+/// One sensor's tracker; feed it one scan at a time with [`SensorTracker::process_scan`].
+pub struct SensorTracker {
+    sensor: Sensor,
+    filter: Box<dyn Filter>,
+    associator: Box<dyn DataAssociator>,
+    cfg: TrackerConfig,
+    gamma: f64,
+    pg: f64,
+    /// Clutter density per m^2 (0 = unknown).
+    clutter_per_m2: f64,
+    known: Vec<KnownTarget>,
+    tracks: Vec<Track>,
+    seeds: Vec<Seed>,
+    next_id: Id,
+    // per-scan buffers, reused
+    raw: Vec<Vec2>,
+    converted: Vec<Vec2>,
+    used: Vec<bool>,
+    predictions: Vec<PredictedMeasurement>,
+    predicted_of: Vec<usize>,
+    index: MeasurementIndex,
+    gates: Gates,
+    weights: AssociationWeights,
+    candidates: Vec<(f64, u32, u32)>,
+}
+
+/// The filter a config names for a sensor (`auto`: `kf` for position sensors, `ekf` for
+/// range-bearing ones).
+fn filter_for(
+    cfg: &TrackerConfig,
+    sensor: &Sensor,
+    process_noise: [f64; 2],
+) -> Result<Box<dyn Filter>, TrackerError> {
+    let name = match (cfg.filter.as_str(), sensor.kind) {
+        ("auto", SensorKind::Position) => "kf",
+        ("auto", SensorKind::RangeBearing) => "ekf",
+        (n, _) => n,
+    };
+    let filter = registry::make_filter(
+        name,
+        &FilterSettings {
+            process_noise,
+            params: &cfg.params,
+        },
+    )?;
+    if !filter.supports(sensor.kind) {
+        return Err(TrackerError::Config(ParamError::new(
+            "filter",
+            format!(
+                "filter {name:?} cannot track the {} sensor {}",
+                sensor.kind.as_str(),
+                sensor.id
+            ),
+        )));
+    }
+    Ok(filter)
+}
+
+impl SensorTracker {
+    /// A tracker for `sensor`. `scenario_process_noise` is the scenario's truth process
+    /// noise when known (used when the config gives none and it is non-zero); `known` the
+    /// known targets for [`InitiationMethod::Known`]; `(seed, run, sensor_index)` seed
+    /// randomised associators.
+    pub fn new(
+        sensor: &Sensor,
+        cfg: &TrackerConfig,
+        scenario_process_noise: Option<[f64; 2]>,
+        known: &[KnownTarget],
+        seed: u64,
+        run: u64,
+        sensor_index: u64,
+    ) -> Result<SensorTracker, TrackerError> {
+        cfg.validate()
+            .map_err(|(k, r)| TrackerError::Config(ParamError::new(k, r)))?;
+        // the tracker must not see the true biases
+        let mut sensor = sensor.clone();
+        sensor.bias_r = 0.0;
+        sensor.bias_theta = 0.0;
+        let process_noise = cfg
+            .process_noise
+            .or(scenario_process_noise.filter(|q| q.iter().any(|&v| v > 0.0)))
+            .unwrap_or([DEFAULT_PROCESS_NOISE; 2]);
+        let filter = filter_for(cfg, &sensor, process_noise)?;
+        let associator = registry::make_associator(
+            &cfg.associator,
+            &AssociatorSettings {
+                seed,
+                run,
+                sensor_index,
+                params: &cfg.params,
+            },
+        )?;
+        let clutter_km2 = sensor
+            .clutter_density
+            .or(cfg.clutter_density)
+            .unwrap_or(0.0);
+        if cfg.initiation.method == InitiationMethod::Known && known.is_empty() {
+            return Err(TrackerError::Input(
+                "initiation.method = \"known\" needs the known targets (a scenario with [[targets]])"
+                    .into(),
+            ));
+        }
+        Ok(SensorTracker {
+            sensor,
+            filter,
+            associator,
+            gamma: gate_threshold(cfg.gate_probability),
+            pg: cfg.gate_probability,
+            clutter_per_m2: clutter_km2 * 1e-6,
+            known: known.to_vec(),
+            cfg: cfg.clone(),
+            tracks: Vec::new(),
+            seeds: Vec::new(),
+            next_id: 0,
+            raw: Vec::new(),
+            converted: Vec::new(),
+            used: Vec::new(),
+            predictions: Vec::new(),
+            predicted_of: Vec::new(),
+            index: MeasurementIndex::default(),
+            gates: Gates::default(),
+            weights: AssociationWeights::default(),
+            candidates: Vec::new(),
+        })
+    }
+
+    /// The sensor this tracker serves (true biases zeroed).
+    pub fn sensor(&self) -> &Sensor {
+        &self.sensor
+    }
+
+    /// Process one scan: `measurements` are the raw `(range, bearing)` or `(x, y)` values
+    /// of this sensor at `time`. Appends the confirmed tracks after the scan to `out`, in
+    /// `track_id` order.
+    pub fn process_scan(
+        &mut self,
+        scan: u32,
+        time: f64,
+        measurements: &[Vec2],
+        out: &mut Vec<LocalTrack>,
+    ) -> Result<(), TrackerError> {
+        if !time.is_finite() {
+            return Err(TrackerError::Input(format!(
+                "scan {scan}: time {time} is not finite"
+            )));
+        }
+        self.start_known_tracks(scan, time);
+        // 1. predict
+        for t in &mut self.tracks {
+            let dt = time - t.last_time;
+            if dt < 0.0 {
+                return Err(TrackerError::Input(format!(
+                    "sensor {}: scan {scan} at time {time} is earlier than the previous scan at {}",
+                    self.sensor.id, t.last_time
+                )));
+            }
+            if dt > 0.0 {
+                self.filter.predict(&mut t.state, dt);
+            }
+            t.last_time = time;
+            t.age += 1;
+        }
+        // 2. convert, index
+        self.raw.clear();
+        self.raw.extend_from_slice(measurements);
+        self.converted.clear();
+        for z in measurements {
+            self.converted.push(self.filter.convert(z, &self.sensor));
+        }
+        self.used.clear();
+        self.used.resize(measurements.len(), false);
+        self.index.build(&self.converted);
+        // 3. confirmed tracks (and known tracks not yet seen): associate, update
+        self.predictions.clear();
+        self.predicted_of.clear();
+        for (i, t) in self.tracks.iter().enumerate() {
+            if t.id.is_none() && !self.is_known_unconfirmed(t) {
+                continue;
+            }
+            if let Some(mut p) = self.filter.predict_measurement(&t.state, &self.sensor) {
+                p.clutter_density = if p.angular {
+                    self.clutter_per_m2 * p.z[0].abs()
+                } else {
+                    self.clutter_per_m2
+                };
+                self.predictions.push(p);
+                self.predicted_of.push(i);
+            }
+        }
+        self.gates
+            .compute(&self.predictions, &self.converted, &self.index, self.gamma);
+        let problem = AssociationProblem {
+            predictions: &self.predictions,
+            measurements: &self.converted,
+            gates: &self.gates,
+            index: &self.index,
+            gate: self.gamma,
+            gate_probability: self.pg,
+            pd: self.sensor.pd,
+        };
+        self.associator.associate(&problem, &mut self.weights);
+        if self.weights.tracks() != self.predictions.len() {
+            return Err(TrackerError::Input(format!(
+                "associator {} returned {} weight lists for {} tracks",
+                self.associator.name(),
+                self.weights.tracks(),
+                self.predictions.len()
+            )));
+        }
+        let mut updated = vec![false; self.tracks.len()];
+        for (k, &ti) in self.predicted_of.iter().enumerate() {
+            let w = self.weights.of(k);
+            let hit = w.iter().any(|&(_, b)| b > 0.0);
+            for &(m, b) in w {
+                if b > 0.0 {
+                    self.used[m as usize] = true;
+                }
+            }
+            let track = &mut self.tracks[ti];
+            if hit
+                && self.filter.update(
+                    &mut track.state,
+                    &self.predictions[k],
+                    &self.converted,
+                    w,
+                    &self.sensor,
+                )
+            {
+                track.hits += 1;
+                track.misses = 0;
+                updated[ti] = true;
+                if track.id.is_none() {
+                    track.id = Some(self.next_id);
+                    self.next_id += 1;
+                }
+            } else {
+                track.misses += 1;
+            }
+        }
+        // 4. tentative tracks: nearest unused measurement first
+        if self.cfg.initiation.method == InitiationMethod::MOfN {
+            self.update_tentative(&mut updated);
+        }
+        // 6. delete
+        let cfg = &self.cfg.initiation;
+        let known_mode = cfg.method == InitiationMethod::Known;
+        self.tracks.retain(|t| {
+            if t.id.is_some() || known_mode {
+                t.misses < cfg.delete_after
+            } else {
+                // tentative: can it still reach m hits within n scans?
+                t.hits + (cfg.n.saturating_sub(t.age)) >= cfg.m
+            }
+        });
+        // 5. two-point initiation from what is left
+        if self.cfg.initiation.method == InitiationMethod::MOfN {
+            self.initiate(time);
+        }
+        // report
+        let first = out.len();
+        for t in &self.tracks {
+            if let Some(id) = t.id {
+                out.push(LocalTrack {
+                    scan,
+                    time,
+                    sensor_id: self.sensor.id,
+                    track_id: id,
+                    state: t.state.mean,
+                    cov: crate::types::symmetrize(&t.state.cov),
+                });
+            }
+        }
+        out[first..].sort_by_key(|l| l.track_id);
+        Ok(())
+    }
+
+    fn is_known_unconfirmed(&self, t: &Track) -> bool {
+        self.cfg.initiation.method == InitiationMethod::Known && t.id.is_none()
+    }
+
+    fn start_known_tracks(&mut self, scan: u32, time: f64) {
+        if self.cfg.initiation.method != InitiationMethod::Known {
+            return;
+        }
+        let i = &self.cfg.initiation;
+        let (sp, sv) = (i.known_position_std, i.known_velocity_std);
+        let cov = StateCov::from_diagonal(&StateVec::new(sp * sp, sv * sv, sp * sp, sv * sv));
+        for k in &self.known {
+            if k.start_scan == scan {
+                self.tracks.push(Track {
+                    state: self.filter.init(k.state, cov),
+                    id: None,
+                    age: 0,
+                    hits: 0,
+                    misses: 0,
+                    last_time: time,
+                });
+            }
+        }
+    }
+
+    /// Tentative tracks take the unused measurements in their gates, nearest (smallest
+    /// d^2) pair first, one measurement per track and one track per measurement.
+    fn update_tentative(&mut self, updated: &mut [bool]) {
+        self.candidates.clear();
+        for (ti, t) in self.tracks.iter().enumerate() {
+            if t.id.is_some() || t.age == 0 {
+                continue;
+            }
+            let Some(p) = self.filter.predict_measurement(&t.state, &self.sensor) else {
+                continue;
+            };
+            let half = (self.gamma * p.s[(0, 0)]).sqrt();
+            for &m in self.index.in_first_range(p.z[0] - half, p.z[0] + half) {
+                if self.used[m as usize] {
+                    continue;
+                }
+                let d2 = p.distance2(&self.converted[m as usize]);
+                if d2 <= self.gamma {
+                    self.candidates.push((d2, ti as u32, m));
+                }
+            }
+        }
+        self.candidates
+            .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        for c in 0..self.candidates.len() {
+            let (_, ti, m) = self.candidates[c];
+            let (ti, m) = (ti as usize, m as usize);
+            if updated[ti] || self.used[m] {
+                continue;
+            }
+            let track = &mut self.tracks[ti];
+            let Some(p) = self.filter.predict_measurement(&track.state, &self.sensor) else {
+                continue;
+            };
+            if self.filter.update(
+                &mut track.state,
+                &p,
+                &self.converted,
+                &[(m as u32, 1.0)],
+                &self.sensor,
+            ) {
+                updated[ti] = true;
+                self.used[m] = true;
+                track.hits += 1;
+                if track.hits >= self.cfg.initiation.m && track.age < self.cfg.initiation.n {
+                    track.id = Some(self.next_id);
+                    self.next_id += 1;
+                    track.misses = 0;
+                }
+            }
+        }
+        for (ti, t) in self.tracks.iter_mut().enumerate() {
+            if t.id.is_none() && !updated[ti] {
+                t.misses += 1;
+            }
+        }
+    }
+
+    /// Cartesian position and its covariance of a raw measurement.
+    fn to_cartesian(&self, z: &Vec2) -> (Vec2, Mat2) {
+        let r = self.sensor.measurement_noise();
+        match self.sensor.kind {
+            SensorKind::Position => (*z, r),
+            SensorKind::RangeBearing => {
+                let p = range_bearing_to_position(z, &self.sensor.position());
+                let (c, s) = (z[1].cos(), z[1].sin());
+                let j = Mat2::new(c, -z[0] * s, s, z[0] * c);
+                (p, j * r * j.transpose())
+            }
+        }
+    }
+
+    /// Two-point initiation: each unused measurement pairs with the nearest single point
+    /// of the previous scan within `max_speed * dt` (plus three standard deviations of
+    /// the two positions); the pair starts a tentative track with the differenced
+    /// velocity. Unpaired measurements become single points for the next scan.
+    fn initiate(&mut self, time: f64) {
+        let max_speed = self.cfg.initiation.max_speed;
+        // seeds sorted by x for a sweep
+        let mut seeds = std::mem::take(&mut self.seeds);
+        seeds.sort_unstable_by(|a, b| a.position[0].total_cmp(&b.position[0]));
+        let mut seed_used = vec![false; seeds.len()];
+        let mut new_seeds = Vec::new();
+        // candidate pairs (distance excess, measurement, seed)
+        let mut pairs: Vec<(f64, u32, u32)> = Vec::new();
+        let mut cart: Vec<(Vec2, Mat2)> = Vec::with_capacity(self.raw.len());
+        for (m, z) in self.raw.iter().enumerate() {
+            cart.push(if self.used[m] {
+                (Vec2::zeros(), Mat2::zeros())
+            } else {
+                self.to_cartesian(z)
+            });
+        }
+        let spread = |c: &Mat2| c[(0, 0)].max(c[(1, 1)]).max(0.0).sqrt();
+        let max_dt = seeds.iter().map(|s| time - s.time).fold(0.0, f64::max);
+        let max_seed_sigma = seeds.iter().map(|s| spread(&s.cov)).fold(0.0, f64::max);
+        for m in 0..self.used.len() {
+            if self.used[m] {
+                continue;
+            }
+            let (p, pc) = cart[m];
+            let sp = spread(&pc);
+            let reach_max = max_speed * max_dt + 3.0 * (sp + max_seed_sigma);
+            let lo = seeds.partition_point(|s| s.position[0] < p[0] - reach_max);
+            for (si, s) in seeds.iter().enumerate().skip(lo) {
+                if s.position[0] > p[0] + reach_max {
+                    break;
+                }
+                let dt = time - s.time;
+                if dt <= 0.0 {
+                    continue;
+                }
+                let reach = max_speed * dt + 3.0 * (sp + spread(&s.cov));
+                let d = (p - s.position).norm();
+                if d <= reach {
+                    pairs.push((d / dt, m as u32, si as u32));
+                }
+            }
+        }
+        pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        let mut meas_paired = vec![false; self.used.len()];
+        for &(_, m, si) in &pairs {
+            let (m, si) = (m as usize, si as usize);
+            if meas_paired[m] || seed_used[si] {
+                continue;
+            }
+            meas_paired[m] = true;
+            seed_used[si] = true;
+            let s = &seeds[si];
+            let (p, pc) = cart[m];
+            let dt = time - s.time;
+            let v = (p - s.position) / dt;
+            let vc = (pc + s.cov) / (dt * dt);
+            let mean = StateVec::new(p[0], v[0], p[1], v[1]);
+            let mut cov = StateCov::zeros();
+            let idx = [0usize, 2];
+            for a in 0..2 {
+                for b in 0..2 {
+                    cov[(idx[a], idx[b])] = pc[(a, b)];
+                    cov[(idx[a] + 1, idx[b] + 1)] = vc[(a, b)];
+                    cov[(idx[a], idx[b] + 1)] = pc[(a, b)] / dt;
+                    cov[(idx[a] + 1, idx[b])] = pc[(a, b)] / dt;
+                }
+            }
+            if !mean.iter().all(|v| v.is_finite()) {
+                continue;
+            }
+            self.tracks.push(Track {
+                state: self.filter.init(mean, cov),
+                id: None,
+                age: 1,
+                hits: 2,
+                misses: 0,
+                last_time: time,
+            });
+        }
+        for m in 0..self.used.len() {
+            if !self.used[m] && !meas_paired[m] {
+                let (p, pc) = cart[m];
+                new_seeds.push(Seed {
+                    position: p,
+                    cov: pc,
+                    time,
+                });
+            }
+        }
+        self.seeds = new_seeds;
+    }
+}
+
+/// Run one tracker per sensor over a whole measurement set (any order) and return the
+/// confirmed local tracks of every scan, sorted by `(scan, sensor_id, track_id)`.
+///
+/// Every scan index that appears in `measurements` is processed by every sensor; a
+/// sensor with no measurement in a scan takes that scan's earliest time among the
+/// sensors that have one (its tracks coast). Scan indices absent from the whole file
+/// carry no time and are skipped. Sensors are tracked in parallel (rayon); the result
+/// does not depend on the thread count.
+pub fn track_sensors(
+    sensors: &[Sensor],
+    measurements: &[Measurement],
+    cfg: &TrackerConfig,
+    scenario_process_noise: Option<[f64; 2]>,
+    known: &[KnownTarget],
+    seed: u64,
+    run: u64,
+) -> Result<Vec<LocalTrack>, TrackerError> {
+    let mut scan_time: BTreeMap<u32, f64> = BTreeMap::new();
+    let mut per_sensor: BTreeMap<Id, BTreeMap<u32, (f64, Vec<Vec2>)>> = BTreeMap::new();
+    for m in measurements {
+        let Some(s) = sensors.iter().find(|s| s.id == m.sensor_id) else {
+            return Err(TrackerError::Input(format!(
+                "measurement of sensor {} at scan {}: no such sensor",
+                m.sensor_id, m.scan
+            )));
+        };
+        if s.kind != m.kind {
+            return Err(TrackerError::Input(format!(
+                "measurement of sensor {} at scan {} is {} but the sensor is {}",
+                m.sensor_id,
+                m.scan,
+                m.kind.as_str(),
+                s.kind.as_str()
+            )));
+        }
+        let t = scan_time.entry(m.scan).or_insert(m.time);
+        *t = t.min(m.time);
+        per_sensor
+            .entry(m.sensor_id)
+            .or_default()
+            .entry(m.scan)
+            .or_insert_with(|| (m.time, Vec::new()))
+            .1
+            .push(m.value);
+    }
+    let empty = BTreeMap::new();
+    let results: Vec<Result<Vec<LocalTrack>, TrackerError>> = sensors
+        .par_iter()
+        .enumerate()
+        .map(|(si, sensor)| {
+            let mut tracker = SensorTracker::new(
+                sensor,
+                cfg,
+                scenario_process_noise,
+                known,
+                seed,
+                run,
+                si as u64,
+            )?;
+            let mine = per_sensor.get(&sensor.id).unwrap_or(&empty);
+            let mut out = Vec::new();
+            let none: Vec<Vec2> = Vec::new();
+            for (&scan, &time) in &scan_time {
+                let (t, z) = match mine.get(&scan) {
+                    Some((t, z)) => (*t, z),
+                    None => (time, &none),
+                };
+                tracker.process_scan(scan, t, z, &mut out)?;
+            }
+            Ok(out)
+        })
+        .collect();
+    let mut all = Vec::new();
+    for r in results {
+        all.extend(r?);
+    }
+    all.sort_by_key(|l| (l.scan, l.sensor_id, l.track_id));
+    Ok(all)
+}
