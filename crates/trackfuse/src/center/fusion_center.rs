@@ -70,18 +70,30 @@ impl FusionCenter {
             .map_err(|(key, reason)| CenterError::Config { key, reason })?;
         let method = make_method(&cfg.method, &cfg.params)?;
         let rule = make_rule(&cfg.rule, &cfg.params)?;
-        let bias = match &cfg.bias {
-            Some(b) => {
-                if sensors.is_none() {
-                    return Err(CenterError::Needs {
-                        method: format!("bias estimator {b}"),
-                        reason: "needs the sensor positions: give sensors.csv (--sensors)".into(),
-                    });
-                }
-                Some(make_bias(b, &cfg.params)?)
-            }
-            None => None,
-        };
+        let bias = cfg
+            .bias
+            .as_ref()
+            .map(|b| make_bias(b, &cfg.params))
+            .transpose()?;
+        Self::with_parts(cfg, method, rule, bias, sensors)
+    }
+
+    /// A center built from parts, for methods of your own that are not in the registry;
+    /// `cfg` gives the center's own settings (process noise, deletion), its method and
+    /// rule names are ignored.
+    pub fn with_parts(
+        cfg: &FusionConfig,
+        method: Box<dyn TrackAssociator>,
+        rule: Box<dyn FusionRule>,
+        bias: Option<Box<dyn BiasEstimator>>,
+        sensors: Option<&[Sensor]>,
+    ) -> Result<Self, CenterError> {
+        if let (Some(b), None) = (&bias, sensors) {
+            return Err(CenterError::Needs {
+                method: format!("bias estimator {}", b.name()),
+                reason: "needs the sensor positions: give sensors.csv (--sensors)".into(),
+            });
+        }
         let sensors = sensors.map(|s| {
             s.iter()
                 .cloned()
@@ -504,4 +516,190 @@ pub fn fuse_all(
     }
     run.bias = center.bias_estimates();
     Ok(run)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::center::testing::local;
+    use proptest::prelude::*;
+
+    /// Test associator: tracks within 50 m of a predicted global continue it (nearest
+    /// first, one per sensor); the rest are grouped greedily by 50 m proximity.
+    struct Near;
+    impl TrackAssociator for Near {
+        fn name(&self) -> &'static str {
+            "near"
+        }
+        fn associate(
+            &mut self,
+            ctx: &AssociationContext<'_>,
+            tracks: &[LocalTrack],
+            _globals: &[GlobalTrack],
+        ) -> Result<Vec<TrackGroup>, CenterError> {
+            let mut groups: Vec<TrackGroup> = Vec::new();
+            let mut centre: Vec<StateVec> = Vec::new();
+            for (gi, p) in ctx.predicted.iter().enumerate() {
+                groups.push(TrackGroup {
+                    members: vec![],
+                    weights: vec![],
+                    global: Some(gi),
+                });
+                centre.push(p.0);
+            }
+            for (i, t) in tracks.iter().enumerate() {
+                let best = (0..groups.len())
+                    .filter(|&g| {
+                        !groups[g]
+                            .members
+                            .iter()
+                            .any(|&m| tracks[m].sensor_id == t.sensor_id)
+                    })
+                    .map(|g| (crate::types::position_of(&(centre[g] - t.state)).norm(), g))
+                    .filter(|(d, _)| *d < 50.0)
+                    .min_by(|a, b| a.0.total_cmp(&b.0));
+                match best {
+                    Some((_, g)) => {
+                        groups[g].members.push(i);
+                        groups[g].weights.push(1.0);
+                    }
+                    None => {
+                        groups.push(TrackGroup {
+                            members: vec![i],
+                            weights: vec![1.0],
+                            global: None,
+                        });
+                        centre.push(t.state);
+                    }
+                }
+            }
+            groups.retain(|g| !g.members.is_empty());
+            Ok(groups)
+        }
+    }
+
+    struct Mean(bool);
+    impl FusionRule for Mean {
+        fn name(&self) -> &'static str {
+            "mean"
+        }
+        fn needs_true_association(&self) -> bool {
+            self.0
+        }
+        fn fuse(
+            &self,
+            members: &[&LocalTrack],
+            _w: &[f64],
+            _ctx: &FusionContext<'_>,
+        ) -> Result<(StateVec, StateCov), CenterError> {
+            let n = members.len() as f64;
+            let x = members.iter().map(|m| m.state).sum::<StateVec>() / n;
+            let p = members.iter().map(|m| m.cov).sum::<StateCov>() / n;
+            Ok((x, p))
+        }
+    }
+
+    fn center(truth: bool) -> FusionCenter {
+        FusionCenter::with_parts(
+            &FusionConfig::default(),
+            Box::new(Near),
+            Box::new(Mean(truth)),
+            None,
+            None,
+        )
+        .expect("center")
+    }
+
+    fn at(mut t: LocalTrack, scan: u32) -> LocalTrack {
+        t.scan = scan;
+        t.time = scan as f64;
+        t.state[0] += 10.0 * scan as f64;
+        t
+    }
+
+    fn two_targets(scan: u32) -> Vec<LocalTrack> {
+        vec![
+            at(local(0, 1, 0.0, 10.0, 0.0, 0.0, 25.0), scan),
+            at(local(1, 7, 5.0, 10.0, 0.0, 0.0, 25.0), scan),
+            at(local(0, 2, 0.0, 10.0, 1000.0, 0.0, 25.0), scan),
+            at(local(1, 3, 3.0, 10.0, 1000.0, 0.0, 25.0), scan),
+        ]
+    }
+
+    #[test]
+    fn ids_are_stable_and_globals_die_after_misses() {
+        let mut c = center(false);
+        let first = c.process_scan(&two_targets(0), None).expect("scan 0");
+        assert_eq!(first.fused.len(), 2);
+        assert_eq!(first.associations.len(), 4);
+        let ids: Vec<Id> = first.fused.iter().map(|f| f.fused_id).collect();
+        for scan in 1..5 {
+            let out = c.process_scan(&two_targets(scan), None).expect("scan");
+            let now: Vec<Id> = out.fused.iter().map(|f| f.fused_id).collect();
+            assert_eq!(now, ids, "ids stable at scan {scan}");
+            assert_eq!(out.fused[0].sources, vec![(0, 1), (1, 7)]);
+        }
+        // only the first target from scan 5 on: the second global dies after 3 misses
+        for scan in 5..9 {
+            let ts: Vec<LocalTrack> = two_targets(scan).into_iter().take(2).collect();
+            c.process_scan(&ts, None).expect("scan");
+        }
+        assert_eq!(c.globals().len(), 1);
+        assert_eq!(c.globals()[0].id, ids[0]);
+    }
+
+    #[test]
+    fn bad_input_is_an_error() {
+        let mut c = center(false);
+        let mut ts = two_targets(0);
+        ts.push(ts[0]);
+        assert!(c.process_scan(&ts, None).is_err(), "duplicate track");
+        let mut c = center(false);
+        c.process_scan(&two_targets(3), None).expect("scan 3");
+        assert!(c.process_scan(&two_targets(2), None).is_err(), "back in time");
+        let mut mixed = two_targets(4);
+        mixed[1].scan = 5;
+        assert!(c.process_scan(&mixed, None).is_err(), "two scans at once");
+    }
+
+    #[test]
+    fn truth_association_needs_and_uses_labels() {
+        let mut c = center(true);
+        assert!(matches!(
+            c.process_scan(&two_targets(0), None),
+            Err(CenterError::Needs { .. })
+        ));
+        // labels pair the tracks across the targets, against the geometry
+        let labels = [10, 20, 20, 10];
+        let out = c.process_scan(&two_targets(0), Some(&labels)).expect("scan");
+        assert_eq!(out.fused.len(), 2);
+        assert_eq!(out.fused[0].sources, vec![(0, 1), (1, 3)]);
+        let again = c.process_scan(&two_targets(1), Some(&labels)).expect("scan 1");
+        assert_eq!(
+            again.fused.iter().map(|f| f.fused_id).collect::<Vec<_>>(),
+            out.fused.iter().map(|f| f.fused_id).collect::<Vec<_>>()
+        );
+    }
+
+    proptest! {
+        #[test]
+        fn output_does_not_depend_on_input_order(seed in 0u64..1000) {
+            let mut scans: Vec<Vec<LocalTrack>> = (0..4).map(two_targets).collect();
+            let mut a = center(false);
+            let reference: Vec<ScanOutput> = scans
+                .iter()
+                .map(|s| a.process_scan(s, None).expect("scan"))
+                .collect();
+            let mut b = center(false);
+            let mut k = seed;
+            for (s, expected) in scans.iter_mut().zip(&reference) {
+                // a seeded shuffle
+                for i in (1..s.len()).rev() {
+                    k = k.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    s.swap(i, (k >> 33) as usize % (i + 1));
+                }
+                prop_assert_eq!(&b.process_scan(s, None).expect("scan"), expected);
+            }
+        }
+    }
 }
