@@ -214,6 +214,18 @@ pub const BUILTIN_SCENARIOS: &[(&str, &str)] = &[
         "grid-bench",
         include_str!("../../../scenarios/grid-bench.toml"),
     ),
+    (
+        "bias-radars",
+        include_str!("../../../scenarios/bias-radars.toml"),
+    ),
+    (
+        "bias-radars-nobias",
+        include_str!("../../../scenarios/bias-radars-nobias.toml"),
+    ),
+    (
+        "track-bench",
+        include_str!("../../../scenarios/track-bench.toml"),
+    ),
 ];
 
 impl Scenario {

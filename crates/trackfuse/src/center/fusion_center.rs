@@ -656,7 +656,10 @@ mod tests {
         assert!(c.process_scan(&ts, None).is_err(), "duplicate track");
         let mut c = center(false);
         c.process_scan(&two_targets(3), None).expect("scan 3");
-        assert!(c.process_scan(&two_targets(2), None).is_err(), "back in time");
+        assert!(
+            c.process_scan(&two_targets(2), None).is_err(),
+            "back in time"
+        );
         let mut mixed = two_targets(4);
         mixed[1].scan = 5;
         assert!(c.process_scan(&mixed, None).is_err(), "two scans at once");
@@ -671,10 +674,14 @@ mod tests {
         ));
         // labels pair the tracks across the targets, against the geometry
         let labels = [10, 20, 20, 10];
-        let out = c.process_scan(&two_targets(0), Some(&labels)).expect("scan");
+        let out = c
+            .process_scan(&two_targets(0), Some(&labels))
+            .expect("scan");
         assert_eq!(out.fused.len(), 2);
         assert_eq!(out.fused[0].sources, vec![(0, 1), (1, 3)]);
-        let again = c.process_scan(&two_targets(1), Some(&labels)).expect("scan 1");
+        let again = c
+            .process_scan(&two_targets(1), Some(&labels))
+            .expect("scan 1");
         assert_eq!(
             again.fused.iter().map(|f| f.fused_id).collect::<Vec<_>>(),
             out.fused.iter().map(|f| f.fused_id).collect::<Vec<_>>()
