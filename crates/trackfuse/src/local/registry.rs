@@ -49,7 +49,18 @@ pub struct AssociatorInfo {
 pub const FILTERS: &[FilterInfo] = &[];
 
 /// Every finished local data associator, by ALGORITHMS.md name.
-pub const ASSOCIATORS: &[AssociatorInfo] = &[];
+pub const ASSOCIATORS: &[AssociatorInfo] = &[
+    AssociatorInfo {
+        name: "nn",
+        summary: "nearest neighbour: each track takes its closest validated measurement",
+        make: super::association::nn::make,
+    },
+    AssociatorInfo {
+        name: "gnn",
+        summary: "global nearest neighbour: optimal 2-D assignment per cluster of tracks",
+        make: super::association::gnn::make,
+    },
+];
 
 /// The filter called `name`.
 pub fn make_filter(name: &str, s: &FilterSettings<'_>) -> Result<Box<dyn Filter>, ParamError> {

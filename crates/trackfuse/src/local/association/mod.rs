@@ -8,6 +8,13 @@
 //! One file per associator, named after it; the registry (`local::registry`) maps the
 //! ALGORITHMS.md names to constructors.
 
+pub mod gnn;
+pub mod nn;
+
+mod clusters;
+#[cfg(test)]
+mod fixtures;
+
 use super::filter::PredictedMeasurement;
 use super::gating::{Gates, MeasurementIndex};
 use crate::types::Vec2;
