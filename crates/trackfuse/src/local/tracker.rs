@@ -550,7 +550,8 @@ impl SensorTracker {
 /// Run one tracker per sensor over a whole measurement set (any order) and return the
 /// confirmed local tracks of every scan, sorted by `(scan, sensor_id, track_id)`.
 ///
-/// Every scan index that appears in `measurements` is processed by every sensor; a
+/// Measurements are sorted within each sensor-scan first, so the result does not depend
+/// on the order of the rows. Every scan index that appears in `measurements` is processed by every sensor; a
 /// sensor with no measurement in a scan takes that scan's earliest time among the
 /// sensors that have one (its tracks coast). Scan indices absent from the whole file
 /// carry no time and are skipped. Sensors are tracked in parallel (rayon); the result
@@ -592,6 +593,12 @@ pub fn track_sensors(
             .1
             .push(m.value);
     }
+    // the measurement order within a scan is the file's accident: sort it away
+    for scans in per_sensor.values_mut() {
+        for (_, z) in scans.values_mut() {
+            z.sort_unstable_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+        }
+    }
     let empty = BTreeMap::new();
     let results: Vec<Result<Vec<LocalTrack>, TrackerError>> = sensors
         .par_iter()
@@ -625,4 +632,143 @@ pub fn track_sensors(
     }
     all.sort_by_key(|l| (l.scan, l.sensor_id, l.track_id));
     Ok(all)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::Scenario;
+    use crate::sim::simulate;
+    use std::collections::BTreeSet;
+
+    const TWO_TARGETS: &str = r#"
+seed = 3
+dt = 1.0
+scans = 40
+process_noise = [0.5, 0.5]
+[[targets]]
+initial = [0.0, 20.0, 0.0, 10.0]
+[[targets]]
+initial = [5000.0, -15.0, 3000.0, 5.0]
+start_scan = 10
+end_scan = 30
+[clutter]
+density = 0.5
+region = [-2000.0, 7000.0, -2000.0, 5000.0]
+[[sensors]]
+kind = "position"
+sigma_x = 10.0
+sigma_y = 10.0
+pd = 0.95
+[[sensors]]
+position = [-10000.0, -10000.0]
+sigma_r = 10.0
+sigma_theta = 0.001
+pd = 0.95
+"#;
+
+    fn tracks_of(local: &[LocalTrack], sensor: Id) -> BTreeSet<Id> {
+        local
+            .iter()
+            .filter(|l| l.sensor_id == sensor)
+            .map(|l| l.track_id)
+            .collect()
+    }
+
+    #[test]
+    fn m_of_n_finds_the_targets_in_clutter() {
+        let sc = Scenario::from_toml(TWO_TARGETS, "t").expect("scenario");
+        let sim = simulate(&sc, 0);
+        let cfg = TrackerConfig::default();
+        let local = track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0)
+            .expect("tracking");
+        let labels = crate::metrics::label_local_tracks(&sim.truth, &local, 200.0);
+        for sensor in [0, 1] {
+            // each target followed by a confirmed track for most of its life
+            for (target, scans) in [(0, 40usize), (1, 21)] {
+                let followed = local
+                    .iter()
+                    .filter(|l| {
+                        l.sensor_id == sensor
+                            && labels.get(&(l.scan, l.sensor_id, l.track_id)) == Some(&target)
+                    })
+                    .count();
+                assert!(
+                    followed * 10 >= scans * 7,
+                    "sensor {sensor} target {target}: {followed} of {scans} scans"
+                );
+            }
+            // and few tracks beyond the two targets (clutter seldom confirms)
+            let n = tracks_of(&local, sensor).len();
+            assert!((2..=5).contains(&n), "sensor {sensor}: {n} tracks");
+        }
+        // ids stable: a track id is one contiguous life
+        for sensor in [0, 1] {
+            for id in tracks_of(&local, sensor) {
+                let scans: Vec<u32> = local
+                    .iter()
+                    .filter(|l| l.sensor_id == sensor && l.track_id == id)
+                    .map(|l| l.scan)
+                    .collect();
+                assert_eq!(
+                    scans.len() as u32,
+                    scans[scans.len() - 1] - scans[0] + 1,
+                    "track {sensor}:{id} has gaps"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn known_initiation_starts_at_the_known_states() {
+        let sc = Scenario::from_toml(TWO_TARGETS, "t").expect("scenario");
+        let sim = simulate(&sc, 0);
+        let mut cfg = TrackerConfig::default();
+        cfg.initiation.method = InitiationMethod::Known;
+        let known = crate::pipeline::known_targets(&sim.truth);
+        assert_eq!(known.len(), 2);
+        assert_eq!(known[1].start_scan, 10);
+        let local = track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &known, 1, 0)
+            .expect("tracking");
+        for sensor in [0, 1] {
+            assert_eq!(tracks_of(&local, sensor).len(), 2, "one track per target");
+            let first = local.iter().find(|l| l.sensor_id == sensor).expect("track");
+            assert_eq!(first.scan, 0);
+        }
+        // without known targets it is an error, not a silent switch to M-of-N
+        assert!(track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0).is_err());
+    }
+
+    #[test]
+    fn refuses_what_it_cannot_do() {
+        let sc = Scenario::from_toml(TWO_TARGETS, "t").expect("scenario");
+        let sim = simulate(&sc, 0);
+        let cfg = TrackerConfig {
+            filter: "kf".into(),
+            ..TrackerConfig::default()
+        };
+        let e = track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0)
+            .expect_err("kf cannot track a radar");
+        assert!(e.to_string().contains("kf"), "{e}");
+        let cfg = TrackerConfig {
+            associator: "no-such".into(),
+            ..TrackerConfig::default()
+        };
+        let e = track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0)
+            .expect_err("unknown associator");
+        assert!(e.to_string().contains("no-such"), "{e}");
+    }
+
+    #[test]
+    fn same_result_whatever_the_measurement_order() {
+        let sc = Scenario::from_toml(TWO_TARGETS, "t").expect("scenario");
+        let sim = simulate(&sc, 0);
+        let cfg = TrackerConfig::default();
+        let a = track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0)
+            .expect("tracking");
+        let mut shuffled = sim.measurements.clone();
+        shuffled.reverse();
+        let b = track_sensors(&sim.sensors, &shuffled, &cfg, None, &[], 1, 0).expect("tracking");
+        assert_eq!(a, b);
+    }
 }
