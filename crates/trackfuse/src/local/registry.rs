@@ -60,6 +60,16 @@ pub const ASSOCIATORS: &[AssociatorInfo] = &[
         summary: "global nearest neighbour: optimal 2-D assignment per cluster of tracks",
         make: super::association::gnn::make,
     },
+    AssociatorInfo {
+        name: "pda",
+        summary: "probabilistic data association (parametric, or non-parametric clutter)",
+        make: super::association::pda::make,
+    },
+    AssociatorInfo {
+        name: "jpda",
+        summary: "joint PDA: exact joint events per cluster, belief propagation past a bound",
+        make: super::association::jpda::make,
+    },
 ];
 
 /// The filter called `name`.

@@ -1,6 +1,6 @@
 //! `gnn`: global nearest-neighbour data association — the optimal 2-D assignment of
-//! measurements to tracks (ALGORITHMS.md section 2; Blackman 1986, Sec. 4.2; Bar-Shalom &
-//! Fortmann 1988).
+//! measurements to tracks (ALGORITHMS.md section 2; Blackman, *Multiple-Target Tracking
+//! with Radar Applications*, 1986; Bar-Shalom & Fortmann 1988).
 
 use super::clusters::{
     gated, greedy_assign, nearest, ClusterMeasurements, GateClusters, Marks, NONE,

@@ -9,7 +9,9 @@
 //! ALGORITHMS.md names to constructors.
 
 pub mod gnn;
+pub mod jpda;
 pub mod nn;
+pub mod pda;
 
 mod clusters;
 #[cfg(test)]

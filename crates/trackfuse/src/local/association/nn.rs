@@ -1,5 +1,6 @@
-//! `nn`: nearest-neighbour data association (ALGORITHMS.md section 2; Bar-Shalom &
-//! Fortmann 1988, Sec. 6.4 "the nearest neighbor standard filter").
+//! `nn`: nearest-neighbour data association (ALGORITHMS.md section 2; the "nearest
+//! neighbor standard filter" of Bar-Shalom & Fortmann, *Tracking and Data Association*,
+//! 1988).
 
 use super::clusters::{gated, greedy_assign, nearest, Marks, NONE};
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
