@@ -46,7 +46,19 @@ pub struct AssociatorInfo {
 }
 
 /// Every finished filter, by ALGORITHMS.md name.
-pub const FILTERS: &[FilterInfo] = &[];
+pub const FILTERS: &[FilterInfo] = &[
+    FilterInfo {
+        name: "kf",
+        summary: "linear Kalman filter, nearly-constant-velocity motion (position sensors only)",
+        make: super::filter::kalman::KalmanFilter::make,
+    },
+    FilterInfo {
+        name: "ekf",
+        summary:
+            "extended Kalman filter in (range, bearing) space; the plain KF for position sensors",
+        make: super::filter::ekf::ExtendedKalmanFilter::make,
+    },
+];
 
 /// Every finished local data associator, by ALGORITHMS.md name.
 pub const ASSOCIATORS: &[AssociatorInfo] = &[

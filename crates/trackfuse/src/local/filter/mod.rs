@@ -8,7 +8,15 @@
 //! [`Filter::update`] with those weights.
 //!
 //! One file per filter, named after it. The registry (`local::registry`) maps the
-//! ALGORITHMS.md names to constructors.
+//! ALGORITHMS.md names to constructors. The numerics every filter shares (innovation
+//! covariance, Kalman gain, Joseph form, the PDA update given `H` and `R`) are free
+//! functions in [`common`], so there is one implementation of each.
+
+pub mod common;
+pub mod ekf;
+pub mod kalman;
+#[cfg(test)]
+pub(crate) mod testing;
 
 use crate::types::{Mat2, Sensor, SensorKind, StateCov, StateVec, Vec2};
 use nalgebra::SMatrix;
@@ -31,6 +39,10 @@ pub struct FilterState {
     pub mean: StateVec,
     pub cov: StateCov,
     pub modes: Vec<ModeEstimate>,
+    /// Filter-private per-track data that is not a Gaussian estimate, e.g. the
+    /// manoeuvre-detection window of input estimation (`mie`). Its layout belongs to the
+    /// filter that wrote it; empty for the other filters. The tracker only clones it.
+    pub aux: Vec<f64>,
 }
 
 impl FilterState {
@@ -40,6 +52,7 @@ impl FilterState {
             mean,
             cov,
             modes: Vec::new(),
+            aux: Vec::new(),
         }
     }
 }
@@ -125,7 +138,9 @@ pub trait Filter: Send + Sync {
     /// The ALGORITHMS.md name.
     fn name(&self) -> &'static str;
 
-    /// Whether the filter can track a sensor of this kind (default: both kinds).
+    /// Whether this filter can process measurements of `kind` (the linear Kalman filter
+    /// cannot take range-bearing measurements). The tracker refuses an unsupported
+    /// filter / sensor combination with an error before the first scan.
     fn supports(&self, kind: SensorKind) -> bool {
         let _ = kind;
         true

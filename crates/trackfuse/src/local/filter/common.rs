@@ -1,0 +1,387 @@
+//! Numerics shared by every filter, as free functions so that each exists once: the
+//! nearly-constant-velocity prediction, the innovation covariance `S = H P H^T + R`, the
+//! Kalman gain `K = P H^T S^-1`, the Joseph-form covariance, the predicted measurement of
+//! a linear (position) or linearised (range-bearing) model, and the probabilistic data
+//! association (PDA) update from weighted measurements.
+//!
+//! # PDA update (Bar-Shalom & Fortmann 1988, Sec. 6.4)
+//! With weights `beta_i` (sum at most 1) and `beta_0 = 1 - sum beta_i`:
+//! - innovations `nu_i = z_i - z_hat` (the bearing wrapped in range-bearing space),
+//!   combined innovation `nu = sum beta_i nu_i`;
+//! - `x = x_pred + K nu`;
+//! - `P = beta_0 P_pred + (1 - beta_0) P_c + P_tilde`, where `P_c` is the Kalman-updated
+//!   covariance in Joseph form `(I - K H) P_pred (I - K H)^T + K R K^T`, and the
+//!   spread-of-innovations term `P_tilde = K (sum beta_i nu_i nu_i^T - nu nu^T) K^T`;
+//! - the result is symmetrised.
+//!
+//! One weight 1 gives `beta_0 = 0`, `P_tilde = 0`: exactly the Kalman update. Weights
+//! whose sum exceeds 1 by more than [`WEIGHT_SUM_TOLERANCE`], negative or non-finite
+//! weights, or indices outside the measurement slice are a contract violation of the
+//! associator: the update returns `false` and leaves the state unchanged (a sum above 1
+//! within the tolerance, from rounding, is treated as 1).
+
+use super::PredictedMeasurement;
+use crate::models::{
+    cv_transition, process_noise, range_bearing, range_bearing_jacobian, POSITION_H,
+};
+use crate::params::ParamError;
+use crate::types::{symmetrize, Mat2, Sensor, StateCov, StateVec, Vec2};
+use nalgebra::SMatrix;
+
+/// A measurement matrix or Jacobian `H` (2x4).
+pub type MeasurementMatrix = SMatrix<f64, 2, 4>;
+/// A gain `K` (4x2).
+pub type Gain = SMatrix<f64, 4, 2>;
+
+/// How far above 1 the sum of association weights may be (rounding in the associator).
+pub const WEIGHT_SUM_TOLERANCE: f64 = 1e-6;
+
+/// Check the process-noise standard deviations of a filter's settings: finite, `>= 0`.
+pub fn check_process_noise(q: [f64; 2]) -> Result<(), ParamError> {
+    for (i, v) in q.iter().enumerate() {
+        if !(v.is_finite() && *v >= 0.0) {
+            return Err(ParamError::new(
+                format!("process_noise[{i}]"),
+                format!("{v} must be finite and >= 0"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `dt` is a usable prediction interval. A zero, negative or non-finite `dt` makes
+/// every prediction of this crate a no-op (the state is left as it is).
+#[inline]
+pub fn valid_dt(dt: f64) -> bool {
+    dt.is_finite() && dt > 0.0
+}
+
+/// Linear prediction `x = F x + u`, `P = F P F^T + Q` (symmetrised).
+#[inline]
+pub fn predict_linear(mean: &mut StateVec, cov: &mut StateCov, f: &StateCov, q: &StateCov) {
+    *mean = f * *mean;
+    *cov = symmetrize(&(f * *cov * f.transpose() + q));
+}
+
+/// Nearly-constant-velocity prediction (000 eq. 13; `Q = G diag(q_x^2, q_y^2) G^T`,
+/// ALGORITHMS.md section 1). No-op unless `dt > 0`.
+#[inline]
+pub fn predict_cv(mean: &mut StateVec, cov: &mut StateCov, dt: f64, q: [f64; 2]) {
+    if !valid_dt(dt) {
+        return;
+    }
+    predict_linear(
+        mean,
+        cov,
+        &cv_transition(dt),
+        &process_noise(dt, q[0], q[1]),
+    );
+}
+
+/// State transition of the coordinated turn with known turn rate `omega` (rad/s,
+/// counter-clockwise positive) for the state `[x, vx, y, vy]` (Bar-Shalom, Li,
+/// Kirubarajan 2001, eq. 11.7.1-4). For `|omega dt| < 1e-9` it is the CV transition (its
+/// limit).
+pub fn ct_transition(omega: f64, dt: f64) -> StateCov {
+    let wt = omega * dt;
+    if wt.abs() < 1e-9 {
+        return cv_transition(dt);
+    }
+    let (s, c) = wt.sin_cos();
+    let a = s / omega;
+    let b = (1.0 - c) / omega;
+    StateCov::new(
+        1.0, a, 0.0, -b, //
+        0.0, c, 0.0, -s, //
+        0.0, b, 1.0, a, //
+        0.0, s, 0.0, c,
+    )
+}
+
+/// Innovation covariance `S = H P H^T + R`, symmetrised.
+#[inline]
+pub fn innovation_covariance(h: &MeasurementMatrix, p: &StateCov, r: &Mat2) -> Mat2 {
+    symmetrize(&(h * p * h.transpose() + r))
+}
+
+/// Kalman gain `K = P H^T S^-1`.
+#[inline]
+pub fn kalman_gain(p: &StateCov, h: &MeasurementMatrix, s_inv: &Mat2) -> Gain {
+    p * h.transpose() * s_inv
+}
+
+/// Joseph-form updated covariance `(I - K H) P (I - K H)^T + K R K^T`, symmetrised. Equal
+/// to `P - K S K^T` for the optimal gain, and positive semi-definite for any gain.
+#[inline]
+pub fn joseph_covariance(p: &StateCov, k: &Gain, h: &MeasurementMatrix, r: &Mat2) -> StateCov {
+    let a = StateCov::identity() - k * h;
+    symmetrize(&(a * p * a.transpose() + k * r * k.transpose()))
+}
+
+/// Predicted measurement of a linear model `z = H x + w`, `w ~ N(0, R)`; `None` if `S` is
+/// not positive definite.
+#[inline]
+pub fn linear_prediction(
+    mean: &StateVec,
+    cov: &StateCov,
+    h: &MeasurementMatrix,
+    r: &Mat2,
+) -> Option<PredictedMeasurement> {
+    PredictedMeasurement::new(h * mean, innovation_covariance(h, cov, r), *h, false)
+}
+
+/// Predicted measurement of a position sensor: `H = POSITION_H`,
+/// `R = diag(sigma_x^2, sigma_y^2)`.
+#[inline]
+pub fn position_prediction(
+    mean: &StateVec,
+    cov: &StateCov,
+    sensor: &Sensor,
+) -> Option<PredictedMeasurement> {
+    linear_prediction(mean, cov, &POSITION_H, &sensor.measurement_noise())
+}
+
+/// Linearised (EKF) predicted measurement of a range-bearing sensor: `z_hat = h(x_hat)`
+/// (000 eq. 14), `H` the Jacobian at `x_hat`, `R = diag(sigma_r^2, sigma_theta^2)`, bearing
+/// innovations wrapped.
+#[inline]
+pub fn range_bearing_prediction(
+    mean: &StateVec,
+    cov: &StateCov,
+    sensor: &Sensor,
+) -> Option<PredictedMeasurement> {
+    let pos = sensor.position();
+    let h = range_bearing_jacobian(mean, &pos);
+    PredictedMeasurement::new(
+        range_bearing(mean, &pos),
+        innovation_covariance(&h, cov, &sensor.measurement_noise()),
+        h,
+        true,
+    )
+}
+
+/// Log of the Gaussian likelihood `N(nu; 0, S)` of an innovation under `predicted`.
+#[inline]
+pub fn log_likelihood(predicted: &PredictedMeasurement, nu: &Vec2) -> f64 {
+    -0.5 * nu.dot(&(predicted.s_inv * nu)) - predicted.log_norm
+}
+
+/// The weighted innovations of a PDA update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CombinedInnovation {
+    /// `nu = sum beta_i nu_i`.
+    pub nu: Vec2,
+    /// `sum beta_i nu_i nu_i^T - nu nu^T` (the spread of the innovations).
+    pub spread: Mat2,
+    /// `sum beta_i` (= `1 - beta_0`).
+    pub weight: f64,
+}
+
+/// Combine the weighted innovations of `measurements` against `predicted`; `None` if a
+/// weight is negative or not finite, an index is out of range, or the weights sum to more
+/// than `1 + WEIGHT_SUM_TOLERANCE`. The returned `weight` is at most 1.
+pub fn combined_innovation(
+    predicted: &PredictedMeasurement,
+    measurements: &[Vec2],
+    weights: &[(u32, f64)],
+) -> Option<CombinedInnovation> {
+    let mut nu = Vec2::zeros();
+    let mut second = Mat2::zeros();
+    let mut weight = 0.0;
+    for &(index, beta) in weights {
+        if !(beta.is_finite() && beta >= 0.0) {
+            return None;
+        }
+        let z = measurements.get(index as usize)?;
+        let nu_i = predicted.innovation(z);
+        if !(nu_i[0].is_finite() && nu_i[1].is_finite()) {
+            return None;
+        }
+        nu += beta * nu_i;
+        second += beta * nu_i * nu_i.transpose();
+        weight += beta;
+    }
+    if weight > 1.0 + WEIGHT_SUM_TOLERANCE {
+        return None;
+    }
+    Some(CombinedInnovation {
+        nu,
+        spread: symmetrize(&(second - nu * nu.transpose())),
+        weight: weight.min(1.0),
+    })
+}
+
+/// PDA update given the combined innovation (see the module doc): writes `mean` and `cov`
+/// and returns `true`, or returns `false` and leaves them unchanged if the result is not
+/// finite. `predicted` supplies `H` and `S^-1`, `r` the measurement noise in the same
+/// measurement space.
+pub fn pda_update_combined(
+    mean: &mut StateVec,
+    cov: &mut StateCov,
+    predicted: &PredictedMeasurement,
+    r: &Mat2,
+    combined: &CombinedInnovation,
+) -> bool {
+    if combined.weight <= 0.0 {
+        return true;
+    }
+    let h = &predicted.h;
+    let k = kalman_gain(cov, h, &predicted.s_inv);
+    let beta0 = (1.0 - combined.weight).max(0.0);
+    let new_mean = *mean + k * combined.nu;
+    let updated = joseph_covariance(cov, &k, h, r);
+    let spread = k * combined.spread * k.transpose();
+    let new_cov = symmetrize(&(beta0 * *cov + (1.0 - beta0) * updated + spread));
+    if !(new_mean.iter().all(|v| v.is_finite()) && new_cov.iter().all(|v| v.is_finite())) {
+        return false;
+    }
+    *mean = new_mean;
+    *cov = new_cov;
+    true
+}
+
+/// PDA update of `mean` / `cov` with weighted measurements (module doc). Empty weights (or
+/// all zero): no update, `true`. Invalid weights or a non-finite result: `false`, state
+/// unchanged.
+pub fn pda_update(
+    mean: &mut StateVec,
+    cov: &mut StateCov,
+    predicted: &PredictedMeasurement,
+    r: &Mat2,
+    measurements: &[Vec2],
+    weights: &[(u32, f64)],
+) -> bool {
+    if weights.is_empty() {
+        return true;
+    }
+    match combined_innovation(predicted, measurements, weights) {
+        Some(c) => pda_update_combined(mean, cov, predicted, r, &c),
+        None => false,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn prediction() -> (StateVec, StateCov, PredictedMeasurement, Mat2) {
+        let x = StateVec::new(10.0, 1.0, -5.0, 2.0);
+        let p = StateCov::from_diagonal(&nalgebra::Vector4::new(50.0, 4.0, 80.0, 9.0));
+        let mut p = p;
+        p[(0, 1)] = 3.0;
+        p[(1, 0)] = 3.0;
+        p[(2, 3)] = -2.0;
+        p[(3, 2)] = -2.0;
+        let r = Mat2::new(20.0, 0.0, 0.0, 30.0);
+        let pred = linear_prediction(&x, &p, &POSITION_H, &r).unwrap();
+        (x, p, pred, r)
+    }
+
+    /// PDA with two weights against the textbook formula written out independently
+    /// (standard form `P_c = P - K S K^T`, sums expanded by hand).
+    #[test]
+    fn pda_two_weights_matches_formula() {
+        let (x, p, pred, r) = prediction();
+        let z = [Vec2::new(14.0, -3.0), Vec2::new(7.0, -9.0)];
+        let (b1, b2) = (0.5, 0.3);
+        let b0 = 1.0 - b1 - b2;
+        // innovations against z_hat = (10, -5)
+        let n1 = Vec2::new(4.0, 2.0);
+        let n2 = Vec2::new(-3.0, -4.0);
+        let nu = Vec2::new(b1 * 4.0 + b2 * -3.0, b1 * 2.0 + b2 * -4.0);
+        assert!((nu - Vec2::new(1.1, -0.2)).norm() < 1e-12);
+        // S = H P H^T + R: positions (0,0)=50+20, (2,2)=80+30, no cross terms
+        let s = Mat2::new(70.0, 0.0, 0.0, 110.0);
+        let mut k = Gain::zeros();
+        // K = P H^T S^-1: column j = P[:, pos_j] / S_jj
+        for i in 0..4 {
+            k[(i, 0)] = p[(i, 0)] / 70.0;
+            k[(i, 1)] = p[(i, 2)] / 110.0;
+        }
+        let spread = b1 * n1 * n1.transpose() + b2 * n2 * n2.transpose() - nu * nu.transpose();
+        let pc = p - k * s * k.transpose();
+        let expect_p = b0 * p + (1.0 - b0) * pc + k * spread * k.transpose();
+        let expect_x = x + k * nu;
+
+        let (mut m, mut c) = (x, p);
+        assert!(pda_update(
+            &mut m,
+            &mut c,
+            &pred,
+            &r,
+            &z,
+            &[(0, b1), (1, b2)]
+        ));
+        assert!((m - expect_x).norm() < 1e-10, "{m} vs {expect_x}");
+        assert!((c - expect_p).norm() < 1e-9, "{c} vs {expect_p}");
+        // the spread term makes the soft update less certain than either hard update
+        let (mut m1, mut c1) = (x, p);
+        assert!(pda_update(&mut m1, &mut c1, &pred, &r, &z, &[(0, 1.0)]));
+        assert!(c[(0, 0)] > c1[(0, 0)]);
+    }
+
+    /// One weight 1 is the plain Kalman update.
+    #[test]
+    fn single_unit_weight_is_kalman_update() {
+        let (x, p, pred, r) = prediction();
+        let z = [Vec2::new(0.0, 0.0), Vec2::new(12.0, -1.0)];
+        let k = kalman_gain(&p, &POSITION_H, &pred.s_inv);
+        let expect_x = x + k * (z[1] - POSITION_H * x);
+        let expect_p = p - k * pred.s * k.transpose();
+        let (mut m, mut c) = (x, p);
+        assert!(pda_update(&mut m, &mut c, &pred, &r, &z, &[(1, 1.0)]));
+        assert!((m - expect_x).norm() < 1e-10);
+        assert!((c - expect_p).norm() < 1e-9);
+    }
+
+    #[test]
+    fn invalid_or_empty_weights() {
+        let (x, p, pred, r) = prediction();
+        let z = [Vec2::new(14.0, -3.0)];
+        let (mut m, mut c) = (x, p);
+        assert!(pda_update(&mut m, &mut c, &pred, &r, &z, &[]));
+        assert_eq!((m, c), (x, p));
+        assert!(pda_update(&mut m, &mut c, &pred, &r, &z, &[(0, 0.0)]));
+        assert_eq!((m, c), (x, p));
+        for bad in [
+            vec![(1u32, 0.5)],
+            vec![(0, -0.1)],
+            vec![(0, f64::NAN)],
+            vec![(0, 0.7), (0, 0.7)],
+        ] {
+            assert!(!pda_update(&mut m, &mut c, &pred, &r, &z, &bad));
+            assert_eq!((m, c), (x, p));
+        }
+        // rounding above 1 is accepted as 1
+        assert!(pda_update(
+            &mut m,
+            &mut c,
+            &pred,
+            &r,
+            &z,
+            &[(0, 1.0 + 1e-12)]
+        ));
+    }
+
+    #[test]
+    fn coordinated_turn_rotates_velocity() {
+        // quarter turn: velocity (10, 0) -> (0, 10), position moves by r (1, 1), r = v/w
+        let w = std::f64::consts::FRAC_PI_2 / 10.0;
+        let x = ct_transition(w, 10.0) * StateVec::new(0.0, 10.0, 0.0, 0.0);
+        let r = 10.0 / w;
+        assert!((x - StateVec::new(r, 0.0, r, 10.0)).norm() < 1e-9, "{x}");
+        assert_eq!(ct_transition(0.0, 2.0), cv_transition(2.0));
+        let near = ct_transition(1e-7, 1.0);
+        assert!((near - cv_transition(1.0)).norm() < 1e-6);
+    }
+
+    #[test]
+    fn singular_innovation_covariance_is_none() {
+        let x = StateVec::zeros();
+        let p = StateCov::zeros();
+        assert!(linear_prediction(&x, &p, &POSITION_H, &Mat2::zeros()).is_none());
+        assert!(check_process_noise([1.0, f64::NAN]).is_err());
+        assert!(check_process_noise([-1.0, 0.0]).is_err());
+        assert!(check_process_noise([0.0, 2.0]).is_ok());
+    }
+}

@@ -1,0 +1,213 @@
+//! Test support for the filters: sensors, a truth simulator and the NEES consistency
+//! experiment with perfect association.
+//!
+//! # The consistency check
+//! `runs` independent runs of `scans` scans (`dt = 1 s`); in each, the truth starts at
+//! `X0` and moves by the given motion (`Cv` or a coordinated turn) plus white acceleration
+//! noise `q` (the filter's own process noise); the filter starts from `X0 + e0`,
+//! `e0 ~ N(0, P0)`, so its initial covariance is right, and every scan it is updated with
+//! the true target's measurement alone (weight 1). NEES `e^T P^-1 e` (`e` = truth minus
+//! estimate, 4 dof) is averaged over the runs at each scan; for a consistent filter
+//! `runs * NEES_avg ~ chi^2(4 runs)`. The 95 % two-sided band is
+//! `[chi^2_{0.025}(4 N) / N, chi^2_{0.975}(4 N) / N]`, with the chi-square quantiles from
+//! the Wilson–Hilferty approximation `chi^2_p(k) ~ k (1 - 2/(9k) + z_p sqrt(2/(9k)))^3`
+//! (`z_{0.975} = 1.959964`), which is accurate to well under 1 % at `k = 200`. The check:
+//! the time average of `NEES_avg` lies in the band, and at least 85 % of the scans do
+//! (95 % are expected; scans are correlated, so fewer would still be plausible by chance,
+//! but far fewer shows inconsistency).
+
+use super::common::ct_transition;
+use super::Filter;
+use crate::models::{cv_transition, noise_gain, range_bearing, wrap_angle};
+use crate::rng::stream;
+use crate::types::{Sensor, SensorKind, StateCov, StateVec, Vec2};
+use rand_distr::{Distribution, StandardNormal};
+
+/// Runs of the consistency experiment.
+pub(crate) const RUNS: usize = 50;
+/// Scans per run.
+pub(crate) const SCANS: usize = 100;
+/// Initial truth.
+pub(crate) const X0: [f64; 4] = [4000.0, 120.0, 6000.0, -40.0];
+/// Initial standard deviations (position m, velocity m/s).
+pub(crate) const SIGMA0: [f64; 2] = [50.0, 10.0];
+
+/// A position sensor at the origin with `sigma_x`, `sigma_y`.
+pub(crate) fn position_sensor(sigma_x: f64, sigma_y: f64) -> Sensor {
+    Sensor {
+        id: 1,
+        kind: SensorKind::Position,
+        x: 0.0,
+        y: 0.0,
+        sigma_a: sigma_x,
+        sigma_b: sigma_y,
+        pd: 1.0,
+        bias_r: 0.0,
+        bias_theta: 0.0,
+        max_range: 0.0,
+        clutter_density: None,
+    }
+}
+
+/// A range-bearing sensor at `(x, y)` with `sigma_r` (m), `sigma_theta` (rad).
+pub(crate) fn radar(x: f64, y: f64, sigma_r: f64, sigma_theta: f64) -> Sensor {
+    Sensor {
+        kind: SensorKind::RangeBearing,
+        x,
+        y,
+        sigma_a: sigma_r,
+        sigma_b: sigma_theta,
+        ..position_sensor(0.0, 0.0)
+    }
+}
+
+/// Truth motion during one scan.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Motion {
+    Cv,
+    /// Coordinated turn at this rate (rad/s, counter-clockwise positive).
+    Turn(f64),
+}
+
+/// The 95 % two-sided band of the run-averaged NEES of `dof` dimensions over `runs` runs.
+pub(crate) fn nees_band(dof: usize, runs: usize) -> (f64, f64) {
+    let k = (dof * runs) as f64;
+    let z = 1.959_964;
+    let a = 2.0 / (9.0 * k);
+    let q = |z: f64| k * (1.0 - a + z * a.sqrt()).powi(3);
+    (q(-z) / runs as f64, q(z) / runs as f64)
+}
+
+/// Result of the consistency experiment.
+#[derive(Debug, Clone)]
+pub(crate) struct NeesResult {
+    /// Time average of the run-averaged NEES.
+    pub anees: f64,
+    /// Fraction of scans whose run-averaged NEES is inside the band.
+    pub in_band: f64,
+    pub band: (f64, f64),
+    /// Position RMSE over all runs and scans (m).
+    pub rmse: f64,
+}
+
+/// One noisy measurement of `x` by `sensor`.
+pub(crate) fn measure(x: &StateVec, sensor: &Sensor, n1: f64, n2: f64) -> Vec2 {
+    match sensor.kind {
+        SensorKind::Position => Vec2::new(x[0] + sensor.sigma_a * n1, x[2] + sensor.sigma_b * n2),
+        SensorKind::RangeBearing => {
+            let h = range_bearing(x, &sensor.position());
+            Vec2::new(
+                h[0] + sensor.sigma_a * n1,
+                wrap_angle(h[1] + sensor.sigma_b * n2),
+            )
+        }
+    }
+}
+
+/// Run the consistency experiment (module doc) with truth process noise `q` and the motion
+/// of each scan given by `motion(scan)`.
+pub(crate) fn nees_experiment(
+    filter: &dyn Filter,
+    sensor: &Sensor,
+    q: [f64; 2],
+    motion: &dyn Fn(usize) -> Motion,
+    seed: u64,
+) -> NeesResult {
+    let dt = 1.0;
+    let g = noise_gain(dt);
+    let p0 = StateCov::from_diagonal(&nalgebra::Vector4::new(
+        SIGMA0[0] * SIGMA0[0],
+        SIGMA0[1] * SIGMA0[1],
+        SIGMA0[0] * SIGMA0[0],
+        SIGMA0[1] * SIGMA0[1],
+    ));
+    let mut nees = vec![0.0; SCANS];
+    let mut sq_err = 0.0;
+    for run in 0..RUNS {
+        let mut rng = stream(seed, run as u64, "nees-test", 0);
+        let mut n = || -> f64 { StandardNormal.sample(&mut rng) };
+        let mut truth = StateVec::from_column_slice(&X0);
+        let e0 = StateVec::new(
+            SIGMA0[0] * n(),
+            SIGMA0[1] * n(),
+            SIGMA0[0] * n(),
+            SIGMA0[1] * n(),
+        );
+        let mut state = filter.init(truth + e0, p0);
+        for (k, slot) in nees.iter_mut().enumerate() {
+            let f = match motion(k) {
+                Motion::Cv => cv_transition(dt),
+                Motion::Turn(w) => ct_transition(w, dt),
+            };
+            let v = nalgebra::Vector2::new(q[0] * n(), q[1] * n());
+            truth = f * truth + g * v;
+            filter.predict(&mut state, dt);
+            let z = filter.convert(&measure(&truth, sensor, n(), n()), sensor);
+            let pred = filter
+                .predict_measurement(&state, sensor)
+                .expect("predicted measurement");
+            assert!(filter.update(&mut state, &pred, &[z], &[(0, 1.0)], sensor));
+            let e = truth - state.mean;
+            let p_inv = state.cov.cholesky().expect("P positive definite").inverse();
+            *slot += e.dot(&(p_inv * e)) / RUNS as f64;
+            sq_err += e[0] * e[0] + e[2] * e[2];
+        }
+    }
+    let band = nees_band(4, RUNS);
+    let inside = nees
+        .iter()
+        .filter(|v| **v >= band.0 && **v <= band.1)
+        .count();
+    NeesResult {
+        anees: nees.iter().sum::<f64>() / SCANS as f64,
+        in_band: inside as f64 / SCANS as f64,
+        band,
+        rmse: (sq_err / (RUNS * SCANS) as f64).sqrt(),
+    }
+}
+
+/// Assert the consistency check of the module doc.
+pub(crate) fn assert_nees_in_band(
+    filter: &dyn Filter,
+    sensor: &Sensor,
+    q: [f64; 2],
+    motion: &dyn Fn(usize) -> Motion,
+    seed: u64,
+) -> NeesResult {
+    let r = nees_experiment(filter, sensor, q, motion, seed);
+    assert!(
+        r.anees >= r.band.0 && r.anees <= r.band.1 && r.in_band >= 0.85,
+        "{}: {r:?}",
+        filter.name()
+    );
+    r
+}
+
+#[test]
+fn band_matches_known_quantiles() {
+    // chi^2_{0.025}(200) = 162.728, chi^2_{0.975}(200) = 241.058 (tables)
+    let (lo, hi) = nees_band(4, 50);
+    assert!((lo * 50.0 - 162.728).abs() < 0.2, "{lo}");
+    assert!((hi * 50.0 - 241.058).abs() < 0.2, "{hi}");
+}
+
+/// The check can fail: a CV Kalman filter on a target turning at 3 deg/s (6 m/s^2
+/// centripetal acceleration against q = 1 m/s^2) is far above the band.
+#[test]
+fn check_detects_an_inconsistent_filter() {
+    let f = super::kalman::KalmanFilter::new([1.0, 1.0]).unwrap();
+    let r = nees_experiment(
+        &f,
+        &position_sensor(30.0, 30.0),
+        [1.0, 1.0],
+        &|k| {
+            if k >= 20 {
+                Motion::Turn(0.05)
+            } else {
+                Motion::Cv
+            }
+        },
+        13,
+    );
+    assert!(r.anees > 2.0 * r.band.1, "{r:?}");
+}
