@@ -8,6 +8,11 @@
 //! One file per associator, named after it; the registry (`local::registry`) maps the
 //! ALGORITHMS.md names to constructors.
 
+pub mod fdb_daf;
+pub mod membership;
+#[cfg(test)]
+pub(crate) mod testing;
+
 use super::filter::PredictedMeasurement;
 use super::gating::{Gates, MeasurementIndex};
 use crate::types::Vec2;
