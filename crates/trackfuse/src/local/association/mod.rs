@@ -8,14 +8,18 @@
 //! One file per associator, named after it; the registry (`local::registry`) maps the
 //! ALGORITHMS.md names to constructors.
 
+pub mod fdb_daf;
 pub mod gnn;
 pub mod jpda;
+pub mod membership;
 pub mod nn;
 pub mod pda;
 
 mod clusters;
 #[cfg(test)]
 mod fixtures;
+#[cfg(test)]
+pub(crate) mod testing;
 
 use super::filter::PredictedMeasurement;
 use super::gating::{Gates, MeasurementIndex};
