@@ -34,18 +34,19 @@ pub enum InitiationMethod {
 /// Track management (`[tracker.initiation]`).
 ///
 /// Defaults (chosen to work on radar data nobody tuned them for): two-point initiation
-/// with a speed gate of 500 m/s (fast aircraft), confirmation at 3 hits in the first 4
-/// scans of a tentative track, deletion after 5 consecutive misses.
+/// with a speed gate of 500 m/s (fast aircraft), confirmation at 4 hits in the first 5
+/// scans of a tentative track (its first two points and 2 of the next 3 scans: 3 of 4
+/// let clutter of 0.5 per km^2 confirm a false track every few scans), deletion after 5 consecutive misses.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InitiationConfig {
     /// `m-of-n` (default) or `known`.
     #[serde(default)]
     pub method: InitiationMethod,
-    /// Hits needed to confirm a tentative track (default 3, counting its first two points).
+    /// Hits needed to confirm a tentative track (default 4, counting its first two points).
     #[serde(default = "default_m")]
     pub m: u32,
-    /// ... within this many scans from its first point (default 4).
+    /// ... within this many scans from its first point (default 5).
     #[serde(default = "default_n")]
     pub n: u32,
     /// Largest target speed (m/s) two measurements of consecutive scans may imply to
@@ -65,10 +66,10 @@ pub struct InitiationConfig {
 }
 
 fn default_m() -> u32 {
-    3
+    4
 }
 fn default_n() -> u32 {
-    4
+    5
 }
 fn default_max_speed() -> f64 {
     500.0

