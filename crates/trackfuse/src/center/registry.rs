@@ -33,13 +33,25 @@ pub struct BiasInfo {
 }
 
 /// Every finished track-to-track association method.
-pub const METHODS: &[MethodInfo] = &[];
+pub const METHODS: &[MethodInfo] = &[MethodInfo {
+    name: super::t2ta::fdbsc::NAME,
+    summary: "FDBSC-TA (000 Alg. 1): Eps-neighbourhood clustering, maximum-entropy memberships, adaptive Eps",
+    make: super::t2ta::fdbsc::make,
+}];
 
 /// Every finished fusion rule.
-pub const RULES: &[RuleInfo] = &[];
+pub const RULES: &[RuleInfo] = &[RuleInfo {
+    name: super::fusion::fuzzy::NAME,
+    summary: "membership-weighted fusion with the spread term (000 eq. 9-10, 003 eq. 5.4)",
+    make: super::fusion::fuzzy::make,
+}];
 
 /// Every finished bias estimator.
-pub const BIAS_ESTIMATORS: &[BiasInfo] = &[];
+pub const BIAS_ESTIMATORS: &[BiasInfo] = &[BiasInfo {
+    name: super::bias_estimation::NAME,
+    summary: "range and bearing biases by joint least squares of eq. 15 residuals, polar correction (000 eq. 15)",
+    make: super::bias_estimation::make,
+}];
 
 fn unknown(kind: &str, name: &str, known: Vec<&str>) -> CenterError {
     CenterError::Config {

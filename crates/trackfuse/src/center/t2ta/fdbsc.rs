@@ -1,0 +1,1273 @@
+//! `fdbsc-ta`: fuzzy density-based spatial clustering track association (000, Algorithm 1).
+//!
+//! Each scan:
+//! 1. **Clustering** (000 Sec. IV-A, Algorithm 1 lines 1-14): the local tracks' positions
+//!    are clustered into the connected components of the Eps graph (two tracks are
+//!    neighbours when their positions are at most Eps apart) — DBSCAN with MinPts = 1,
+//!    which is what Algorithm 1 computes: a cluster grows by the Eps-neighbourhoods of all
+//!    its members.
+//! 2. **One track per sensor** (the paper is silent): a cluster holding two tracks of one
+//!    sensor is split, see [Splitting](#splitting).
+//! 3. **Continuation**: which global track a group continues, see
+//!    [Continuation](#continuation).
+//! 4. **Memberships** (eq. 6-8): maximum-entropy memberships of the members against the
+//!    cluster centre `C = f(x_t(k-1|k-1))` (eq. 7), i.e. the predicted previous fused state
+//!    of the global track the group continues (`AssociationContext::predicted`); for a new
+//!    group (no global track yet) the centre is the member mean. They are the group's
+//!    weights, so the `fuzzy` rule (eq. 9-10) fuses with them.
+//! 5. **Adaptive Eps** (eq. 12) for the next scan, see [Adaptive Eps](#adaptive-eps).
+//!
+//! # Units
+//! Positions and Eps in metres. Distances are Euclidean distances between local-track
+//! *positions* `(x, y)` (and the position of the centre): eq. 6 says "the Euclidean
+//! distance between the track and the centre" without saying which components; mixing
+//! metres and metres per second in one norm would make the result depend on the units,
+//! and the clustering is on positions, so positions it is.
+//!
+//! # Spatial index
+//! The Eps-neighbourhoods come from a uniform grid with cells of side Eps ([`EpsGrid`]),
+//! not from all pairs: the points are sorted by cell (no hash map, so nothing depends on
+//! hash iteration order), and a neighbourhood query looks at the 3 x 3 cells around the
+//! point (three binary searches). Building is one sort, `O(m log m)`; a query costs
+//! `O(log m + k)` for `k` points in the nine cells, so the whole clustering is
+//! `O(m log m)` for any bounded target density. A grid rather than the `kiddo` k-d tree
+//! because the radius is fixed per scan (the grid's natural case), the query is exact and
+//! inclusive (`d <= Eps`) with the very arithmetic the tests' brute force uses, it
+//! allocates nothing per query (all buffers live in `self`), and it is deterministic by
+//! construction. Components are kept in a union-find whose roots are the smallest member
+//! index, so the clusters come out ordered by their first track.
+//!
+//! # Splitting
+//! Two local tracks of one sensor are never the same target (the center's convention).
+//! When a cluster holds more than one track of some sensor it is split by sequential
+//! nearest-centre assignment inside the cluster, one sensor at a time in ascending
+//! `sensor_id` order:
+//! - the sub-groups start as the global tracks whose predicted position lies within Eps
+//!   of a member of the cluster, each with its predicted position as centre;
+//! - each sensor's tracks in the cluster are assigned to the sub-groups within Eps of
+//!   them, greedily by ascending distance (ties by track index, then sub-group index), at
+//!   most one track of the sensor per sub-group;
+//! - a track left unassigned opens a new sub-group with its own position as centre (for
+//!   the sensors that come after);
+//! - sub-groups that got no member are dropped.
+//!
+//! So crossing targets are split along the global tracks that followed them, and a new
+//! cluster is split around the tracks of its lowest-id sensor. A cluster without a
+//! repeated sensor is kept whole, as the paper does, even when several global tracks lie
+//! near it: that is how duplicate global tracks merge again.
+//!
+//! # Continuation
+//! Each group continues the nearest global track whose predicted position lies within Eps
+//! of the group's member mean, one-to-one: all (group, global) pairs within Eps are taken
+//! greedily by ascending distance (ties by group index, then global index). A group left
+//! without a global track starts a new one.
+//!
+//! # Memberships (eq. 6-8)
+//! `u_i = exp(-alpha d_i) / sum_j exp(-alpha d_j)`, `alpha = -ln(epsilon) / d_min`,
+//! `epsilon = 1e-6` (eq. 8; [`FdbscParams::membership_epsilon`]), computed in the
+//! equivalent shifted form `exp(-alpha (d_i - d_min))` so that no term underflows to a
+//! 0 / 0. When `d_min = 0` (a track exactly on the centre; coincident tracks) alpha is
+//! infinite and eq. 6 has the limit `u_i = 1 / (number of tracks at d_min)` for the tracks
+//! at `d_min` and 0 for the others; that limit is used whenever `d_min < 1e-9` m.
+//!
+//! # Adaptive Eps
+//! Eq. 12 sets Eps to the largest distance between a target's fused position and the
+//! positions its sensors reported. Per group with two or more members this computes
+//! `d_t = max_l |P - P_l|` with `P = sum_i u_i P_i` the eq. 9 fused position (the
+//! associator computes it from its own memberships, so the adaptation does not depend on
+//! the rule the center pairs it with). The paper gives eq. 12 for one target; for a scan
+//! with many, the next scan's Eps is
+//! `clamp(eps_scale * quantile(d_t, eps_quantile), eps_min, eps_max)`:
+//! - `eps_scale = 3`: eq. 12 taken literally sets Eps to the current spread, so half the
+//!   time the next scan's spread exceeds it and the cluster falls apart (two sensors:
+//!   the spread is the distance between the two tracks); a margin of three spreads keeps
+//!   a target's tracks connected.
+//! - `eps_quantile = 0.5` (the median, nearest rank): a max over all targets lets one
+//!   wrongly merged cluster inflate Eps, which merges more clusters, which inflates Eps
+//!   (a runaway); the median is immune to a minority of those. `eps_quantile = 1` is the
+//!   literal max.
+//! - `eps_min = 100 m`, `eps_max = 5000 m`: bounds against collapse (all groups single,
+//!   spreads of a few metres) and runaway.
+//!
+//! A scan without any multi-member group leaves Eps unchanged. With `adaptive = false`
+//! Eps stays at its initial value.
+//!
+//! # Complexity
+//! Clustering, splitting and continuation are all grid queries plus sorts of candidate
+//! lists: `O(m log m)` for `m` local tracks at bounded density. (The paper's Sec. IV-C
+//! gives `O(T n^2)` for its all-pairs version.)
+//!
+//! # References
+//! 000: Nazari, Pashazadeh, Mohammad-Khanli, IEEE Access 7 (2019), Sec. IV, Algorithm 1,
+//! eq. 6-8 and 12.
+
+use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
+use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
+use crate::types::{position_of, Id, LocalTrack, Vec2};
+use serde::Deserialize;
+use std::cmp::Ordering;
+
+/// The ALGORITHMS.md name.
+pub const NAME: &str = "fdbsc-ta";
+
+/// `d_min` below this (metres) is treated as zero in eq. 8 (the `alpha -> infinity` limit).
+pub const D_MIN_ZERO: f64 = 1e-9;
+
+const NONE: u32 = u32::MAX;
+
+/// Parameters of `fdbsc-ta` (`[fusion.params.fdbsc-ta]`).
+///
+/// Defaults, chosen to work on data nobody tuned (radar local tracks with errors of tens
+/// of metres and, before bias correction, sensor biases of a few hundred metres):
+/// - `eps = 1000` m: the initial Eps. Covers the spread of one target's local tracks
+///   under uncorrected biases of a few hundred metres while staying below typical
+///   aircraft separations; the adaptation shrinks it within a few scans once the spreads
+///   are known.
+/// - `adaptive = true`: adapt Eps each scan (eq. 12).
+/// - `eps_scale = 3`, `eps_quantile = 0.5`, `eps_min = 100` m, `eps_max = 5000` m: the
+///   eq. 12 adaptation (see the module doc for why).
+/// - `membership_epsilon = 1e-6`: the epsilon of eq. 8.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FdbscParams {
+    /// Initial Eps (m), the neighbourhood radius of the clustering.
+    pub eps: f64,
+    /// Whether Eps adapts each scan (eq. 12).
+    pub adaptive: bool,
+    /// Margin on the eq. 12 spread.
+    pub eps_scale: f64,
+    /// Which quantile of the per-target spreads sets Eps (1 = the max, 0.5 = the median).
+    pub eps_quantile: f64,
+    /// Lower bound of the adapted Eps (m).
+    pub eps_min: f64,
+    /// Upper bound of the adapted Eps (m).
+    pub eps_max: f64,
+    /// The epsilon of eq. 8, in (0, 1): `alpha = -ln(epsilon) / d_min`.
+    pub membership_epsilon: f64,
+}
+
+impl Default for FdbscParams {
+    fn default() -> Self {
+        FdbscParams {
+            eps: 1000.0,
+            adaptive: true,
+            eps_scale: 3.0,
+            eps_quantile: 0.5,
+            eps_min: 100.0,
+            eps_max: 5000.0,
+            membership_epsilon: 1e-6,
+        }
+    }
+}
+
+impl FdbscParams {
+    /// Range-check the values; errors name `params.fdbsc-ta.<key>`.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let key = |k: &str| format!("params.{NAME}.{k}");
+        positive(&key("eps"), self.eps)?;
+        positive(&key("eps_scale"), self.eps_scale)?;
+        in_range(&key("eps_quantile"), self.eps_quantile, 0.0, 1.0)?;
+        positive(&key("eps_min"), self.eps_min)?;
+        positive(&key("eps_max"), self.eps_max)?;
+        if self.eps_max < self.eps_min {
+            return Err(ParamError::new(
+                key("eps_max"),
+                format!(
+                    "{} must be at least eps_min = {}",
+                    self.eps_max, self.eps_min
+                ),
+            ));
+        }
+        let e = self.membership_epsilon;
+        if !(e.is_finite() && e > 0.0 && e < 1.0) {
+            return Err(ParamError::new(
+                key("membership_epsilon"),
+                format!("{e} must be in (0, 1)"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Build `fdbsc-ta` from the `[fusion.params.*]` tables (the registry's constructor).
+pub fn make(tables: &ParamTables) -> Result<Box<dyn TrackAssociator>, ParamError> {
+    let params: FdbscParams = parse_params(tables, NAME)?;
+    Ok(Box::new(FdbscTa::new(params)?))
+}
+
+/// Maximum-entropy memberships of 000 eq. 6 with the discriminating factor of eq. 8,
+/// `alpha = -ln(epsilon) / d_min`, written into `out` (same length as `distances`).
+///
+/// Computed as `exp(-alpha (d_i - d_min)) / sum_j exp(-alpha (d_j - d_min))`, which equals
+/// eq. 6 and never divides 0 by 0. When `d_min < D_MIN_ZERO` (a member on the centre) the
+/// `alpha -> infinity` limit is used: equal shares among the members within `D_MIN_ZERO`
+/// of `d_min`, zero for the others. Distances must be finite and non-negative.
+pub fn max_entropy_memberships(distances: &[f64], epsilon: f64, out: &mut [f64]) {
+    debug_assert_eq!(distances.len(), out.len());
+    if distances.is_empty() {
+        return;
+    }
+    let d_min = distances.iter().copied().fold(f64::INFINITY, f64::min);
+    let alpha = -epsilon.ln() / d_min;
+    if d_min < D_MIN_ZERO || !alpha.is_finite() {
+        let ties = distances
+            .iter()
+            .filter(|&&d| d <= d_min + D_MIN_ZERO)
+            .count()
+            .max(1) as f64;
+        for (u, &d) in out.iter_mut().zip(distances) {
+            *u = if d <= d_min + D_MIN_ZERO {
+                1.0 / ties
+            } else {
+                0.0
+            };
+        }
+        return;
+    }
+    let mut sum = 0.0;
+    for (u, &d) in out.iter_mut().zip(distances) {
+        *u = (-alpha * (d - d_min)).exp();
+        sum += *u;
+    }
+    // sum >= 1: the member at d_min contributes exp(0)
+    for u in out.iter_mut() {
+        *u /= sum;
+    }
+}
+
+/// A uniform grid over 2-D points for fixed-radius neighbourhood queries: cells of side
+/// (just over) the radius, points sorted by cell, so a query scans the 3 x 3 cells around
+/// it. Rebuilt per scan; its buffers are reused.
+#[derive(Debug, Clone, Default)]
+pub struct EpsGrid {
+    radius2: f64,
+    inv_cell: f64,
+    /// `(cell x, cell y, point index)`, sorted.
+    cells: Vec<(i64, i64, u32)>,
+    points: Vec<Vec2>,
+}
+
+impl EpsGrid {
+    /// Rebuild for `points` and the query radius `radius` (> 0).
+    pub fn rebuild(&mut self, radius: f64, points: impl IntoIterator<Item = Vec2>) {
+        self.points.clear();
+        self.points.extend(points);
+        // a cell a hair larger than the radius, so that rounding in x / cell can never
+        // put two points within the radius more than one cell apart
+        self.inv_cell = 1.0 / (radius * (1.0 + 1e-6));
+        self.radius2 = radius * radius;
+        self.cells.clear();
+        for (i, p) in self.points.iter().enumerate() {
+            let (cx, cy) = cell_of(p, self.inv_cell);
+            self.cells.push((cx, cy, i as u32));
+        }
+        self.cells.sort_unstable();
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether the grid holds no point.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Point `i`.
+    pub fn point(&self, i: usize) -> Vec2 {
+        self.points[i]
+    }
+
+    /// Call `f(index, squared distance)` for every point within the radius of `p`
+    /// (inclusive), in grid order.
+    pub fn for_each_within(&self, p: &Vec2, mut f: impl FnMut(usize, f64)) {
+        let (cx, cy) = cell_of(p, self.inv_cell);
+        let (y_lo, y_hi) = (cy.saturating_sub(1), cy.saturating_add(1));
+        for x in cx.saturating_sub(1)..=cx.saturating_add(1) {
+            let start = self
+                .cells
+                .partition_point(|&(a, b, _)| (a, b) < (x, y_lo));
+            for &(a, b, i) in &self.cells[start..] {
+                if a != x || b > y_hi {
+                    break;
+                }
+                let q = self.points[i as usize];
+                let d2 = squared_distance(&q, p);
+                if d2 <= self.radius2 {
+                    f(i as usize, d2);
+                }
+            }
+        }
+    }
+}
+
+#[inline]
+fn cell_of(p: &Vec2, inv_cell: f64) -> (i64, i64) {
+    (
+        (p[0] * inv_cell).floor() as i64,
+        (p[1] * inv_cell).floor() as i64,
+    )
+}
+
+/// `dx^2 + dy^2`, the one distance formula of this module.
+#[inline]
+pub fn squared_distance(a: &Vec2, b: &Vec2) -> f64 {
+    let dx = a[0] - b[0];
+    let dy = a[1] - b[1];
+    dx * dx + dy * dy
+}
+
+/// Connected components of the Eps graph of a grid's points, by union-find.
+#[derive(Debug, Clone, Default)]
+pub struct EpsComponents {
+    parent: Vec<u32>,
+    count: Vec<usize>,
+    /// Start of each component in `members` (one more entry than components).
+    start: Vec<usize>,
+    /// Point indices, grouped by component, ascending within one; components ordered by
+    /// their smallest index.
+    members: Vec<u32>,
+}
+
+impl EpsComponents {
+    /// Compute the components of `grid`'s points (neighbours: within the grid radius).
+    pub fn build(&mut self, grid: &EpsGrid) {
+        let m = grid.len();
+        self.parent.clear();
+        self.parent.extend(0..m as u32);
+        for i in 0..m {
+            let p = grid.point(i);
+            let parent = &mut self.parent;
+            grid.for_each_within(&p, |j, _| {
+                if j > i {
+                    union(parent, i as u32, j as u32);
+                }
+            });
+        }
+        // roots are the smallest index of each component; bucket by root
+        self.count.clear();
+        self.count.resize(m + 1, 0);
+        for i in 0..m {
+            let r = find(&mut self.parent, i as u32) as usize;
+            self.parent[i] = r as u32;
+            self.count[r] += 1;
+        }
+        self.start.clear();
+        let mut offset = 0;
+        // component order = root order; reuse `count` as the write cursor per root
+        for r in 0..m {
+            if self.parent[r] as usize == r {
+                self.start.push(offset);
+                let c = self.count[r];
+                self.count[r] = offset;
+                offset += c;
+            }
+        }
+        self.start.push(offset);
+        self.members.clear();
+        self.members.resize(m, 0);
+        for i in 0..m {
+            let r = self.parent[i] as usize;
+            self.members[self.count[r]] = i as u32;
+            self.count[r] += 1;
+        }
+    }
+
+    /// Number of components.
+    pub fn len(&self) -> usize {
+        self.start.len().saturating_sub(1)
+    }
+
+    /// Whether there is no component.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The point indices of component `c`, ascending.
+    pub fn component(&self, c: usize) -> &[u32] {
+        &self.members[self.start[c]..self.start[c + 1]]
+    }
+}
+
+fn find(parent: &mut [u32], mut i: u32) -> u32 {
+    while parent[i as usize] != i {
+        let gp = parent[parent[i as usize] as usize];
+        parent[i as usize] = gp;
+        i = gp;
+    }
+    i
+}
+
+fn union(parent: &mut [u32], a: u32, b: u32) {
+    let ra = find(parent, a);
+    let rb = find(parent, b);
+    if ra != rb {
+        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+        parent[hi as usize] = lo;
+    }
+}
+
+/// Order candidate pairs `(squared distance, a, b)` by distance, then indices.
+fn by_distance(x: &(f64, u32, u32), y: &(f64, u32, u32)) -> Ordering {
+    x.0.total_cmp(&y.0)
+        .then(x.1.cmp(&y.1))
+        .then(x.2.cmp(&y.2))
+}
+
+/// The `fdbsc-ta` track associator (000, Algorithm 1). See the module documentation for
+/// the method and every choice made where the paper is silent.
+#[derive(Debug, Clone)]
+pub struct FdbscTa {
+    params: FdbscParams,
+    /// Eps for the next scan (m).
+    eps: f64,
+    // ---- reused buffers ----
+    track_grid: EpsGrid,
+    global_grid: EpsGrid,
+    components: EpsComponents,
+    /// Members of the groups of this scan, flat; `group_start` delimits them.
+    group_members: Vec<u32>,
+    group_start: Vec<usize>,
+    group_global: Vec<u32>,
+    weights: Vec<f64>,
+    distances: Vec<f64>,
+    // splitting
+    by_sensor: Vec<(Id, u32)>,
+    cluster_globals: Vec<u32>,
+    global_sub: Vec<u32>,
+    seed_sub: Vec<u32>,
+    sub_of: Vec<u32>,
+    sub_stamp: Vec<u32>,
+    sub_count: Vec<usize>,
+    candidates: Vec<(f64, u32, u32)>,
+    // continuation
+    group_mean: Vec<Vec2>,
+    global_taken: Vec<bool>,
+    group_taken: Vec<bool>,
+    // adaptation
+    spreads: Vec<f64>,
+}
+
+impl FdbscTa {
+    /// A new associator; `params` are validated.
+    pub fn new(params: FdbscParams) -> Result<Self, ParamError> {
+        params.validate()?;
+        Ok(FdbscTa {
+            eps: params.eps,
+            params,
+            track_grid: EpsGrid::default(),
+            global_grid: EpsGrid::default(),
+            components: EpsComponents::default(),
+            group_members: Vec::new(),
+            group_start: Vec::new(),
+            group_global: Vec::new(),
+            weights: Vec::new(),
+            distances: Vec::new(),
+            by_sensor: Vec::new(),
+            cluster_globals: Vec::new(),
+            global_sub: Vec::new(),
+            seed_sub: Vec::new(),
+            sub_of: Vec::new(),
+            sub_stamp: Vec::new(),
+            sub_count: Vec::new(),
+            candidates: Vec::new(),
+            group_mean: Vec::new(),
+            global_taken: Vec::new(),
+            group_taken: Vec::new(),
+            spreads: Vec::new(),
+        })
+    }
+
+    /// The Eps (m) the next scan will be clustered with.
+    pub fn eps(&self) -> f64 {
+        self.eps
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &FdbscParams {
+        &self.params
+    }
+
+    fn push_group(&mut self) {
+        self.group_start.push(self.group_members.len());
+        self.group_global.push(NONE);
+    }
+
+    /// Split one cluster with a repeated sensor (module doc, "Splitting") and push its
+    /// groups.
+    fn split_cluster(&mut self, c: usize, tracks: &[LocalTrack]) {
+        // candidate global tracks: predicted within Eps of a member
+        self.cluster_globals.clear();
+        for &i in self.components.component(c) {
+            let p = self.track_grid.point(i as usize);
+            let out = &mut self.cluster_globals;
+            self.global_grid
+                .for_each_within(&p, |g, _| out.push(g as u32));
+        }
+        self.cluster_globals.sort_unstable();
+        self.cluster_globals.dedup();
+        self.sub_stamp.clear();
+        for (k, &g) in self.cluster_globals.iter().enumerate() {
+            self.global_sub[g as usize] = k as u32;
+            self.sub_stamp.push(NONE);
+        }
+        // one sensor at a time, ascending sensor id
+        self.by_sensor.clear();
+        for &i in self.components.component(c) {
+            self.by_sensor.push((tracks[i as usize].sensor_id, i));
+            self.sub_of[i as usize] = NONE;
+        }
+        self.by_sensor.sort_unstable();
+        let mut block = 0;
+        while block < self.by_sensor.len() {
+            let sensor = self.by_sensor[block].0;
+            let mut end = block;
+            while end < self.by_sensor.len() && self.by_sensor[end].0 == sensor {
+                end += 1;
+            }
+            let stamp = block as u32;
+            self.candidates.clear();
+            for &(_, i) in &self.by_sensor[block..end] {
+                let p = self.track_grid.point(i as usize);
+                let cand = &mut self.candidates;
+                let global_sub = &self.global_sub;
+                self.global_grid.for_each_within(&p, |g, d2| {
+                    let s = global_sub[g];
+                    if s != NONE {
+                        cand.push((d2, i, s));
+                    }
+                });
+                let seed_sub = &self.seed_sub;
+                self.track_grid.for_each_within(&p, |j, d2| {
+                    let s = seed_sub[j];
+                    if s != NONE {
+                        cand.push((d2, i, s));
+                    }
+                });
+            }
+            self.candidates.sort_unstable_by(by_distance);
+            for k in 0..self.candidates.len() {
+                let (_, i, s) = self.candidates[k];
+                if self.sub_of[i as usize] == NONE && self.sub_stamp[s as usize] != stamp {
+                    self.sub_of[i as usize] = s;
+                    self.sub_stamp[s as usize] = stamp;
+                }
+            }
+            for &(_, i) in &self.by_sensor[block..end] {
+                if self.sub_of[i as usize] == NONE {
+                    let s = self.sub_stamp.len() as u32;
+                    self.sub_stamp.push(stamp);
+                    self.sub_of[i as usize] = s;
+                    self.seed_sub[i as usize] = s;
+                }
+            }
+            block = end;
+        }
+        // gather the sub-groups (members ascending), dropping empty ones
+        let n_sub = self.sub_stamp.len();
+        self.sub_count.clear();
+        self.sub_count.resize(n_sub, 0);
+        for &i in self.components.component(c) {
+            self.sub_count[self.sub_of[i as usize] as usize] += 1;
+        }
+        // write cursor per sub-group into `group_members`
+        let mut offset = self.group_members.len();
+        for s in 0..n_sub {
+            let n = self.sub_count[s];
+            if n > 0 {
+                self.group_start.push(offset);
+                self.group_global.push(NONE);
+                self.sub_count[s] = offset;
+                offset += n;
+            } else {
+                self.sub_count[s] = usize::MAX;
+            }
+        }
+        let base = self.group_members.len();
+        self.group_members.resize(base + self.components.component(c).len(), 0);
+        for idx in 0..self.components.component(c).len() {
+            let i = self.components.component(c)[idx];
+            let s = self.sub_of[i as usize] as usize;
+            self.group_members[self.sub_count[s]] = i;
+            self.sub_count[s] += 1;
+        }
+        // reset the per-track and per-global marks touched here
+        for &g in &self.cluster_globals {
+            self.global_sub[g as usize] = NONE;
+        }
+        for &i in self.components.component(c) {
+            self.seed_sub[i as usize] = NONE;
+        }
+    }
+
+    /// Continuation (module doc): greedy one-to-one by distance from the group mean to
+    /// the predicted global positions, within Eps.
+    fn continue_globals(&mut self) {
+        let n_groups = self.group_global.len();
+        self.group_mean.clear();
+        for g in 0..n_groups {
+            let members = &self.group_members[self.group_start[g]..self.group_start[g + 1]];
+            let mut mean = Vec2::zeros();
+            for &i in members {
+                mean += self.track_grid.point(i as usize);
+            }
+            self.group_mean.push(mean / members.len() as f64);
+        }
+        self.candidates.clear();
+        for g in 0..n_groups {
+            let cand = &mut self.candidates;
+            self.global_grid
+                .for_each_within(&self.group_mean[g], |k, d2| {
+                    cand.push((d2, g as u32, k as u32));
+                });
+        }
+        self.candidates.sort_unstable_by(by_distance);
+        self.group_taken.clear();
+        self.group_taken.resize(n_groups, false);
+        self.global_taken.clear();
+        self.global_taken.resize(self.global_grid.len(), false);
+        for &(_, g, k) in &self.candidates {
+            if !self.group_taken[g as usize] && !self.global_taken[k as usize] {
+                self.group_taken[g as usize] = true;
+                self.global_taken[k as usize] = true;
+                self.group_global[g as usize] = k;
+            }
+        }
+    }
+
+    /// Memberships (eq. 6-8) of every group, and the eq. 12 spreads.
+    fn memberships(&mut self) {
+        let n_groups = self.group_global.len();
+        self.weights.clear();
+        self.weights.resize(self.group_members.len(), 0.0);
+        self.spreads.clear();
+        for g in 0..n_groups {
+            let range = self.group_start[g]..self.group_start[g + 1];
+            let centre = match self.group_global[g] {
+                NONE => self.group_mean[g],
+                k => self.global_grid.point(k as usize),
+            };
+            self.distances.clear();
+            for &i in &self.group_members[range.clone()] {
+                let d2 = squared_distance(&self.track_grid.point(i as usize), &centre);
+                self.distances.push(d2.sqrt());
+            }
+            max_entropy_memberships(
+                &self.distances,
+                self.params.membership_epsilon,
+                &mut self.weights[range.clone()],
+            );
+            if range.len() >= 2 {
+                // eq. 9 fused position, then eq. 12 spread
+                let mut fused = Vec2::zeros();
+                for (&i, &u) in self.group_members[range.clone()]
+                    .iter()
+                    .zip(&self.weights[range.clone()])
+                {
+                    fused += self.track_grid.point(i as usize) * u;
+                }
+                let spread = self.group_members[range]
+                    .iter()
+                    .map(|&i| squared_distance(&self.track_grid.point(i as usize), &fused))
+                    .fold(0.0, f64::max)
+                    .sqrt();
+                self.spreads.push(spread);
+            }
+        }
+    }
+
+    /// Adaptive Eps (eq. 12) for the next scan.
+    fn adapt_eps(&mut self) {
+        if !self.params.adaptive || self.spreads.is_empty() {
+            return;
+        }
+        let n = self.spreads.len();
+        let rank = ((self.params.eps_quantile * n as f64).ceil() as usize).clamp(1, n) - 1;
+        let (_, &mut q, _) = self.spreads.select_nth_unstable_by(rank, f64::total_cmp);
+        self.eps = (self.params.eps_scale * q).clamp(self.params.eps_min, self.params.eps_max);
+    }
+}
+
+impl TrackAssociator for FdbscTa {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn associate(
+        &mut self,
+        ctx: &AssociationContext<'_>,
+        tracks: &[LocalTrack],
+        globals: &[GlobalTrack],
+    ) -> Result<Vec<TrackGroup>, CenterError> {
+        if ctx.predicted.len() != globals.len() {
+            return Err(CenterError::Input(format!(
+                "{NAME}: {} predicted estimates for {} global tracks",
+                ctx.predicted.len(),
+                globals.len()
+            )));
+        }
+        if let Some(t) = tracks
+            .iter()
+            .find(|t| !(t.state[0].is_finite() && t.state[2].is_finite()))
+        {
+            return Err(CenterError::Input(format!(
+                "{NAME}: local track {}:{} has a non-finite position",
+                t.sensor_id, t.track_id
+            )));
+        }
+        if ctx
+            .predicted
+            .iter()
+            .any(|(x, _)| !(x[0].is_finite() && x[2].is_finite()))
+        {
+            return Err(CenterError::Input(format!(
+                "{NAME}: a predicted global track has a non-finite position"
+            )));
+        }
+        let eps = self.eps;
+        self.track_grid
+            .rebuild(eps, tracks.iter().map(|t| position_of(&t.state)));
+        self.global_grid
+            .rebuild(eps, ctx.predicted.iter().map(|(x, _)| position_of(x)));
+        self.components.build(&self.track_grid);
+
+        let m = tracks.len();
+        self.seed_sub.clear();
+        self.seed_sub.resize(m, NONE);
+        self.sub_of.clear();
+        self.sub_of.resize(m, NONE);
+        self.global_sub.clear();
+        self.global_sub.resize(globals.len(), NONE);
+        self.group_members.clear();
+        self.group_start.clear();
+        self.group_global.clear();
+
+        for c in 0..self.components.len() {
+            let members = self.components.component(c);
+            // a repeated sensor? (sort a copy: robust to any input order)
+            self.by_sensor.clear();
+            self.by_sensor
+                .extend(members.iter().map(|&i| (tracks[i as usize].sensor_id, i)));
+            self.by_sensor.sort_unstable();
+            let repeated = self.by_sensor.windows(2).any(|w| w[0].0 == w[1].0);
+            if repeated {
+                self.split_cluster(c, tracks);
+            } else {
+                self.push_group();
+                let members = self.components.component(c);
+                self.group_members.extend_from_slice(members);
+            }
+        }
+        self.group_start.push(self.group_members.len());
+
+        self.continue_globals();
+        self.memberships();
+        self.adapt_eps();
+
+        let n_groups = self.group_global.len();
+        let mut groups = Vec::with_capacity(n_groups);
+        for g in 0..n_groups {
+            let range = self.group_start[g]..self.group_start[g + 1];
+            groups.push(TrackGroup {
+                members: self.group_members[range.clone()]
+                    .iter()
+                    .map(|&i| i as usize)
+                    .collect(),
+                weights: self.weights[range].to_vec(),
+                global: match self.group_global[g] {
+                    NONE => None,
+                    k => Some(k as usize),
+                },
+            });
+        }
+        Ok(groups)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::center::fusion::fuzzy::FuzzyFusion;
+    use crate::center::testing::{check_groups, local};
+    use crate::center::{FusionContext, FusionRule};
+    use crate::rng::stream;
+    use crate::types::{StateCov, StateVec};
+    use approx::assert_relative_eq;
+    use rand::seq::SliceRandom;
+    use rand::RngExt;
+
+    fn global(id: Id, x: f64, y: f64) -> GlobalTrack {
+        GlobalTrack {
+            id,
+            scan: 0,
+            time: 0.0,
+            state: StateVec::new(x, 0.0, y, 0.0),
+            cov: StateCov::identity(),
+            previous: None,
+            sources: Vec::new(),
+            updates: 1,
+            misses: 0,
+        }
+    }
+
+    fn predicted(globals: &[GlobalTrack]) -> Vec<(StateVec, StateCov)> {
+        globals.iter().map(|g| (g.state, g.cov)).collect()
+    }
+
+    fn ctx(pred: &[(StateVec, StateCov)]) -> AssociationContext<'_> {
+        AssociationContext {
+            scan: 1,
+            time: 1.0,
+            sensors: None,
+            predicted: pred,
+            dt: 1.0,
+            labels: None,
+        }
+    }
+
+    fn fixed(eps: f64) -> FdbscTa {
+        FdbscTa::new(FdbscParams {
+            eps,
+            adaptive: false,
+            ..FdbscParams::default()
+        })
+        .unwrap()
+    }
+
+    fn run(
+        a: &mut FdbscTa,
+        tracks: &[LocalTrack],
+        globals: &[GlobalTrack],
+    ) -> Vec<TrackGroup> {
+        let pred = predicted(globals);
+        let groups = a.associate(&ctx(&pred), tracks, globals).unwrap();
+        check_groups(tracks, &groups, globals.len());
+        groups
+    }
+
+    /// One target seen by three sensors, continuing a global track predicted at the
+    /// origin: memberships by eq. 6-8 and the fused estimate by eq. 9-10, each computed
+    /// here straight from the equations.
+    #[test]
+    fn three_sensor_cluster_by_hand() {
+        let tracks = [
+            local(0, 7, 300.0, 100.0, 400.0, 0.0, 100.0), // d = 500
+            local(1, 3, 0.0, 110.0, -550.0, 5.0, 400.0),  // d = 550
+            local(2, 9, -600.0, 90.0, 0.0, -5.0, 900.0),  // d = 600
+        ];
+        let globals = [global(4, 0.0, 0.0)];
+        let mut a = fixed(1000.0);
+        let groups = run(&mut a, &tracks, &globals);
+        assert_eq!(groups.len(), 1);
+        let g = &groups[0];
+        assert_eq!(g.members, vec![0, 1, 2]);
+        assert_eq!(g.global, Some(0));
+        // eq. 8: alpha = -ln(1e-6) / d_min; eq. 6: u_i = e^{-alpha d_i} / sum_j e^{-alpha d_j}
+        let d = [500.0f64, 550.0, 600.0];
+        let alpha = -(1e-6f64).ln() / 500.0;
+        let e: Vec<f64> = d.iter().map(|d| (-alpha * d).exp()).collect();
+        let sum: f64 = e.iter().sum();
+        for (u, e) in g.weights.iter().zip(&e) {
+            assert_relative_eq!(*u, e / sum, max_relative = 1e-12);
+        }
+        // the same numbers by hand: 1 : e^{-ln(1e6)/10} : e^{-ln(1e6)/5}
+        assert_relative_eq!(g.weights[0], 0.760870, epsilon = 1e-6);
+        assert_relative_eq!(g.weights[1], 0.191122, epsilon = 1e-6);
+        assert_relative_eq!(g.weights[2], 0.048008, epsilon = 1e-6);
+        // eq. 9-10 (membership-weighted), element by element
+        let members: Vec<&LocalTrack> = g.members.iter().map(|&m| &tracks[m]).collect();
+        let fctx = FusionContext {
+            time: 1.0,
+            prior: None,
+            sensors: None,
+            dt: 1.0,
+            process_noise: 1.0,
+        };
+        let (x, p) = FuzzyFusion.fuse(&members, &g.weights, &fctx).unwrap();
+        for k in 0..4 {
+            let xk: f64 = (0..3).map(|j| g.weights[j] * tracks[j].state[k]).sum();
+            assert_relative_eq!(x[k], xk, max_relative = 1e-12);
+        }
+        assert_relative_eq!(x[0], 199.456498, epsilon = 1e-5);
+        assert_relative_eq!(x[2], 199.231042, epsilon = 1e-5);
+        for r in 0..4 {
+            for c in 0..4 {
+                let pk: f64 = (0..3)
+                    .map(|j| {
+                        g.weights[j]
+                            * (tracks[j].cov[(r, c)]
+                                + (tracks[j].state[r] - x[r]) * (tracks[j].state[c] - x[c]))
+                    })
+                    .sum();
+                assert_relative_eq!(p[(r, c)], pk, max_relative = 1e-9, epsilon = 1e-9);
+            }
+        }
+        assert_relative_eq!(p[(0, 0)], 46173.9409, epsilon = 1e-3);
+        assert_relative_eq!(p[(0, 2)], 51566.5147, epsilon = 1e-3);
+    }
+
+    /// A new cluster's centre is the member mean: two tracks symmetric about it share
+    /// equally.
+    #[test]
+    fn new_cluster_centre_is_the_member_mean() {
+        let tracks = [
+            local(0, 0, 1000.0, 0.0, 0.0, 0.0, 1.0),
+            local(1, 0, 1400.0, 0.0, 0.0, 0.0, 1.0),
+        ];
+        let groups = run(&mut fixed(1000.0), &tracks, &[]);
+        assert_eq!(groups.len(), 1);
+        assert_eq!(groups[0].global, None);
+        assert_relative_eq!(groups[0].weights[0], 0.5, epsilon = 1e-12);
+        assert_relative_eq!(groups[0].weights[1], 0.5, epsilon = 1e-12);
+    }
+
+    /// A cluster with two tracks of sensor 0 is split (module doc, "Splitting").
+    #[test]
+    fn repeated_sensor_splits_the_cluster() {
+        let tracks = [
+            local(0, 0, 0.0, 0.0, 0.0, 0.0, 1.0),
+            local(0, 1, 600.0, 0.0, 0.0, 0.0, 1.0),
+            local(1, 0, 100.0, 0.0, 50.0, 0.0, 1.0),
+        ];
+        // all three connected at Eps = 1000
+        // no global tracks: sensor 0's two tracks seed two sub-groups; sensor 1's track
+        // joins the nearer seed (0, 0) (111.8 m, against 502 m to (600, 0))
+        let groups = run(&mut fixed(1000.0), &tracks, &[]);
+        let sets: Vec<Vec<usize>> = groups.iter().map(|g| g.members.clone()).collect();
+        assert_eq!(sets, vec![vec![0, 2], vec![1]]);
+        assert!(groups.iter().all(|g| g.global.is_none()));
+
+        // a global track predicted at (600, 0): it seeds the first sub-group; sensor 0's
+        // track at (600, 0) takes it (0 m), the one at (0, 0) opens a new one; sensor 1's
+        // track joins (0, 0) (111.8 m) rather than the global (502 m)
+        let globals = [global(9, 600.0, 0.0)];
+        let groups = run(&mut fixed(1000.0), &tracks, &globals);
+        let sets: Vec<(Vec<usize>, Option<usize>)> = groups
+            .iter()
+            .map(|g| (g.members.clone(), g.global))
+            .collect();
+        assert_eq!(sets, vec![(vec![1], Some(0)), (vec![0, 2], None)]);
+
+        // two crossing targets seen by two sensors, one global each: split along the globals
+        let tracks = [
+            local(0, 0, -50.0, 0.0, 0.0, 0.0, 1.0),
+            local(0, 1, 350.0, 0.0, 0.0, 0.0, 1.0),
+            local(1, 0, 20.0, 0.0, 80.0, 0.0, 1.0),
+            local(1, 1, 420.0, 0.0, -60.0, 0.0, 1.0),
+        ];
+        let globals = [global(1, 400.0, 0.0), global(2, 0.0, 0.0)];
+        let groups = run(&mut fixed(1000.0), &tracks, &globals);
+        let sets: Vec<(Vec<usize>, Option<usize>)> = groups
+            .iter()
+            .map(|g| (g.members.clone(), g.global))
+            .collect();
+        assert_eq!(sets, vec![(vec![1, 3], Some(0)), (vec![0, 2], Some(1))]);
+    }
+
+    /// d_min = 0: the alpha -> infinity limit, finite memberships.
+    #[test]
+    fn coincident_tracks_give_finite_memberships() {
+        let mut u = [0.0; 3];
+        max_entropy_memberships(&[0.0, 0.0, 5.0], 1e-6, &mut u);
+        assert_eq!(u, [0.5, 0.5, 0.0]);
+        max_entropy_memberships(&[0.0, 0.0, 0.0], 1e-6, &mut u);
+        assert_eq!(u, [1.0 / 3.0; 3]);
+        max_entropy_memberships(&[1e-300, 3.0, 3.0], 1e-6, &mut u);
+        assert!(u.iter().all(|v| v.is_finite()));
+        assert_relative_eq!(u.iter().sum::<f64>(), 1.0, epsilon = 1e-12);
+        // three tracks exactly on the predicted global track
+        let tracks = [
+            local(0, 0, 100.0, 1.0, 200.0, 0.0, 1.0),
+            local(1, 0, 100.0, 2.0, 200.0, 0.0, 1.0),
+            local(2, 0, 100.0, 3.0, 200.0, 0.0, 1.0),
+        ];
+        let groups = run(&mut fixed(1000.0), &tracks, &[global(0, 100.0, 200.0)]);
+        assert_eq!(groups.len(), 1);
+        for w in &groups[0].weights {
+            assert_relative_eq!(*w, 1.0 / 3.0, epsilon = 1e-15);
+        }
+        // coincident, new cluster (centre = mean = the common point)
+        let groups = run(&mut fixed(1000.0), &tracks, &[]);
+        assert!(groups[0].weights.iter().all(|w| (w - 1.0 / 3.0).abs() < 1e-15));
+        // two on the centre, one off it
+        let mut t2 = tracks;
+        t2[2].state[0] += 10.0;
+        let groups = run(&mut fixed(1000.0), &t2, &[global(0, 100.0, 200.0)]);
+        assert_eq!(groups[0].weights, vec![0.5, 0.5, 0.0]);
+    }
+
+    /// Eq. 12 on a hand case: two new groups, spreads 200 m and 300 m.
+    #[test]
+    fn adaptive_eps_by_hand() {
+        let tracks = [
+            // group A: sensors 0, 1 at (0,0), (400,0): centre (200,0), u = 1/2 each,
+            // fused (200,0), spread 200
+            local(0, 0, 0.0, 0.0, 0.0, 0.0, 1.0),
+            local(0, 1, 10000.0, 0.0, 0.0, 0.0, 1.0),
+            local(1, 0, 400.0, 0.0, 0.0, 0.0, 1.0),
+            // group B: sensors 1, 2, 3 at (10000, 0 / 300 / 600): centre (10000, 300) is
+            // on the middle track (d_min = 0, all its weight), spread 300
+            local(1, 1, 10000.0, 0.0, 300.0, 0.0, 1.0),
+            local(2, 0, 10000.0, 0.0, 600.0, 0.0, 1.0),
+            local(3, 0, 1e6, 0.0, 0.0, 0.0, 1.0), // alone: no spread
+        ];
+        let params = FdbscParams::default();
+        let mut a = FdbscTa::new(params.clone()).unwrap();
+        assert_eq!(a.eps(), 1000.0);
+        let groups = run(&mut a, &tracks, &[]);
+        assert_eq!(groups.len(), 3);
+        assert_eq!(groups[1].members, vec![1, 3, 4]);
+        assert_eq!(groups[1].weights, vec![0.0, 1.0, 0.0]);
+        // median (nearest rank) of [200, 300] = 200; 3 * 200
+        assert_relative_eq!(a.eps(), 600.0, epsilon = 1e-9);
+        // the max (eps_quantile = 1): 3 * 300
+        let mut a = FdbscTa::new(FdbscParams {
+            eps_quantile: 1.0,
+            ..params.clone()
+        })
+        .unwrap();
+        run(&mut a, &tracks, &[]);
+        assert_relative_eq!(a.eps(), 900.0, epsilon = 1e-9);
+        // clamped to eps_min
+        let mut a = FdbscTa::new(FdbscParams {
+            eps_scale: 0.1,
+            ..params.clone()
+        })
+        .unwrap();
+        run(&mut a, &tracks, &[]);
+        assert_eq!(a.eps(), 100.0);
+        // not adaptive: unchanged; no multi-member group: unchanged
+        let mut a = fixed(1000.0);
+        run(&mut a, &tracks, &[]);
+        assert_eq!(a.eps(), 1000.0);
+        let mut a = FdbscTa::new(params).unwrap();
+        run(&mut a, &tracks[5..], &[]);
+        assert_eq!(a.eps(), 1000.0);
+    }
+
+    #[test]
+    fn empty_input_and_bad_input() {
+        let mut a = FdbscTa::new(FdbscParams::default()).unwrap();
+        assert!(run(&mut a, &[], &[]).is_empty());
+        assert!(run(&mut a, &[], &[global(0, 0.0, 0.0)]).is_empty());
+        let t = [local(0, 0, 0.0, 0.0, 0.0, 0.0, 1.0)];
+        let g = [global(0, 0.0, 0.0)];
+        // predicted estimates must match the globals
+        assert!(a.associate(&ctx(&[]), &t, &g).is_err());
+        let mut bad = t;
+        bad[0].state[0] = f64::NAN;
+        assert!(a.associate(&ctx(&[]), &bad, &[]).is_err());
+    }
+
+    #[test]
+    fn params_are_validated() {
+        let mut tables = ParamTables::new();
+        assert!(make(&tables).is_ok());
+        let mut table = toml::Table::new();
+        table.insert("epss".into(), toml::Value::Float(1.0));
+        tables.insert(NAME.into(), table);
+        let e = make(&tables).err().unwrap();
+        assert!(e.to_string().contains("epss"), "{e}");
+        let bad = [
+            FdbscParams {
+                eps: 0.0,
+                ..FdbscParams::default()
+            },
+            FdbscParams {
+                eps_quantile: 1.5,
+                ..FdbscParams::default()
+            },
+            FdbscParams {
+                eps_min: 200.0,
+                eps_max: 100.0,
+                ..FdbscParams::default()
+            },
+            FdbscParams {
+                membership_epsilon: 1.0,
+                ..FdbscParams::default()
+            },
+        ];
+        for p in bad {
+            assert!(FdbscTa::new(p).is_err());
+        }
+        let mut table = toml::Table::new();
+        table.insert("eps".into(), toml::Value::Float(250.0));
+        table.insert("adaptive".into(), toml::Value::Boolean(false));
+        tables.insert(NAME.into(), table);
+        let p: FdbscParams = parse_params(&tables, NAME).unwrap();
+        assert_eq!((p.eps, p.adaptive, p.eps_scale), (250.0, false, 3.0));
+    }
+
+    /// Brute-force connected components of the Eps graph: labels = smallest index.
+    fn brute_components(points: &[Vec2], eps: f64) -> Vec<usize> {
+        let n = points.len();
+        let mut label = vec![usize::MAX; n];
+        for s in 0..n {
+            if label[s] != usize::MAX {
+                continue;
+            }
+            label[s] = s;
+            let mut stack = vec![s];
+            while let Some(i) = stack.pop() {
+                for j in 0..n {
+                    if label[j] == usize::MAX
+                        && squared_distance(&points[i], &points[j]) <= eps * eps
+                    {
+                        label[j] = s;
+                        stack.push(j);
+                    }
+                }
+            }
+        }
+        label
+    }
+
+    proptest::proptest! {
+        /// The grid + union-find clustering equals brute-force connected components.
+        #[test]
+        fn grid_components_equal_brute_force(
+            pts in proptest::collection::vec((-2000f64..2000.0, -2000f64..2000.0), 0..80),
+            eps in 1f64..600.0,
+            snap in proptest::bool::ANY,
+        ) {
+            // `snap` puts points on a lattice of pitch eps: distances exactly eps
+            let points: Vec<Vec2> = pts
+                .iter()
+                .map(|&(x, y)| if snap {
+                    Vec2::new((x / eps).round() * eps, (y / eps).round() * eps)
+                } else {
+                    Vec2::new(x, y)
+                })
+                .collect();
+            let mut grid = EpsGrid::default();
+            grid.rebuild(eps, points.iter().copied());
+            let mut comps = EpsComponents::default();
+            comps.build(&grid);
+            let mut label = vec![usize::MAX; points.len()];
+            for c in 0..comps.len() {
+                let members = comps.component(c);
+                proptest::prop_assert!(members.windows(2).all(|w| w[0] < w[1]));
+                for &i in members {
+                    label[i as usize] = members[0] as usize;
+                }
+            }
+            proptest::prop_assert_eq!(label, brute_components(&points, eps));
+        }
+
+        /// The invariants hold on random scans with repeated sensors and globals.
+        #[test]
+        fn invariants_on_random_scans(
+            pts in proptest::collection::vec((0i64..4, -3000f64..3000.0, -3000f64..3000.0), 0..60),
+            gl in proptest::collection::vec((-3000f64..3000.0, -3000f64..3000.0), 0..10),
+            eps in 50f64..2000.0,
+        ) {
+            let mut tracks: Vec<LocalTrack> = pts
+                .iter()
+                .enumerate()
+                .map(|(i, &(s, x, y))| local(s, i as i64, x, 0.0, y, 0.0, 1.0))
+                .collect();
+            tracks.sort_by_key(|t| (t.sensor_id, t.track_id));
+            let globals: Vec<GlobalTrack> = gl
+                .iter()
+                .enumerate()
+                .map(|(i, &(x, y))| global(i as i64, x, y))
+                .collect();
+            let mut a = FdbscTa::new(FdbscParams { eps, ..FdbscParams::default() }).unwrap();
+            for _ in 0..2 {
+                let groups = run(&mut a, &tracks, &globals);
+                for g in &groups {
+                    let s: f64 = g.weights.iter().sum();
+                    proptest::prop_assert!((s - 1.0).abs() < 1e-9);
+                }
+            }
+        }
+    }
+
+    /// A scene: `n` targets in a 20 km square seen by four sensors with per-sensor
+    /// offsets, some tracks missing, global tracks near most targets.
+    fn scene(seed: u64, n: usize) -> (Vec<LocalTrack>, Vec<GlobalTrack>) {
+        let mut rng = stream(seed, 0, "fdbsc-scene", 0);
+        let mut tracks = Vec::new();
+        let mut globals = Vec::new();
+        for t in 0..n {
+            let x: f64 = rng.random_range(0.0..20000.0);
+            let y: f64 = rng.random_range(0.0..20000.0);
+            if t % 4 != 0 {
+                globals.push(global(t as i64, x + 30.0, y - 20.0));
+            }
+            for s in 0..4i64 {
+                if rng.random_range(0.0..1.0) < 0.15 {
+                    continue;
+                }
+                let off = s as f64 * 60.0;
+                tracks.push(local(
+                    s,
+                    (t * 10) as i64 + s,
+                    x + off + rng.random_range(-40.0..40.0),
+                    100.0,
+                    y - off + rng.random_range(-40.0..40.0),
+                    0.0,
+                    400.0,
+                ));
+            }
+        }
+        (tracks, globals)
+    }
+
+    type Keyed = Vec<(Vec<(Id, Id)>, Vec<u64>, Option<Id>)>;
+
+    /// Groups as `(sensor, track)` keys, weight bits and global ids, sorted.
+    fn keyed(tracks: &[LocalTrack], globals: &[GlobalTrack], groups: &[TrackGroup]) -> Keyed {
+        let mut out: Keyed = groups
+            .iter()
+            .map(|g| {
+                (
+                    g.members
+                        .iter()
+                        .map(|&m| (tracks[m].sensor_id, tracks[m].track_id))
+                        .collect(),
+                    g.weights.iter().map(|w| w.to_bits()).collect(),
+                    g.global.map(|k| globals[k].id),
+                )
+            })
+            .collect();
+        out.sort();
+        out
+    }
+
+    /// The result depends only on the sorted order of the tracks: any arrival order,
+    /// sorted by `(sensor_id, track_id)` as the center does, gives bit-identical groups,
+    /// from a fresh associator or from one whose buffers hold another scan.
+    #[test]
+    fn result_depends_only_on_the_sorted_order() {
+        let (tracks, globals) = scene(3, 120);
+        let (other, other_globals) = scene(4, 300);
+        let mut sorted = tracks.clone();
+        sorted.sort_by_key(|t| (t.sensor_id, t.track_id));
+        let reference = keyed(&sorted, &globals, &run(&mut fixed(300.0), &sorted, &globals));
+        // the scene is not trivial: splits, continuations and new groups all happen
+        assert!(reference.iter().any(|g| g.0.len() >= 3));
+        assert!(reference.iter().any(|g| g.2.is_some()));
+        assert!(reference.iter().any(|g| g.2.is_none() && g.0.len() > 1));
+        let mut reused = fixed(300.0);
+        run(&mut reused, &other, &other_globals);
+        let mut rng = stream(5, 0, "fdbsc-shuffle", 0);
+        for _ in 0..5 {
+            let mut shuffled = tracks.clone();
+            shuffled.shuffle(&mut rng);
+            shuffled.sort_by_key(|t| (t.sensor_id, t.track_id));
+            let fresh = run(&mut fixed(300.0), &shuffled, &globals);
+            assert_eq!(keyed(&shuffled, &globals, &fresh), reference);
+            let again = run(&mut reused, &shuffled, &globals);
+            assert_eq!(keyed(&shuffled, &globals, &again), reference);
+        }
+    }
+
+    /// The registry builds it.
+    #[test]
+    fn registered() {
+        let m = crate::center::registry::make_method(NAME, &ParamTables::new()).unwrap();
+        assert_eq!(m.name(), NAME);
+    }
+}
