@@ -92,7 +92,10 @@ impl FdbDafParams {
             return Err(ParamError::new(format!("{P}.k"), "must be at least 1"));
         }
         if self.min_pts == 0 {
-            return Err(ParamError::new(format!("{P}.min_pts"), "must be at least 1"));
+            return Err(ParamError::new(
+                format!("{P}.min_pts"),
+                "must be at least 1",
+            ));
         }
         in_range(&format!("{P}.xi"), self.xi, 0.0, 1.0)?;
         positive(&format!("{P}.eps_scale"), self.eps_scale)?;
@@ -201,7 +204,9 @@ impl FdbDaf {
     }
 
     /// Registry constructor: reads `[tracker.params.fdb-daf]`.
-    pub fn from_settings(s: &AssociatorSettings<'_>) -> Result<Box<dyn DataAssociator>, ParamError> {
+    pub fn from_settings(
+        s: &AssociatorSettings<'_>,
+    ) -> Result<Box<dyn DataAssociator>, ParamError> {
         let p: FdbDafParams = parse_params(s.params, "fdb-daf")?;
         Ok(Box::new(FdbDaf::new(p)?))
     }
@@ -229,7 +234,9 @@ impl FdbDaf {
         let min_pts = self.params.min_pts as usize;
         // seed: the Eps-neighbourhood of the prediction
         for &m in index.in_first_range(p.z[0] - half, p.z[0] + half) {
-            let Some(z) = meas.get(m as usize) else { continue };
+            let Some(z) = meas.get(m as usize) else {
+                continue;
+            };
             if p.distance2(z) <= eps2 && self.stamp[m as usize] != epoch {
                 self.stamp[m as usize] = epoch;
                 self.queue.push(m);
@@ -253,7 +260,9 @@ impl FdbDaf {
                 continue;
             }
             for &m in slice {
-                let Some(z) = meas.get(m as usize) else { continue };
+                let Some(z) = meas.get(m as usize) else {
+                    continue;
+                };
                 if self.stamp[m as usize] != epoch && distance2_between(p, z, &zq) <= eps2 {
                     self.stamp[m as usize] = epoch;
                     self.queue.push(m);
@@ -266,7 +275,11 @@ impl FdbDaf {
     /// The measurements clustered to track `t` in the last scan (sorted).
     #[cfg(test)]
     fn cluster_of(&self, t: usize) -> Vec<u32> {
-        self.pairs.of_track(t).iter().map(|p| p.measurement).collect()
+        self.pairs
+            .of_track(t)
+            .iter()
+            .map(|p| p.measurement)
+            .collect()
     }
 }
 
@@ -294,7 +307,10 @@ impl DataAssociator for FdbDaf {
         // 2. eq. 12-13
         self.pairs.max_entropy_memberships();
         // 3. selection (eq. 14 / 15) and normalisation (eq. 16)
-        let beta0 = self.params.no_measurement.beta0(problem.pd, self.params.beta0);
+        let beta0 = self
+            .params
+            .no_measurement
+            .beta0(problem.pd, self.params.beta0);
         for t in 0..problem.predictions.len() {
             out.begin_track();
             self.selected.clear();
@@ -334,6 +350,8 @@ impl DataAssociator for FdbDaf {
 }
 
 #[cfg(test)]
+// The tests index memberships u[j][t] as the equations do.
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::super::testing::{check_weights, close, weight, Fixture};
     use super::*;
@@ -382,7 +400,13 @@ mod tests {
             [20.5, 0.0],  // 6: seed of B, alone
             [7.0, 0.0],   // 7: 1.5 from 4 only
         ];
-        let f = Fixture::new(&[[0.0, 0.0], [20.0, 0.0]], Mat2::identity(), &pts, 9.21, 1.0);
+        let f = Fixture::new(
+            &[[0.0, 0.0], [20.0, 0.0]],
+            Mat2::identity(),
+            &pts,
+            9.21,
+            1.0,
+        );
         // Neighbourhoods (with self): N(0) = {0,1,2}, N(1) = {0,1,3}, N(2) = {0,2},
         // N(3) = {1,3,4}, N(4) = {3,4,7}, N(7) = {4,7}. MinPts = 3: 0, 1, 3, 4 are core,
         // so A = {0,1,2,3,4,7}; 5 stays invalid; B = {6}.
@@ -573,11 +597,32 @@ mod tests {
     }
 
     #[test]
+    fn range_bearing_clustering_wraps_the_bearing() {
+        use crate::models::POSITION_H;
+        use std::f64::consts::PI;
+        // sigma_r = 10 m, sigma_theta = 1 mrad, prediction just below +pi.
+        let s = Mat2::new(100.0, 0.0, 0.0, 1e-6);
+        let p =
+            PredictedMeasurement::new(Vec2::new(1000.0, PI - 0.001), s, POSITION_H, true).unwrap();
+        // 0: across the seam (bearing difference 1.5 mrad, range 0.5 sigma): d = 1.58
+        // 1: same range, opposite bearing; 2: 3 sigma in range
+        let f = Fixture::with_predictions(
+            vec![p],
+            &[[1005.0, -PI + 0.0005], [1005.0, 0.0], [1030.0, PI - 0.001]],
+            9.21,
+            1.0,
+        );
+        let mut a = fdb(Selection::All, |_| {});
+        let out = f.run(&mut a);
+        assert_eq!(a.cluster_of(0), vec![0]);
+        assert_eq!(out.of(0), &[(0, 1.0)]);
+    }
+
+    #[test]
     fn params_are_checked() {
         let mut t = crate::params::ParamTables::new();
         let table: toml::Table =
-            toml::from_str("selection = \"top-k\"\nk = 2\nmin_pts = 3\neps_scale = 0.55")
-                .unwrap();
+            toml::from_str("selection = \"top-k\"\nk = 2\nmin_pts = 3\neps_scale = 0.55").unwrap();
         t.insert("fdb-daf".into(), table);
         let p: FdbDafParams = parse_params(&t, "fdb-daf").unwrap();
         assert_eq!(p.selection, Selection::TopK);

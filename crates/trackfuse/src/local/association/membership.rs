@@ -176,7 +176,10 @@ impl PairTable {
 
     /// Range of pair indices of track `t`.
     pub fn track_range(&self, t: usize) -> std::ops::Range<usize> {
-        let a = self.track_start.get(t).map_or(self.pairs.len(), |&a| a as usize);
+        let a = self
+            .track_start
+            .get(t)
+            .map_or(self.pairs.len(), |&a| a as usize);
         let b = self
             .track_start
             .get(t + 1)
@@ -287,11 +290,7 @@ pub fn distance2_between(p: &PredictedMeasurement, a: &Vec2, b: &Vec2) -> f64 {
 /// Scale each track's weights so that they sum to `1 - beta0` (001 eq. 16 with the
 /// no-measurement share), writing them to `out`; a track whose weights sum to zero gets
 /// none (it keeps its prediction). `weights` holds `(measurement, w)`.
-pub fn push_normalised(
-    out: &mut super::AssociationWeights,
-    weights: &[(u32, f64)],
-    beta0: f64,
-) {
+pub fn push_normalised(out: &mut super::AssociationWeights, weights: &[(u32, f64)], beta0: f64) {
     let total: f64 = weights.iter().map(|w| w.1).sum();
     if !(total > 0.0 && total.is_finite()) {
         return;

@@ -9,6 +9,9 @@
 //! ALGORITHMS.md names to constructors.
 
 pub mod fdb_daf;
+pub mod fnn;
+pub mod fuzzy_ga;
+pub mod mef_jpda;
 pub mod membership;
 #[cfg(test)]
 pub(crate) mod testing;

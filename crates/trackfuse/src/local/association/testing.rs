@@ -24,8 +24,7 @@ impl Fixture {
         let predictions = centres
             .iter()
             .map(|c| {
-                PredictedMeasurement::new(Vec2::new(c[0], c[1]), s, POSITION_H, false)
-                    .expect("spd")
+                PredictedMeasurement::new(Vec2::new(c[0], c[1]), s, POSITION_H, false).expect("spd")
             })
             .collect();
         Self::with_predictions(predictions, points, gamma, pd)
@@ -77,10 +76,7 @@ impl Fixture {
 
 /// Weight of measurement `m` for track `t` (0 if absent).
 pub fn weight(out: &AssociationWeights, t: usize, m: u32) -> f64 {
-    out.of(t)
-        .iter()
-        .find(|e| e.0 == m)
-        .map_or(0.0, |e| e.1)
+    out.of(t).iter().find(|e| e.0 == m).map_or(0.0, |e| e.1)
 }
 
 /// Check the invariants every associator keeps: finite weights in [0, 1], each track's
@@ -90,7 +86,10 @@ pub fn check_weights(out: &AssociationWeights) {
         let w = out.of(t);
         let mut sum = 0.0;
         for (i, e) in w.iter().enumerate() {
-            assert!(e.1.is_finite() && (0.0..=1.0 + 1e-12).contains(&e.1), "{w:?}");
+            assert!(
+                e.1.is_finite() && (0.0..=1.0 + 1e-12).contains(&e.1),
+                "{w:?}"
+            );
             assert!(w[..i].iter().all(|f| f.0 != e.0), "duplicate in {w:?}");
             sum += e.1;
         }
