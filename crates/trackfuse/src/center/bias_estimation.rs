@@ -74,8 +74,8 @@ use super::TrackGroup;
 use crate::models::wrap_angle;
 use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
 use crate::types::{
-    position_cov_of, position_of, symmetrize, Id, LocalTrack, Mat2, Sensor, SensorKind,
-    StateCov, StateVec, Vec2,
+    position_cov_of, position_of, symmetrize, Id, LocalTrack, Mat2, Sensor, SensorKind, StateCov,
+    StateVec, Vec2,
 };
 use nalgebra::{DMatrix, DVector};
 use serde::Deserialize;

@@ -82,6 +82,30 @@ pub const ASSOCIATORS: &[AssociatorInfo] = &[
         summary: "joint PDA: exact joint events per cluster, belief propagation past a bound",
         make: super::association::jpda::make,
     },
+    AssociatorInfo {
+        name: "fdb-daf",
+        summary: "fuzzy density-based data association (001): density clustering seeded at \
+                  the predictions, maximum-entropy memberships, all / top-k / threshold",
+        make: super::association::fdb_daf::FdbDaf::from_settings,
+    },
+    AssociatorInfo {
+        name: "fnn",
+        summary: "fuzzy nearest neighbour (Aziz 2013): the validated measurement of largest \
+                  fuzzy c-means membership",
+        make: super::association::fnn::Fnn::from_settings,
+    },
+    AssociatorInfo {
+        name: "mef-jpda",
+        summary: "maximum-entropy fuzzy JPDA (Liangqun et al. 2006): memberships replace the \
+                  joint association probabilities",
+        make: super::association::mef_jpda::MefJpda::from_settings,
+    },
+    AssociatorInfo {
+        name: "fuzzy-ga",
+        summary: "fuzzy c-means association with centres refined by a seeded genetic \
+                  algorithm (Satapathi & Srihari 2017)",
+        make: super::association::fuzzy_ga::FuzzyGa::from_settings,
+    },
 ];
 
 /// The filter called `name`.
@@ -123,4 +147,43 @@ pub fn filter_names() -> Vec<&'static str> {
 /// Names of the registered associators.
 pub fn associator_names() -> Vec<&'static str> {
     ASSOCIATORS.iter().map(|a| a.name).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings(params: &ParamTables) -> AssociatorSettings<'_> {
+        AssociatorSettings {
+            seed: 1,
+            run: 0,
+            sensor_index: 0,
+            params,
+        }
+    }
+
+    #[test]
+    fn fuzzy_associators_are_registered_and_read_their_params() {
+        let mut params = ParamTables::new();
+        for name in ["fdb-daf", "fnn", "mef-jpda", "fuzzy-ga"] {
+            let a = make_associator(name, &settings(&params)).expect(name);
+            assert_eq!(a.name(), name);
+        }
+        let mut names = associator_names();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), ASSOCIATORS.len());
+        let table: toml::Table = toml::from_str("selection = \"top-k\"\nk = 0").unwrap();
+        params.insert("fdb-daf".into(), table);
+        let e = make_associator("fdb-daf", &settings(&params))
+            .err()
+            .expect("k = 0 is rejected");
+        assert!(e.key.contains("fdb-daf.k"), "{e}");
+        let table: toml::Table = toml::from_str("populaton = 3").unwrap();
+        params.insert("fuzzy-ga".into(), table);
+        let e = make_associator("fuzzy-ga", &settings(&params))
+            .err()
+            .expect("typo is rejected");
+        assert!(e.to_string().contains("populaton"), "{e}");
+    }
 }

@@ -285,9 +285,7 @@ impl EpsGrid {
         let (cx, cy) = cell_of(p, self.inv_cell);
         let (y_lo, y_hi) = (cy.saturating_sub(1), cy.saturating_add(1));
         for x in cx.saturating_sub(1)..=cx.saturating_add(1) {
-            let start = self
-                .cells
-                .partition_point(|&(a, b, _)| (a, b) < (x, y_lo));
+            let start = self.cells.partition_point(|&(a, b, _)| (a, b) < (x, y_lo));
             for &(a, b, i) in &self.cells[start..] {
                 if a != x || b > y_hi {
                     break;
@@ -410,9 +408,7 @@ fn union(parent: &mut [u32], a: u32, b: u32) {
 
 /// Order candidate pairs `(squared distance, a, b)` by distance, then indices.
 fn by_distance(x: &(f64, u32, u32), y: &(f64, u32, u32)) -> Ordering {
-    x.0.total_cmp(&y.0)
-        .then(x.1.cmp(&y.1))
-        .then(x.2.cmp(&y.2))
+    x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2))
 }
 
 /// The `fdbsc-ta` track associator (000, Algorithm 1). See the module documentation for
@@ -585,7 +581,8 @@ impl FdbscTa {
             }
         }
         let base = self.group_members.len();
-        self.group_members.resize(base + self.components.component(c).len(), 0);
+        self.group_members
+            .resize(base + self.components.component(c).len(), 0);
         for idx in 0..self.components.component(c).len() {
             let i = self.components.component(c)[idx];
             let s = self.sub_of[i as usize] as usize;
@@ -835,11 +832,7 @@ mod tests {
         .unwrap()
     }
 
-    fn run(
-        a: &mut FdbscTa,
-        tracks: &[LocalTrack],
-        globals: &[GlobalTrack],
-    ) -> Vec<TrackGroup> {
+    fn run(a: &mut FdbscTa, tracks: &[LocalTrack], globals: &[GlobalTrack]) -> Vec<TrackGroup> {
         let pred = predicted(globals);
         let groups = a.associate(&ctx(&pred), tracks, globals).unwrap();
         check_groups(tracks, &groups, globals.len());
@@ -989,7 +982,10 @@ mod tests {
         }
         // coincident, new cluster (centre = mean = the common point)
         let groups = run(&mut fixed(1000.0), &tracks, &[]);
-        assert!(groups[0].weights.iter().all(|w| (w - 1.0 / 3.0).abs() < 1e-15));
+        assert!(groups[0]
+            .weights
+            .iter()
+            .all(|w| (w - 1.0 / 3.0).abs() < 1e-15));
         // two on the centre, one off it
         let mut t2 = tracks;
         t2[2].state[0] += 10.0;
@@ -1245,7 +1241,11 @@ mod tests {
         let (other, other_globals) = scene(4, 300);
         let mut sorted = tracks.clone();
         sorted.sort_by_key(|t| (t.sensor_id, t.track_id));
-        let reference = keyed(&sorted, &globals, &run(&mut fixed(300.0), &sorted, &globals));
+        let reference = keyed(
+            &sorted,
+            &globals,
+            &run(&mut fixed(300.0), &sorted, &globals),
+        );
         // the scene is not trivial: splits, continuations and new groups all happen
         assert!(reference.iter().any(|g| g.0.len() >= 3));
         assert!(reference.iter().any(|g| g.2.is_some()));

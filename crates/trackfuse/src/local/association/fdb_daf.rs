@@ -350,6 +350,8 @@ impl DataAssociator for FdbDaf {
 }
 
 #[cfg(test)]
+// The tests index memberships u[j][t] as the equations do.
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::super::testing::{check_weights, close, weight, Fixture};
     use super::*;
@@ -592,6 +594,28 @@ mod tests {
         let mut a = fdb(Selection::All, |_| {});
         f.run(&mut a);
         assert_eq!(a.cluster_of(0), vec![0]);
+    }
+
+    #[test]
+    fn range_bearing_clustering_wraps_the_bearing() {
+        use crate::models::POSITION_H;
+        use std::f64::consts::PI;
+        // sigma_r = 10 m, sigma_theta = 1 mrad, prediction just below +pi.
+        let s = Mat2::new(100.0, 0.0, 0.0, 1e-6);
+        let p =
+            PredictedMeasurement::new(Vec2::new(1000.0, PI - 0.001), s, POSITION_H, true).unwrap();
+        // 0: across the seam (bearing difference 1.5 mrad, range 0.5 sigma): d = 1.58
+        // 1: same range, opposite bearing; 2: 3 sigma in range
+        let f = Fixture::with_predictions(
+            vec![p],
+            &[[1005.0, -PI + 0.0005], [1005.0, 0.0], [1030.0, PI - 0.001]],
+            9.21,
+            1.0,
+        );
+        let mut a = fdb(Selection::All, |_| {});
+        let out = f.run(&mut a);
+        assert_eq!(a.cluster_of(0), vec![0]);
+        assert_eq!(out.of(0), &[(0, 1.0)]);
     }
 
     #[test]

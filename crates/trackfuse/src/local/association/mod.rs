@@ -9,8 +9,11 @@
 //! ALGORITHMS.md names to constructors.
 
 pub mod fdb_daf;
+pub mod fnn;
+pub mod fuzzy_ga;
 pub mod gnn;
 pub mod jpda;
+pub mod mef_jpda;
 pub mod membership;
 pub mod nn;
 pub mod pda;
