@@ -213,10 +213,15 @@ impl FusionCenter {
             ));
         }
         // 3. bias correction
-        let raw = sorted.clone();
-        if let (Some(b), Some(s)) = (&self.bias, &self.sensors) {
-            b.correct(&mut sorted, s);
-        }
+        // the uncorrected tracks, kept only when a bias estimator will learn from them
+        let raw = match (&self.bias, &self.sensors) {
+            (Some(b), Some(s)) => {
+                let raw = sorted.clone();
+                b.correct(&mut sorted, s);
+                raw
+            }
+            _ => Vec::new(),
+        };
         // 4. associate
         let groups = if self.rule.needs_true_association() {
             let Some(l) = &sorted_labels else {
@@ -349,8 +354,10 @@ impl FusionCenter {
         }
         let limit = self.cfg.delete_after;
         self.globals.retain(|g| g.misses < limit);
-        let alive: std::collections::HashSet<Id> = self.globals.iter().map(|g| g.id).collect();
-        self.truth_globals.retain(|_, id| alive.contains(id));
+        if !self.truth_globals.is_empty() {
+            let alive: std::collections::HashSet<Id> = self.globals.iter().map(|g| g.id).collect();
+            self.truth_globals.retain(|_, id| alive.contains(id));
+        }
     }
 
     fn truth_key(t: &LocalTrack, label: Id) -> TruthKey {
