@@ -58,6 +58,16 @@ pub const FILTERS: &[FilterInfo] = &[
             "extended Kalman filter in (range, bearing) space; the plain KF for position sensors",
         make: super::filter::ekf::ExtendedKalmanFilter::make,
     },
+    FilterInfo {
+        name: "cmkf",
+        summary: "converted-measurement Kalman filter, debiased polar-to-Cartesian conversion",
+        make: super::filter::cmkf::ConvertedMeasurementKalmanFilter::make,
+    },
+    FilterInfo {
+        name: "imm",
+        summary: "interacting multiple model: CV and coordinated turns at +omega and -omega",
+        make: super::filter::imm::ImmFilter::make,
+    },
 ];
 
 /// Every finished local data associator, by ALGORITHMS.md name.

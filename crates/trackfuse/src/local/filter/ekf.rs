@@ -108,7 +108,9 @@ impl Filter for ExtendedKalmanFilter {
 mod tests {
     use super::*;
     use crate::local::filter::kalman::KalmanFilter;
-    use crate::local::filter::testing::{assert_nees_in_band, position_sensor, radar, Motion};
+    use crate::local::filter::testing::{
+        assert_nees_in_band, position_sensor, radar, Motion, NeesSetup,
+    };
     use crate::models::range_bearing;
 
     /// Sensor at the origin, target at (3000, 4000) m: range 5000, `H` rows
@@ -205,7 +207,7 @@ mod tests {
             &radar(-500.0, 300.0, 10.0, 1e-3),
             [2.0, 2.0],
             &|_| Motion::Cv,
-            12,
+            &NeesSetup::standard(12),
         );
     }
 }

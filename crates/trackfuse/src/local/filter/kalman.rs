@@ -111,7 +111,7 @@ impl Filter for KalmanFilter {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::local::filter::testing::{assert_nees_in_band, position_sensor, Motion};
+    use crate::local::filter::testing::{assert_nees_in_band, position_sensor, Motion, NeesSetup};
     use crate::params::ParamTables;
 
     /// One predict + update step, the expected numbers worked out by hand per axis (the
@@ -201,7 +201,7 @@ mod tests {
             &position_sensor(30.0, 30.0),
             [2.0, 2.0],
             &|_| Motion::Cv,
-            11,
+            &NeesSetup::standard(11),
         );
         // filtering beats the raw measurement (30 m per axis, 42 m in position)
         assert!(r.rmse < 30.0, "{r:?}");

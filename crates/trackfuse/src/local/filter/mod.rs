@@ -12,8 +12,10 @@
 //! covariance, Kalman gain, Joseph form, the PDA update given `H` and `R`) are free
 //! functions in [`common`], so there is one implementation of each.
 
+pub mod cmkf;
 pub mod common;
 pub mod ekf;
+pub mod imm;
 pub mod kalman;
 #[cfg(test)]
 pub(crate) mod testing;
