@@ -6,6 +6,11 @@
 //! lists the known ones.
 
 use super::bias::BiasEstimator;
+use super::fusion::bar_shalom_campo::BarShalomCampo;
+use super::fusion::convex_combination::ConvexCombination;
+use super::fusion::covariance_intersection::CovarianceIntersection;
+use super::fusion::mmse::Mmse;
+use super::fusion::simple::SimpleFusion;
 use super::{CenterError, FusionRule, TrackAssociator};
 use crate::params::{ParamError, ParamTables};
 
@@ -36,7 +41,33 @@ pub struct BiasInfo {
 pub const METHODS: &[MethodInfo] = &[];
 
 /// Every finished fusion rule.
-pub const RULES: &[RuleInfo] = &[];
+pub const RULES: &[RuleInfo] = &[
+    RuleInfo {
+        name: "sf",
+        summary: "simple fusion: equal-weight mean of the states (003 Sec. 6)",
+        make: |p| Ok(Box::new(SimpleFusion::from_params(p)?)),
+    },
+    RuleInfo {
+        name: "cc",
+        summary: "convex combination: information-weighted mean, cross-covariance ignored",
+        make: |p| Ok(Box::new(ConvexCombination::from_params(p)?)),
+    },
+    RuleInfo {
+        name: "ci",
+        summary: "covariance intersection (Julier & Uhlmann), weights minimising det or trace",
+        make: |p| Ok(Box::new(CovarianceIntersection::from_params(p)?)),
+    },
+    RuleInfo {
+        name: "bc",
+        summary: "Bar-Shalom–Campo: BLUE with common-process-noise cross-covariances",
+        make: |p| Ok(Box::new(BarShalomCampo::from_params(p)?)),
+    },
+    RuleInfo {
+        name: "mmse",
+        summary: "Bayesian MMSE reference of 000: optimal fusion given the true association",
+        make: |p| Ok(Box::new(Mmse::from_params(p)?)),
+    },
+];
 
 /// Every finished bias estimator.
 pub const BIAS_ESTIMATORS: &[BiasInfo] = &[];
