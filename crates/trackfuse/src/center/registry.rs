@@ -11,6 +11,7 @@ use super::fusion::convex_combination::ConvexCombination;
 use super::fusion::covariance_intersection::CovarianceIntersection;
 use super::fusion::mmse::Mmse;
 use super::fusion::simple::SimpleFusion;
+use super::t2ta::chi2_gnn::Chi2Gnn;
 use super::{CenterError, FusionRule, TrackAssociator};
 use crate::params::{ParamError, ParamTables};
 
@@ -38,7 +39,11 @@ pub struct BiasInfo {
 }
 
 /// Every finished track-to-track association method.
-pub const METHODS: &[MethodInfo] = &[];
+pub const METHODS: &[MethodInfo] = &[MethodInfo {
+    name: "chi2-gnn",
+    summary: "chi-square test on the track difference + optimal assignment, sensor by sensor",
+    make: |p| Ok(Box::new(Chi2Gnn::from_params(p)?)),
+}];
 
 /// Every finished fusion rule.
 pub const RULES: &[RuleInfo] = &[

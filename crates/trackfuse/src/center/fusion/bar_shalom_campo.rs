@@ -463,13 +463,16 @@ mod tests {
     fn steady_state_model_equals_the_exact_recursion() {
         let (dt, q) = (1.0, 2.0);
         let (p1, p2, p12) = steady_state_filters(dt, q, 25.0, 100.0);
-        let model = steady_state_cross(&p1, &p2, &cv_transition(dt), &process_noise(dt, q, q))
-            .unwrap();
+        let model =
+            steady_state_cross(&p1, &p2, &cv_transition(dt), &process_noise(dt, q, q)).unwrap();
         assert!(
             (model - p12).norm() < 1e-6 * p12.norm(),
             "model {model}\nrecursion {p12}"
         );
-        assert!(p12[(0, 0)] > 0.05 * p1[(0, 0)], "a real correlation to test");
+        assert!(
+            p12[(0, 0)] > 0.05 * p1[(0, 0)],
+            "a real correlation to test"
+        );
     }
 
     #[test]

@@ -113,11 +113,7 @@ fn psd_pseudo_inverse(d: DMatrix<f64>) -> Result<DMatrix<f64>, Inconsistent> {
     let n = d.nrows();
     let eig = SymmetricEigen::new(d);
     let scale = eig.eigenvalues.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    if eig
-        .eigenvalues
-        .iter()
-        .any(|&v| v < -PSD_TOLERANCE * scale)
-    {
+    if eig.eigenvalues.iter().any(|&v| v < -PSD_TOLERANCE * scale) {
         return Err(Inconsistent);
     }
     let mut out = DMatrix::<f64>::zeros(n, n);
@@ -134,7 +130,10 @@ fn psd_pseudo_inverse(d: DMatrix<f64>) -> Result<DMatrix<f64>, Inconsistent> {
 /// `cross(i, j) = Cov(e_i, e_j)` for `i < j` (indices into `members`). One member is
 /// returned unchanged. The fused covariance is symmetric and positive semidefinite, or the
 /// model is [`Inconsistent`].
-pub(crate) fn blue<F>(members: &[&LocalTrack], cross: F) -> Result<(StateVec, StateCov), Inconsistent>
+pub(crate) fn blue<F>(
+    members: &[&LocalTrack],
+    cross: F,
+) -> Result<(StateVec, StateCov), Inconsistent>
 where
     F: Fn(usize, usize) -> StateCov,
 {
@@ -187,12 +186,12 @@ where
     let mut c = DMatrix::<f64>::zeros(4, m);
     let mut d = DMatrix::<f64>::zeros(m, m);
     let mut diff = DVector::<f64>::zeros(m);
-    for j in 1..n {
+    for (j, member) in members.iter().enumerate().skip(1) {
         let p0j = cov_of(0, j);
         c.fixed_view_mut::<4, 4>(0, 4 * (j - 1))
             .copy_from(&(p0 - p0j));
         diff.fixed_rows_mut::<4>(4 * (j - 1))
-            .copy_from(&(x0 - members[j].state));
+            .copy_from(&(x0 - member.state));
         for k in j..n {
             let block = p0 - cov_of(0, k) - cov_of(j, 0) + cov_of(j, k);
             d.fixed_view_mut::<4, 4>(4 * (j - 1), 4 * (k - 1))
@@ -235,7 +234,11 @@ mod tests {
     }
 
     /// The stacked BLUE (H^T S^-1 H)^-1 H^T S^-1 z with an explicit inverse of S.
-    fn stacked(members: &[&LocalTrack], cross: &dyn Fn(usize, usize) -> StateCov) -> (StateVec, StateCov) {
+    #[allow(clippy::needless_range_loop)]
+    fn stacked(
+        members: &[&LocalTrack],
+        cross: &dyn Fn(usize, usize) -> StateCov,
+    ) -> (StateVec, StateCov) {
         let n = members.len();
         let mut s = DMatrix::<f64>::zeros(4 * n, 4 * n);
         let mut z = DVector::<f64>::zeros(4 * n);

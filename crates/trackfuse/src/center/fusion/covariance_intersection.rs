@@ -241,7 +241,11 @@ impl FusionRule for CovarianceIntersection {
         let members = canonical(members);
         let infos: Option<Vec<StateCov>> = members
             .iter()
-            .map(|m| symmetrize(&m.cov).cholesky().map(|c| symmetrize(&c.inverse())))
+            .map(|m| {
+                symmetrize(&m.cov)
+                    .cholesky()
+                    .map(|c| symmetrize(&c.inverse()))
+            })
             .collect();
         let Some(infos) = infos else {
             // A singular member: the best vertex of the simplex.
@@ -328,8 +332,14 @@ mod tests {
             }
             assert!(w_best > 0.01 && w_best < 0.99, "interior optimum expected");
             let got = value(&p);
-            assert!(got <= v_best * (1.0 + 1e-9), "{criterion:?}: {got} > {v_best}");
-            assert!(got >= v_best * (1.0 - 1e-6), "{criterion:?}: {got} << {v_best}");
+            assert!(
+                got <= v_best * (1.0 + 1e-9),
+                "{criterion:?}: {got} > {v_best}"
+            );
+            assert!(
+                got >= v_best * (1.0 - 1e-6),
+                "{criterion:?}: {got} << {v_best}"
+            );
             // the fused state is the CI state at the grid optimum, up to the grid spacing
             let pg = fused_cov(&a.cov, &b.cov, w_best);
             let xg = pg

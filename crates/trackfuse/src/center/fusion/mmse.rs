@@ -76,6 +76,7 @@ mod tests {
     use nalgebra::{DMatrix, DVector};
 
     #[test]
+    #[allow(clippy::needless_range_loop)]
     fn mmse_equals_the_stacked_blue() {
         let (dt, q) = (2.0, 1.5);
         // three local Kalman filters at steady state, with the exact cross-covariances
@@ -111,7 +112,8 @@ mod tests {
             for j in i + 1..n {
                 let pij = cross[i][j];
                 s.view_mut((4 * i, 4 * j), (4, 4)).copy_from(&pij);
-                s.view_mut((4 * j, 4 * i), (4, 4)).copy_from(&pij.transpose());
+                s.view_mut((4 * j, 4 * i), (4, 4))
+                    .copy_from(&pij.transpose());
             }
         }
         let si = s.try_inverse().unwrap();

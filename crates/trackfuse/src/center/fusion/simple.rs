@@ -146,9 +146,7 @@ mod tests {
     #[test]
     fn one_member_unchanged_and_params() {
         let a = local(1, 1, 1.0, 2.0, 3.0, 4.0, 2.5);
-        let (x, p) = SimpleFusion::default()
-            .fuse(&[&a], &[1.0], &ctx())
-            .unwrap();
+        let (x, p) = SimpleFusion::default().fuse(&[&a], &[1.0], &ctx()).unwrap();
         assert_eq!((x, p), (a.state, a.cov));
         let mut t = ParamTables::new();
         let mut table = toml::Table::new();
