@@ -22,11 +22,15 @@
 //!   `P_ij = A_i (F P_ij F^T + Q) A_j^T`, solved exactly as the 16x16 linear system
 //!   `(I - (A_j F) kron (A_i F)) vec(P_ij) = vec(A_i Q A_j^T)`. This is exact for two
 //!   linear Kalman filters at steady state (a unit test checks it against the recursion);
-//!   for EKFs, IMMs or filters still converging it is an approximation. Because an
-//!   approximation can exceed what any joint distribution allows, the modelled `P_ij` is
-//!   scaled down, when needed, so that its coherence `||L_i^-1 P_ij L_j^-T||_2`
-//!   (`P_i = L_i L_i^T`) is at most `max_correlation` (default 0.95): for two members this
-//!   keeps the joint covariance positive definite.
+//!   for EKFs, IMMs or filters still converging it is an approximation — and a poor one
+//!   for a filter whose `P_i` is much larger than its steady state under `Q` (a young
+//!   track): the recovered gain is then small, and the model reads that as strong
+//!   correlation. Because an approximation can exceed what any joint distribution allows,
+//!   all modelled `P_ij` of a group are scaled down together, when needed, so that the
+//!   normalised joint covariance `I + W` (`W_ij = L_i^-1 P_ij L_j^-T`, `P_i = L_i L_i^T`)
+//!   keeps its smallest eigenvalue at least `1 - max_correlation` (default 0.95). For two
+//!   members this bounds the largest canonical correlation of the two errors by
+//!   `max_correlation`; for any number it keeps the joint covariance positive definite.
 //! - `"correlation"`: the constant-correlation approximation `P_ij = rho P_i^1/2 P_j^1/2`
 //!   (symmetric square roots; `rho` default 0.4, in `[0, 1)`): for equal covariances
 //!   `P_ij = rho P`; the joint covariance is positive semidefinite for any `n`.
@@ -45,12 +49,13 @@
 //!   gain cannot be recovered); the difference-form BLUE handles the singular covariance.
 //! - A singular difference covariance `D` (e.g. coincident, fully correlated tracks) is
 //!   handled exactly by the pseudo-inverse (see [`super::blue`]).
-//! - If the joint covariance of the model is still indefinite (possible only for three
-//!   or more members under `"steady-state"`, where pairwise limits do not bound the whole),
-//!   or the Stein system is singular, the group is fused by convex combination (`cc`, zero
-//!   cross-covariances) — always defined — and the fallback is counted
-//!   ([`FusionRule::fallback_count`]). The same count covers a singular Stein system for
-//!   one pair (that pair then gets zero cross-covariance).
+//! - If the model's cross-covariances cannot be formed (a singular Stein system for a
+//!   pair: that pair gets zero cross-covariance; a failed coherence computation: the group
+//!   gets zero cross-covariances), or the BLUE still finds the joint covariance
+//!   indefinite (only through rounding, after the joint scaling above), the rule falls
+//!   back to zero cross-covariance for the affected part — for the BLUE failure the group
+//!   is fused by convex combination (`cc`), always defined — and counts each fallback
+//!   ([`FusionRule::fallback_count`]).
 //!
 //! # Other choices
 //! - The group's member weights are not used (a hard rule).
@@ -71,7 +76,7 @@ use crate::center::{CenterError, FusionContext, FusionRule};
 use crate::models::{cv_transition, process_noise};
 use crate::params::{parse_params, ParamError, ParamTables};
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{DMatrix, SMatrix, SVector};
 use serde::Deserialize;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -95,8 +100,8 @@ pub enum CrossCovarianceModel {
 ///   process noise; it is a choice, not a value from the papers.
 /// - `interval` (s, default 0 = use `FusionContext::dt`): the local trackers' update
 ///   interval for the steady-state model.
-/// - `max_correlation` (default 0.95, in `(0, 1)`): largest coherence allowed for a
-///   modelled steady-state cross-covariance.
+/// - `max_correlation` (default 0.95, in `(0, 1)`): bound on the normalised
+///   steady-state cross-covariances of a group (see the module docs).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BarShalomCampoParams {
@@ -211,16 +216,37 @@ fn solve_stein(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<StateCov>
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
-/// Scale `x` so that its coherence `||L_i^-1 x L_j^-T||_2` is at most `max`.
-fn limit_coherence(x: StateCov, l_i: &StateCov, l_j: &StateCov, max: f64) -> Option<StateCov> {
-    let t = l_i.solve_lower_triangular(&x)?;
-    let coherence = l_j.solve_lower_triangular(&t.transpose())?.transpose();
-    let sigma = (coherence.transpose() * coherence)
-        .symmetric_eigenvalues()
-        .max()
-        .max(0.0)
-        .sqrt();
-    Some(if sigma > max { x * (max / sigma) } else { x })
+/// The factor (at most 1) by which all modelled cross-covariances are scaled so that the
+/// normalised joint covariance `I + W` has smallest eigenvalue at least `1 - max`, where
+/// `W` holds the coherences `W_ij = L_i^-1 P_ij L_j^-T` (`P_i = L_i L_i^T`; zero blocks
+/// for members without a Cholesky factor). For two members the eigenvalues of `W` are
+/// `+-` the singular values of `W_12` (the canonical correlations), so this bounds the
+/// largest canonical correlation by `max`. 1 when no scaling is needed (checked by one
+/// Cholesky factorisation); `None` when the coherences cannot be formed.
+fn joint_scale(pairs: &[StateCov], factors: &[Option<StateCov>], max: f64) -> Option<f64> {
+    let n = factors.len();
+    let mut w = DMatrix::<f64>::zeros(4 * n, 4 * n);
+    for i in 0..n {
+        let Some(l_i) = &factors[i] else { continue };
+        for j in i + 1..n {
+            let Some(l_j) = &factors[j] else { continue };
+            let x = &pairs[pair_index(n, i, j)];
+            let t = l_i.solve_lower_triangular(x)?;
+            let coherence = l_j.solve_lower_triangular(&t.transpose())?.transpose();
+            w.fixed_view_mut::<4, 4>(4 * i, 4 * j).copy_from(&coherence);
+            w.fixed_view_mut::<4, 4>(4 * j, 4 * i)
+                .copy_from(&coherence.transpose());
+        }
+    }
+    let mut test = &w / max;
+    for k in 0..4 * n {
+        test[(k, k)] += 1.0;
+    }
+    if test.cholesky().is_some() {
+        return Some(1.0);
+    }
+    let lowest = w.symmetric_eigenvalues().min();
+    (lowest < -max).then(|| max / -lowest).or(Some(1.0))
 }
 
 /// Steady-state cross-covariance `Cov(e_i, e_j)` of two local Kalman filters with
@@ -321,15 +347,22 @@ impl BarShalomCampo {
                     for j in i + 1..n {
                         let Some(gj) = &gains[j] else { continue };
                         let c = gi.a * q * gj.a.transpose();
-                        let limited = solve_stein(&gi.af, &gj.af, &c).and_then(|x| {
-                            limit_coherence(x, &gi.l, &gj.l, self.params.max_correlation)
-                        });
-                        match limited {
+                        match solve_stein(&gi.af, &gj.af, &c) {
                             Some(x) => pairs[pair_index(n, i, j)] = x,
                             None => {
                                 self.fallbacks.fetch_add(1, Ordering::Relaxed);
                             }
                         }
+                    }
+                }
+                let factors: Vec<Option<StateCov>> =
+                    gains.iter().map(|g| g.as_ref().map(|g| g.l)).collect();
+                match joint_scale(&pairs, &factors, self.params.max_correlation) {
+                    Some(scale) if scale < 1.0 => pairs.iter_mut().for_each(|p| *p *= scale),
+                    Some(_) => {}
+                    None => {
+                        self.fallbacks.fetch_add(1, Ordering::Relaxed);
+                        pairs.iter_mut().for_each(|p| *p = StateCov::zeros());
                     }
                 }
             }
@@ -543,6 +576,43 @@ mod tests {
         let (x, p) = rule.fuse(&[&a, &b], &[1.0, 1.0], &ctx(1.0, 1.0)).unwrap();
         assert!((x - StateVec::new(2.0, 1.0, -1.0, 3.0)).norm() < 1e-12);
         assert!((p - StateCov::identity() * 6.75).norm() < 1e-12);
+    }
+
+    #[test]
+    fn young_tracks_are_scaled_not_dropped() {
+        // Covariances far above the steady state under Q (fresh tracks): the raw model
+        // is too correlated; the joint scaling keeps the joint covariance valid, so no
+        // group falls back to cc, and the fused covariance lies between cc's and the
+        // best member's.
+        let bc = BarShalomCampo::default();
+        let mut fused_any = 0;
+        for seed in 0..20 {
+            let tracks: Vec<LocalTrack> = (0..4)
+                .map(|k| {
+                    let m = StateCov::from_fn(|i, j| {
+                        ((i * 4 + j + 17 * k) as f64 * 0.37 + seed as f64).sin()
+                    });
+                    let mut t = local(k as i64 + 1, 1, 10.0 * k as f64, 1.0, -5.0, 2.0, 1.0);
+                    t.cov = (m * m.transpose() + StateCov::identity()) * 300.0;
+                    t
+                })
+                .collect();
+            let members: Vec<&LocalTrack> = tracks.iter().collect();
+            let (_, p) = bc.fuse(&members, &[1.0; 4], &ctx(1.0, 1.0)).unwrap();
+            let (_, p_cc) = ConvexCombination
+                .fuse(&members, &[1.0; 4], &ctx(1.0, 1.0))
+                .unwrap();
+            assert!(crate::center::fusion::blue::is_psd(&p));
+            assert!(p.trace() >= p_cc.trace() * (1.0 - 1e-9));
+            let best = members
+                .iter()
+                .map(|m| m.cov.trace())
+                .fold(f64::INFINITY, f64::min);
+            assert!(p.trace() <= best * (1.0 + 1e-9));
+            fused_any += 1;
+        }
+        assert_eq!(fused_any, 20);
+        assert_eq!(bc.fallback_count(), 0);
     }
 
     #[test]
