@@ -123,6 +123,12 @@ pub trait FusionRule: Send + Sync {
     fn needs_true_association(&self) -> bool {
         false
     }
+    /// How many fusions so far took the rule's documented fallback path (e.g. `bc`
+    /// fusing by convex combination because its cross-covariance model was inconsistent
+    /// for a group), so a run can report it; 0 for rules without one.
+    fn fallback_count(&self) -> u64 {
+        0
+    }
     /// Fuse a group's members with their weights.
     fn fuse(
         &self,

@@ -6,6 +6,12 @@
 //! lists the known ones.
 
 use super::bias::BiasEstimator;
+use super::fusion::bar_shalom_campo::BarShalomCampo;
+use super::fusion::convex_combination::ConvexCombination;
+use super::fusion::covariance_intersection::CovarianceIntersection;
+use super::fusion::mmse::Mmse;
+use super::fusion::simple::SimpleFusion;
+use super::t2ta::chi2_gnn::Chi2Gnn;
 use super::{CenterError, FusionRule, TrackAssociator};
 use crate::params::{ParamError, ParamTables};
 
@@ -33,18 +39,52 @@ pub struct BiasInfo {
 }
 
 /// Every finished track-to-track association method.
-pub const METHODS: &[MethodInfo] = &[MethodInfo {
+pub const METHODS: &[MethodInfo] = &[
+MethodInfo {
     name: super::t2ta::fdbsc::NAME,
     summary: "FDBSC-TA (000 Alg. 1): Eps-neighbourhood clustering, maximum-entropy memberships, adaptive Eps",
     make: super::t2ta::fdbsc::make,
-}];
+},
+MethodInfo {
+    name: "chi2-gnn",
+    summary: "chi-square test on the track difference + optimal assignment, sensor by sensor",
+    make: |p| Ok(Box::new(Chi2Gnn::from_params(p)?)),
+},
+];
 
 /// Every finished fusion rule.
-pub const RULES: &[RuleInfo] = &[RuleInfo {
-    name: super::fusion::fuzzy::NAME,
-    summary: "membership-weighted fusion with the spread term (000 eq. 9-10, 003 eq. 5.4)",
-    make: super::fusion::fuzzy::make,
-}];
+pub const RULES: &[RuleInfo] = &[
+    RuleInfo {
+        name: super::fusion::fuzzy::NAME,
+        summary: "membership-weighted fusion with the spread term (000 eq. 9-10, 003 eq. 5.4)",
+        make: super::fusion::fuzzy::make,
+    },
+    RuleInfo {
+        name: "sf",
+        summary: "simple fusion: equal-weight mean of the states (003 Sec. 6)",
+        make: |p| Ok(Box::new(SimpleFusion::from_params(p)?)),
+    },
+    RuleInfo {
+        name: "cc",
+        summary: "convex combination: information-weighted mean, cross-covariance ignored",
+        make: |p| Ok(Box::new(ConvexCombination::from_params(p)?)),
+    },
+    RuleInfo {
+        name: "ci",
+        summary: "covariance intersection (Julier & Uhlmann), weights minimising det or trace",
+        make: |p| Ok(Box::new(CovarianceIntersection::from_params(p)?)),
+    },
+    RuleInfo {
+        name: "bc",
+        summary: "Bar-Shalom–Campo: BLUE with common-process-noise cross-covariances",
+        make: |p| Ok(Box::new(BarShalomCampo::from_params(p)?)),
+    },
+    RuleInfo {
+        name: "mmse",
+        summary: "Bayesian MMSE reference of 000: optimal fusion given the true association",
+        make: |p| Ok(Box::new(Mmse::from_params(p)?)),
+    },
+];
 
 /// Every finished bias estimator.
 pub const BIAS_ESTIMATORS: &[BiasInfo] = &[BiasInfo {

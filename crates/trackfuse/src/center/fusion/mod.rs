@@ -1,4 +1,12 @@
 //! Track-to-track fusion rules, one file per rule, named after it (ALGORITHMS.md
 //! section 3). Each implements [`super::FusionRule`] and is listed in [`super::registry`].
 
+pub mod bar_shalom_campo;
+pub(crate) mod blue;
+pub mod convex_combination;
+pub mod covariance_intersection;
 pub mod fuzzy;
+pub mod mmse;
+#[cfg(test)]
+mod properties;
+pub mod simple;

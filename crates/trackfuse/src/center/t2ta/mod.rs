@@ -2,4 +2,5 @@
 //! (ALGORITHMS.md section 3). Each implements [`super::TrackAssociator`] and is listed in
 //! [`super::registry`].
 
+pub mod chi2_gnn;
 pub mod fdbsc;

@@ -1,0 +1,345 @@
+//! Shared linear algebra of the classical fusion rules (`cc`, `bc`, `mmse`): the best
+//! linear unbiased estimate (BLUE) of one state from `n` estimates of it whose errors have
+//! known covariances and cross-covariances, plus the helpers every rule uses (member
+//! validation, a canonical member order, positive-(semi)definiteness checks).
+//!
+//! # The BLUE in difference form
+//! With member 0 as reference and `e_i` the error of member `i`, the fused estimate is the
+//! linear MMSE correction of `x_0` by the differences `d_j = x_0 - x_j` (`j = 1..n-1`),
+//! which carry no information on the state itself:
+//! ```text
+//! C_j    = Cov(e_0, d_j)   = P_0 - P_0j
+//! D_jk   = Cov(d_j, d_k)   = P_0 - P_0k - P_j0 + P_jk        (P_jj = P_j)
+//! x      = x_0 - C D^-1 d
+//! P      = P_0 - C D^-1 C^T
+//! ```
+//! This is the stacked BLUE `P = (H^T S^-1 H)^-1, x = P H^T S^-1 z` (`H = [I; ...; I]`,
+//! `S` the joint covariance) whenever `S` is invertible, and for two members it is the
+//! Bar-Shalom–Campo formula `x = x_1 + (P_1 - P_12)(P_1 + P_2 - P_12 - P_21)^-1 (x_2 - x_1)`.
+//! Unlike the information form it needs no inverse of any `P_i`, so it stays defined for
+//! singular covariances: when `D` is singular (e.g. two identical, fully correlated
+//! tracks) the Moore–Penrose pseudo-inverse of `D` is used, which is the exact linear MMSE
+//! estimate (a direction in which the difference has zero variance carries no information,
+//! and by Cauchy–Schwarz `C` vanishes on it too). With `S` positive semidefinite, `D` and
+//! `P` are too; a model whose joint covariance is indefinite (an approximated
+//! cross-covariance that no joint distribution could have) is reported as
+//! [`Inconsistent`], never turned into a wrong covariance.
+//!
+//! Cost: two members use fixed-size 4x4 algebra (no allocation); three or more use one
+//! `4(n-1)`-square Cholesky factorisation.
+
+use crate::center::CenterError;
+use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
+use std::cmp::Ordering;
+
+/// A negative eigenvalue down to `-PSD_TOLERANCE * (largest |eigenvalue|)` counts as
+/// rounding: the matrix is still accepted as positive semidefinite.
+pub(crate) const PSD_TOLERANCE: f64 = 1e-9;
+/// The pseudo-inverse treats eigenvalues up to this fraction of the largest as zero.
+const PINV_TOLERANCE: f64 = 1e-12;
+
+/// The joint covariance the cross-covariances describe is not positive semidefinite.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Inconsistent;
+
+/// Check a group before fusing it: at least one member, one weight per member, finite
+/// states and covariances. Errors name the rule and the offending track.
+pub(crate) fn validate(
+    rule: &str,
+    members: &[&LocalTrack],
+    weights: &[f64],
+) -> Result<(), CenterError> {
+    if members.is_empty() {
+        return Err(CenterError::Input(format!(
+            "{rule}: a group to fuse has no member"
+        )));
+    }
+    if weights.len() != members.len() {
+        return Err(CenterError::Input(format!(
+            "{rule}: {} weights for {} members",
+            weights.len(),
+            members.len()
+        )));
+    }
+    for m in members {
+        if !m.state.iter().all(|v| v.is_finite()) || !m.cov.iter().all(|v| v.is_finite()) {
+            return Err(CenterError::Input(format!(
+                "{rule}: local track {} of sensor {} has a non-finite state or covariance",
+                m.track_id, m.sensor_id
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// A total order on local tracks: `(sensor_id, track_id)`, then the state and covariance
+/// entries. Rules fuse their members in this order, so the result (to the last bit) does
+/// not depend on the order the members were given in.
+fn canonical_cmp(a: &LocalTrack, b: &LocalTrack) -> Ordering {
+    (a.sensor_id, a.track_id)
+        .cmp(&(b.sensor_id, b.track_id))
+        .then_with(|| {
+            a.state
+                .iter()
+                .chain(a.cov.iter())
+                .zip(b.state.iter().chain(b.cov.iter()))
+                .map(|(x, y)| x.total_cmp(y))
+                .find(|o| o.is_ne())
+                .unwrap_or(Ordering::Equal)
+        })
+}
+
+/// The members in canonical order (see [`canonical_cmp`]).
+pub(crate) fn canonical<'a>(members: &[&'a LocalTrack]) -> Vec<&'a LocalTrack> {
+    let mut sorted = members.to_vec();
+    sorted.sort_by(|a, b| canonical_cmp(a, b));
+    sorted
+}
+
+/// Whether `p` is positive semidefinite up to rounding ([`PSD_TOLERANCE`]).
+pub(crate) fn is_psd(p: &StateCov) -> bool {
+    if p.cholesky().is_some() {
+        return true;
+    }
+    let eig = p.symmetric_eigenvalues();
+    let scale = eig.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    eig.iter().all(|&v| v >= -PSD_TOLERANCE * scale)
+}
+
+/// Moore–Penrose pseudo-inverse of a symmetric matrix that should be positive
+/// semidefinite; [`Inconsistent`] when it has a clearly negative eigenvalue.
+fn psd_pseudo_inverse(d: DMatrix<f64>) -> Result<DMatrix<f64>, Inconsistent> {
+    let n = d.nrows();
+    let eig = SymmetricEigen::new(d);
+    let scale = eig.eigenvalues.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if eig.eigenvalues.iter().any(|&v| v < -PSD_TOLERANCE * scale) {
+        return Err(Inconsistent);
+    }
+    let mut out = DMatrix::<f64>::zeros(n, n);
+    for (k, &lambda) in eig.eigenvalues.iter().enumerate() {
+        if lambda > PINV_TOLERANCE * scale && lambda > 0.0 {
+            let v = eig.eigenvectors.column(k);
+            out += (v * v.transpose()) / lambda;
+        }
+    }
+    Ok(out)
+}
+
+/// The BLUE of the members' common state, given the cross-covariance
+/// `cross(i, j) = Cov(e_i, e_j)` for `i < j` (indices into `members`). One member is
+/// returned unchanged. The fused covariance is symmetric and positive semidefinite, or the
+/// model is [`Inconsistent`].
+pub(crate) fn blue<F>(
+    members: &[&LocalTrack],
+    cross: F,
+) -> Result<(StateVec, StateCov), Inconsistent>
+where
+    F: Fn(usize, usize) -> StateCov,
+{
+    match members.len() {
+        0 => Err(Inconsistent),
+        1 => Ok((members[0].state, members[0].cov)),
+        2 => blue_two(members[0], members[1], &cross(0, 1)),
+        _ => blue_general(members, &cross),
+    }
+}
+
+/// Two members: the Bar-Shalom–Campo formula in fixed-size algebra.
+fn blue_two(
+    a: &LocalTrack,
+    b: &LocalTrack,
+    p_ab: &StateCov,
+) -> Result<(StateVec, StateCov), Inconsistent> {
+    let c = a.cov - p_ab;
+    let d = symmetrize(&(a.cov + b.cov - p_ab - p_ab.transpose()));
+    // gain^T = D^-1 C^T
+    let gain_t: StateCov = match d.cholesky() {
+        Some(ch) => ch.solve(&c.transpose()),
+        None => {
+            let pinv = psd_pseudo_inverse(DMatrix::from_column_slice(4, 4, d.as_slice()))?;
+            StateCov::from_column_slice(pinv.as_slice()) * c.transpose()
+        }
+    };
+    let x = a.state - gain_t.transpose() * (a.state - b.state);
+    let p = symmetrize(&(a.cov - c * gain_t));
+    finish(x, p)
+}
+
+/// Three or more members: the difference form with one `4(n-1)`-square factorisation.
+fn blue_general<F>(members: &[&LocalTrack], cross: &F) -> Result<(StateVec, StateCov), Inconsistent>
+where
+    F: Fn(usize, usize) -> StateCov,
+{
+    let n = members.len();
+    let m = 4 * (n - 1);
+    let p0 = &members[0].cov;
+    let x0 = &members[0].state;
+    // Cov(e_i, e_j) for any i, j.
+    let cov_of = |i: usize, j: usize| -> StateCov {
+        match i.cmp(&j) {
+            Ordering::Equal => members[i].cov,
+            Ordering::Less => cross(i, j),
+            Ordering::Greater => cross(j, i).transpose(),
+        }
+    };
+    let mut c = DMatrix::<f64>::zeros(4, m);
+    let mut d = DMatrix::<f64>::zeros(m, m);
+    let mut diff = DVector::<f64>::zeros(m);
+    for (j, member) in members.iter().enumerate().skip(1) {
+        let p0j = cov_of(0, j);
+        c.fixed_view_mut::<4, 4>(0, 4 * (j - 1))
+            .copy_from(&(p0 - p0j));
+        diff.fixed_rows_mut::<4>(4 * (j - 1))
+            .copy_from(&(x0 - member.state));
+        for k in j..n {
+            let block = p0 - cov_of(0, k) - cov_of(j, 0) + cov_of(j, k);
+            d.fixed_view_mut::<4, 4>(4 * (j - 1), 4 * (k - 1))
+                .copy_from(&block);
+            if k != j {
+                d.fixed_view_mut::<4, 4>(4 * (k - 1), 4 * (j - 1))
+                    .copy_from(&block.transpose());
+            }
+        }
+    }
+    let d = (&d + d.transpose()) * 0.5;
+    let ct = c.transpose();
+    let gain_t = match d.clone().cholesky() {
+        Some(ch) => ch.solve(&ct),
+        None => psd_pseudo_inverse(d)? * &ct,
+    };
+    let correction = gain_t.transpose() * &diff;
+    let reduction = &c * &gain_t;
+    let x = x0 - StateVec::from_column_slice(correction.as_slice());
+    let p = symmetrize(&(p0 - StateCov::from_column_slice(reduction.as_slice())));
+    finish(x, p)
+}
+
+fn finish(x: StateVec, p: StateCov) -> Result<(StateVec, StateCov), Inconsistent> {
+    if x.iter().all(|v| v.is_finite()) && p.iter().all(|v| v.is_finite()) && is_psd(&p) {
+        Ok((x, p))
+    } else {
+        Err(Inconsistent)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::center::testing::local;
+
+    fn spd(seed: f64) -> StateCov {
+        let m = StateCov::from_fn(|i, j| ((i * 4 + j) as f64 * 0.77 + seed).sin());
+        m * m.transpose() + StateCov::identity() * 0.5
+    }
+
+    /// The stacked BLUE (H^T S^-1 H)^-1 H^T S^-1 z with an explicit inverse of S.
+    #[allow(clippy::needless_range_loop)]
+    fn stacked(
+        members: &[&LocalTrack],
+        cross: &dyn Fn(usize, usize) -> StateCov,
+    ) -> (StateVec, StateCov) {
+        let n = members.len();
+        let mut s = DMatrix::<f64>::zeros(4 * n, 4 * n);
+        let mut z = DVector::<f64>::zeros(4 * n);
+        let mut h = DMatrix::<f64>::zeros(4 * n, 4);
+        for i in 0..n {
+            z.rows_mut(4 * i, 4).copy_from(&members[i].state);
+            h.view_mut((4 * i, 0), (4, 4)).fill_with_identity();
+            for j in 0..n {
+                let block = if i == j {
+                    members[i].cov
+                } else if i < j {
+                    cross(i, j)
+                } else {
+                    cross(j, i).transpose()
+                };
+                s.view_mut((4 * i, 4 * j), (4, 4)).copy_from(&block);
+            }
+        }
+        let si = s.try_inverse().unwrap();
+        let info = h.transpose() * &si * &h;
+        let p = info.try_inverse().unwrap();
+        let x = &p * h.transpose() * &si * z;
+        (
+            StateVec::from_column_slice(x.as_slice()),
+            StateCov::from_column_slice(p.as_slice()),
+        )
+    }
+
+    #[test]
+    fn difference_form_equals_stacked_blue() {
+        let mut a = local(1, 1, 10.0, 1.0, 20.0, -1.0, 1.0);
+        let mut b = local(2, 1, 12.0, 0.5, 19.0, -0.5, 1.0);
+        let mut c = local(3, 1, 9.0, 1.5, 22.0, -1.5, 1.0);
+        a.cov = spd(0.1);
+        b.cov = spd(1.3);
+        c.cov = spd(2.7) * 2.0;
+        let members = [&a, &b, &c];
+        let cross = |i: usize, j: usize| -> StateCov {
+            // a small valid cross-covariance: 0.2 * L_i L_j^T
+            let li = members[i].cov.cholesky().unwrap().l();
+            let lj = members[j].cov.cholesky().unwrap().l();
+            li * lj.transpose() * 0.2
+        };
+        let (x, p) = blue(&members, cross).unwrap();
+        let (xs, ps) = stacked(&members, &cross);
+        assert!((x - xs).norm() < 1e-9, "{x} vs {xs}");
+        assert!((p - ps).norm() < 1e-9, "{p} vs {ps}");
+        // the two-member fast path equals the general path
+        let two = [&a, &b];
+        let (x2, p2) = blue(&two, cross).unwrap();
+        let (xg, pg) = blue_general(&two, &cross).unwrap();
+        assert!((x2 - xg).norm() < 1e-10 && (p2 - pg).norm() < 1e-10);
+        let (xs2, ps2) = stacked(&two, &cross);
+        assert!((x2 - xs2).norm() < 1e-9 && (p2 - ps2).norm() < 1e-9);
+    }
+
+    #[test]
+    fn fully_correlated_identical_tracks_use_the_pseudo_inverse() {
+        // Two copies of one estimate with P_12 = P: D = 0, the fused result is the copy.
+        let a = local(1, 1, 5.0, 1.0, 6.0, 2.0, 3.0);
+        let b = local(2, 1, 5.0, 1.0, 6.0, 2.0, 3.0);
+        let (x, p) = blue(&[&a, &b], |_, _| a.cov).unwrap();
+        assert_eq!(x, a.state);
+        assert!((p - a.cov).norm() < 1e-12);
+        // three copies through the general path
+        let c = local(3, 1, 5.0, 1.0, 6.0, 2.0, 3.0);
+        let (x, p) = blue(&[&a, &b, &c], |_, _| a.cov).unwrap();
+        assert!((x - a.state).norm() < 1e-12);
+        assert!((p - a.cov).norm() < 1e-12);
+    }
+
+    #[test]
+    fn singular_member_covariance_is_defined() {
+        // A perfect track (P = 0) dominates: the fused estimate is that track, P = 0.
+        let a = local(1, 1, 5.0, 1.0, 6.0, 2.0, 0.0);
+        let b = local(2, 1, 7.0, 1.0, 8.0, 2.0, 4.0);
+        let (x, p) = blue(&[&a, &b], |_, _| StateCov::zeros()).unwrap();
+        assert!((x - a.state).norm() < 1e-12);
+        assert!(p.norm() < 1e-12);
+    }
+
+    #[test]
+    fn impossible_cross_covariance_is_inconsistent() {
+        // |P_12| larger than P_1 = P_2 allows: no joint distribution has it.
+        let a = local(1, 1, 0.0, 0.0, 0.0, 0.0, 1.0);
+        let b = local(2, 1, 1.0, 0.0, 1.0, 0.0, 1.0);
+        let bad = StateCov::identity() * 3.0;
+        assert_eq!(blue(&[&a, &b], |_, _| bad), Err(Inconsistent));
+        let c = local(3, 1, 1.0, 0.0, 1.0, 0.0, 1.0);
+        assert_eq!(blue(&[&a, &b, &c], |_, _| bad), Err(Inconsistent));
+    }
+
+    #[test]
+    fn validation_names_the_problem() {
+        let a = local(1, 1, 0.0, 0.0, 0.0, 0.0, 1.0);
+        assert!(validate("cc", &[], &[]).is_err());
+        assert!(validate("cc", &[&a], &[]).is_err());
+        let mut bad = a;
+        bad.state[2] = f64::NAN;
+        let e = validate("cc", &[&bad], &[1.0]).unwrap_err();
+        assert!(e.to_string().contains("non-finite"), "{e}");
+        assert!(validate("cc", &[&a], &[1.0]).is_ok());
+    }
+}

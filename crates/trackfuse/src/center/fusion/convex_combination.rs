@@ -1,0 +1,166 @@
+//! `cc`: convex combination, covariance-weighted fusion that ignores cross-covariances.
+//!
+//! `P = (sum_i P_i^-1)^-1`, `x = P sum_i P_i^-1 x_i` — the classical "convex combination"
+//! track fusion (the CC baseline of 003 Sec. 6, Table 5, its reference [33]; Bar-Shalom &
+//! Campo 1986 with `P_12 = 0`). It is the BLUE when the members' errors are independent,
+//! and optimistic (too small `P`) when they share common process noise.
+//!
+//! # Choices where the sources are silent
+//! - **Weights.** A hard rule: the group's member weights (fuzzy memberships, or 1) are
+//!   not used; every member counts with its covariance.
+//! - **Singular covariances.** The information form needs every `P_i^-1`. When a member's
+//!   covariance is not positive definite (e.g. `P = 0`, a perfect track), the rule uses the
+//!   same estimator in the difference form of [`super::blue`] with zero cross-covariances,
+//!   which needs no `P_i^-1` and is the limit of the information form (a perfect track
+//!   dominates; the fused covariance is singular in its certain directions). Not an error,
+//!   and the same numbers as the information form whenever both exist.
+//! - The prior global state is not used.
+
+use super::blue::{blue, canonical, validate};
+use crate::center::{CenterError, FusionContext, FusionRule};
+use crate::params::{parse_params, ParamError, ParamTables};
+use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
+use serde::Deserialize;
+
+/// Parameters of `cc` (`[fusion.params.cc]`): none; a key given there is an error.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct ConvexCombinationParams {}
+
+/// Convex combination (information-weighted mean, cross-covariance ignored).
+#[derive(Debug, Clone, Default)]
+pub struct ConvexCombination;
+
+impl ConvexCombination {
+    /// Build from `[fusion.params.cc]` (which must be empty).
+    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
+        let _: ConvexCombinationParams = parse_params(tables, "cc")?;
+        Ok(ConvexCombination)
+    }
+}
+
+/// The convex combination of `members` (already validated); shared by `bc`'s fallback.
+pub(crate) fn convex_combination(members: &[&LocalTrack]) -> Option<(StateVec, StateCov)> {
+    if members.len() == 1 {
+        return Some((members[0].state, members[0].cov));
+    }
+    let mut info = StateCov::zeros();
+    let mut info_state = StateVec::zeros();
+    let mut all_definite = true;
+    for m in members {
+        match m.cov.cholesky() {
+            Some(ch) => {
+                let inv = ch.inverse();
+                info += inv;
+                info_state += inv * m.state;
+            }
+            None => {
+                all_definite = false;
+                break;
+            }
+        }
+    }
+    if all_definite {
+        if let Some(ch) = symmetrize(&info).cholesky() {
+            let p = symmetrize(&ch.inverse());
+            let x = p * info_state;
+            if x.iter().chain(p.iter()).all(|v| v.is_finite()) {
+                return Some((x, p));
+            }
+        }
+    }
+    // Singular member covariance: the same estimator in difference form.
+    blue(members, |_, _| StateCov::zeros()).ok()
+}
+
+impl FusionRule for ConvexCombination {
+    fn name(&self) -> &'static str {
+        "cc"
+    }
+
+    fn fuse(
+        &self,
+        members: &[&LocalTrack],
+        weights: &[f64],
+        _ctx: &FusionContext<'_>,
+    ) -> Result<(StateVec, StateCov), CenterError> {
+        validate("cc", members, weights)?;
+        let members = canonical(members);
+        convex_combination(&members).ok_or_else(|| {
+            CenterError::Input(
+                "cc: the members' covariances are not positive semidefinite".to_string(),
+            )
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::center::testing::local;
+
+    fn ctx() -> FusionContext<'static> {
+        FusionContext {
+            time: 0.0,
+            prior: None,
+            sensors: None,
+            dt: 1.0,
+            process_noise: 1.0,
+        }
+    }
+
+    #[test]
+    fn two_tracks_by_hand() {
+        // x: 100 (var 4) and 110 (var 16): P = 1/(1/4 + 1/16) = 3.2,
+        // x = 3.2 (100/4 + 110/16) = 102.
+        let a = local(1, 1, 100.0, 10.0, -50.0, 0.0, 4.0);
+        let b = local(2, 3, 110.0, 15.0, -40.0, 0.0, 16.0);
+        let (x, p) = ConvexCombination
+            .fuse(&[&a, &b], &[1.0, 1.0], &ctx())
+            .unwrap();
+        assert!((x[0] - 102.0).abs() < 1e-10);
+        assert!((x[1] - 11.0).abs() < 1e-10);
+        assert!((x[2] + 48.0).abs() < 1e-10);
+        assert!((p[(0, 0)] - 3.2).abs() < 1e-12);
+        assert!((p[(3, 3)] - 3.2).abs() < 1e-12);
+        assert!(p[(0, 1)].abs() < 1e-15);
+    }
+
+    #[test]
+    fn correlated_position_covariance_by_hand() {
+        // 2-D position: P_1 = [[2,1],[1,2]] (in x,y), P_2 = I.
+        // P_1^-1 = (1/3)[[2,-1],[-1,2]]; sum = [[5/3,-1/3],[-1/3,5/3]];
+        // P = (3/8)[[5,1],[1,5]] ... inverse of [[5,-1],[-1,5]]/3 = 3/24 [[5,1],[1,5]].
+        let mut a = local(1, 1, 3.0, 0.0, 0.0, 0.0, 1.0);
+        a.cov[(0, 0)] = 2.0;
+        a.cov[(2, 2)] = 2.0;
+        a.cov[(0, 2)] = 1.0;
+        a.cov[(2, 0)] = 1.0;
+        let b = local(2, 1, 0.0, 0.0, 3.0, 0.0, 1.0);
+        let (x, p) = ConvexCombination
+            .fuse(&[&a, &b], &[1.0, 1.0], &ctx())
+            .unwrap();
+        assert!((p[(0, 0)] - 15.0 / 24.0).abs() < 1e-12);
+        assert!((p[(0, 2)] - 3.0 / 24.0).abs() < 1e-12);
+        // info state: P_1^-1 [3, 0] = [2, -1], P_2^-1 [0, 3] = [0, 3]: sum [2, 2]
+        // x = (1/8)[[5,1],[1,5]] [2,2] = [1.5, 1.5]
+        assert!((x[0] - 1.5).abs() < 1e-12 && (x[2] - 1.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn singular_and_single_members() {
+        let a = local(1, 1, 5.0, 1.0, 6.0, 2.0, 0.0);
+        let b = local(2, 1, 7.0, 1.0, 8.0, 2.0, 4.0);
+        let (x, p) = ConvexCombination
+            .fuse(&[&b, &a], &[1.0, 1.0], &ctx())
+            .unwrap();
+        assert!((x - a.state).norm() < 1e-12 && p.norm() < 1e-12);
+        let (x, p) = ConvexCombination.fuse(&[&b], &[1.0], &ctx()).unwrap();
+        assert_eq!((x, p), (b.state, b.cov));
+        let mut t = ParamTables::new();
+        let mut table = toml::Table::new();
+        table.insert("rho".into(), toml::Value::Float(0.3));
+        t.insert("cc".into(), table);
+        assert!(ConvexCombination::from_params(&t).is_err());
+    }
+}

@@ -1,0 +1,418 @@
+//! `ci`: covariance intersection (Julier & Uhlmann 1997) of `n` tracks.
+//!
+//! `P^-1 = sum_i w_i P_i^-1`, `x = P sum_i w_i P_i^-1 x_i`, with weights `w` on the
+//! simplex (`w_i >= 0`, `sum w_i = 1`) chosen to minimise `det P` (default) or `trace P`
+//! (parameter `criterion`). The result is consistent whatever the (unknown) cross-
+//! covariances between the members are, at the price of being conservative.
+//!
+//! # How the weights are optimised
+//! Both criteria are convex in `w`: `ln det P = -ln det(sum w_i P_i^-1)` (log-det is
+//! concave) and `trace P = trace((sum w_i P_i^-1)^-1)` (the matrix inverse is operator
+//! convex). So a local search finds the global optimum:
+//! - two members: golden-section search of `w_1` on `[0, 1]` to `1e-10`, then the better
+//!   of that point and the two end points (pure `P_1` or `P_2`);
+//! - more members: pairwise coordinate descent on the simplex (the SMO scheme): start at
+//!   equal weights; each step takes the pair with the most violated optimality condition —
+//!   `i` = largest gradient among `w_i > 0`, `j` = smallest gradient — and re-optimises
+//!   the split of `w_i + w_j` between them by golden-section search (all other weights
+//!   fixed); stop when the gradient gap is below `1e-9` of the gradient scale, or after 200
+//!   steps. Gradients: `d ln det P / d w_i = -trace(P P_i^-1)`,
+//!   `d trace P / d w_i = -trace(P P_i^-1 P)`.
+//!
+//! The search is deterministic; members are processed in a canonical order (sensor id,
+//! track id), so the result does not depend on the order they were given in. In the
+//! golden-section search two trial values equal within `1e-12` (relative) shrink the
+//! interval from both sides, so a flat objective (identical covariances) gives the
+//! balanced weights.
+//!
+//! # Choices where the source is silent
+//! - **Weights of the group** (memberships, or 1) are not used: CI finds its own.
+//! - **Singular covariances.** The information form needs every `P_i^-1`. When a member's
+//!   covariance is not positive definite, the rule returns the member (a vertex of the
+//!   simplex, itself a valid CI estimate) with the smallest criterion value — a singular
+//!   member has `det = 0` and wins under `det` — ties to the canonical first. This is a
+//!   fallback: it is counted ([`FusionRule::fallback_count`]).
+//! - The prior global state is not used.
+//!
+//! # References
+//! S. J. Julier, J. K. Uhlmann, "A non-divergent estimation algorithm in the presence of
+//! unknown correlations", Proc. American Control Conference, 1997.
+
+use super::blue::{canonical, validate};
+use crate::center::{CenterError, FusionContext, FusionRule};
+use crate::params::{parse_params, ParamError, ParamTables};
+use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
+use serde::Deserialize;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// What covariance intersection minimises.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum CiCriterion {
+    /// Determinant of the fused covariance.
+    #[default]
+    Det,
+    /// Trace of the fused covariance.
+    Trace,
+}
+
+/// Parameters of `ci` (`[fusion.params.ci]`).
+///
+/// - `criterion` = `"det"` (default) | `"trace"`: what the weights minimise.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct CovarianceIntersectionParams {
+    #[serde(default)]
+    pub criterion: CiCriterion,
+}
+
+/// Covariance intersection with optimised weights.
+#[derive(Debug, Default)]
+pub struct CovarianceIntersection {
+    criterion: CiCriterion,
+    fallbacks: AtomicU64,
+}
+
+const GOLDEN_TOLERANCE: f64 = 1e-10;
+const TIE_TOLERANCE: f64 = 1e-12;
+const GAP_TOLERANCE: f64 = 1e-9;
+const MAX_STEPS: usize = 200;
+
+impl CovarianceIntersection {
+    /// CI with the given parameters.
+    pub fn new(params: CovarianceIntersectionParams) -> Self {
+        CovarianceIntersection {
+            criterion: params.criterion,
+            fallbacks: AtomicU64::new(0),
+        }
+    }
+
+    /// Build from `[fusion.params.ci]`.
+    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
+        Ok(CovarianceIntersection::new(parse_params(tables, "ci")?))
+    }
+
+    /// The criterion of the fused covariance `Y^-1` of information matrix `y`:
+    /// `ln det Y^-1` or `trace Y^-1`; `+inf` when `Y` is not positive definite.
+    fn objective(&self, y: &StateCov) -> f64 {
+        match symmetrize(y).cholesky() {
+            None => f64::INFINITY,
+            Some(ch) => match self.criterion {
+                CiCriterion::Det => -2.0 * ch.l_dirty().diagonal().map(|v| v.ln()).sum(),
+                CiCriterion::Trace => ch.inverse().trace(),
+            },
+        }
+    }
+
+    /// The criterion of a covariance itself (for the vertex fallback).
+    fn criterion_of(&self, p: &StateCov) -> f64 {
+        match self.criterion {
+            CiCriterion::Det => p.determinant().max(0.0),
+            CiCriterion::Trace => p.trace(),
+        }
+    }
+
+    /// The optimal weights for information matrices `infos` (all positive definite).
+    fn optimise(&self, infos: &[StateCov]) -> Vec<f64> {
+        let n = infos.len();
+        let combined = |w: &[f64]| -> StateCov {
+            infos
+                .iter()
+                .zip(w)
+                .fold(StateCov::zeros(), |acc, (y, &wi)| acc + y * wi)
+        };
+        let mut w = vec![1.0 / n as f64; n];
+        if n == 2 {
+            let f = |t: f64| self.objective(&(infos[0] * t + infos[1] * (1.0 - t)));
+            let t = best_on_segment(&f, 1.0);
+            w[0] = t;
+            w[1] = 1.0 - t;
+            return w;
+        }
+        let mut grad = vec![0.0; n];
+        for _ in 0..MAX_STEPS {
+            let Some(p) = symmetrize(&combined(&w)).cholesky().map(|c| c.inverse()) else {
+                break;
+            };
+            for (g, y) in grad.iter_mut().zip(infos) {
+                *g = match self.criterion {
+                    CiCriterion::Det => -(p * y).trace(),
+                    CiCriterion::Trace => -(p * y * p).trace(),
+                };
+            }
+            let scale = grad.iter().fold(0.0f64, |m, g| m.max(g.abs()));
+            let mut i = usize::MAX;
+            let mut j = 0;
+            for k in 0..n {
+                if w[k] > 0.0 && (i == usize::MAX || grad[k] > grad[i]) {
+                    i = k;
+                }
+                if grad[k] < grad[j] {
+                    j = k;
+                }
+            }
+            if i == usize::MAX || i == j || grad[i] - grad[j] <= GAP_TOLERANCE * scale {
+                break;
+            }
+            // Re-split s = w_i + w_j: w_i = t, w_j = s - t, t in [0, s].
+            let s = w[i] + w[j];
+            let mut rest = StateCov::zeros();
+            for k in 0..n {
+                if k != i && k != j {
+                    rest += infos[k] * w[k];
+                }
+            }
+            let f = |t: f64| self.objective(&(rest + infos[i] * t + infos[j] * (s - t)));
+            let t = best_on_segment(&f, s);
+            if t == w[i] {
+                break;
+            }
+            w[i] = t;
+            w[j] = s - t;
+        }
+        w
+    }
+}
+
+/// The minimiser of a convex `f` on `[0, len]`: golden-section search, then the best of
+/// that point and the two ends. Ties within [`TIE_TOLERANCE`] shrink from both sides.
+fn best_on_segment(f: &dyn Fn(f64) -> f64, len: f64) -> f64 {
+    let inv_phi = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut a, mut b) = (0.0, len);
+    let mut c = b - inv_phi * (b - a);
+    let mut d = a + inv_phi * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    let tie = |u: f64, v: f64| (u - v).abs() <= TIE_TOLERANCE * (1.0 + u.abs().max(v.abs()));
+    for _ in 0..200 {
+        if b - a <= GOLDEN_TOLERANCE * len.max(1e-300) {
+            break;
+        }
+        if tie(fc, fd) {
+            a = c;
+            b = d;
+            c = b - inv_phi * (b - a);
+            d = a + inv_phi * (b - a);
+            fc = f(c);
+            fd = f(d);
+        } else if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - inv_phi * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + inv_phi * (b - a);
+            fd = f(d);
+        }
+    }
+    let mid = 0.5 * (a + b);
+    let mut best = (mid, f(mid));
+    for t in [0.0, len] {
+        let v = f(t);
+        if v < best.1 && !tie(v, best.1) {
+            best = (t, v);
+        }
+    }
+    best.0
+}
+
+impl FusionRule for CovarianceIntersection {
+    fn name(&self) -> &'static str {
+        "ci"
+    }
+
+    fn fallback_count(&self) -> u64 {
+        self.fallbacks.load(Ordering::Relaxed)
+    }
+
+    fn fuse(
+        &self,
+        members: &[&LocalTrack],
+        weights: &[f64],
+        _ctx: &FusionContext<'_>,
+    ) -> Result<(StateVec, StateCov), CenterError> {
+        validate("ci", members, weights)?;
+        if members.len() == 1 {
+            return Ok((members[0].state, members[0].cov));
+        }
+        let members = canonical(members);
+        let infos: Option<Vec<StateCov>> = members
+            .iter()
+            .map(|m| {
+                symmetrize(&m.cov)
+                    .cholesky()
+                    .map(|c| symmetrize(&c.inverse()))
+            })
+            .collect();
+        let Some(infos) = infos else {
+            // A singular member: the best vertex of the simplex.
+            self.fallbacks.fetch_add(1, Ordering::Relaxed);
+            let mut best = 0;
+            for k in 1..members.len() {
+                if self.criterion_of(&members[k].cov) < self.criterion_of(&members[best].cov) {
+                    best = k;
+                }
+            }
+            return Ok((members[best].state, members[best].cov));
+        };
+        let w = self.optimise(&infos);
+        let mut info = StateCov::zeros();
+        let mut info_state = StateVec::zeros();
+        for ((m, y), &wi) in members.iter().zip(&infos).zip(&w) {
+            info += y * wi;
+            info_state += y * m.state * wi;
+        }
+        let p = symmetrize(&info)
+            .cholesky()
+            .map(|c| symmetrize(&c.inverse()))
+            .ok_or_else(|| {
+                CenterError::Input("ci: the fused information matrix is singular".to_string())
+            })?;
+        Ok((p * info_state, p))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::center::testing::local;
+
+    fn ctx() -> FusionContext<'static> {
+        FusionContext {
+            time: 0.0,
+            prior: None,
+            sensors: None,
+            dt: 1.0,
+            process_noise: 1.0,
+        }
+    }
+
+    /// Fused covariance for weight w on a: (w P_a^-1 + (1-w) P_b^-1)^-1.
+    fn fused_cov(a: &StateCov, b: &StateCov, w: f64) -> StateCov {
+        (a.try_inverse().unwrap() * w + b.try_inverse().unwrap() * (1.0 - w))
+            .try_inverse()
+            .unwrap()
+    }
+
+    fn two_tracks() -> (LocalTrack, LocalTrack) {
+        let mut a = local(1, 1, 100.0, 10.0, 200.0, -5.0, 1.0);
+        let mut b = local(2, 1, 104.0, 9.0, 195.0, -4.0, 1.0);
+        // elongated ellipses in different directions
+        a.cov = StateCov::from_diagonal(&StateVec::new(100.0, 4.0, 9.0, 1.0));
+        a.cov[(0, 2)] = 12.0;
+        a.cov[(2, 0)] = 12.0;
+        b.cov = StateCov::from_diagonal(&StateVec::new(16.0, 2.0, 64.0, 3.0));
+        b.cov[(0, 2)] = -8.0;
+        b.cov[(2, 0)] = -8.0;
+        (a, b)
+    }
+
+    #[test]
+    fn two_track_optimum_matches_a_grid_search() {
+        let (a, b) = two_tracks();
+        for criterion in [CiCriterion::Det, CiCriterion::Trace] {
+            let ci = CovarianceIntersection::new(CovarianceIntersectionParams { criterion });
+            let (x, p) = ci.fuse(&[&a, &b], &[1.0, 1.0], &ctx()).unwrap();
+            let value = |p: &StateCov| match criterion {
+                CiCriterion::Det => p.determinant(),
+                CiCriterion::Trace => p.trace(),
+            };
+            // grid search over w in [0, 1]
+            let steps = 4_000;
+            let (mut w_best, mut v_best) = (0.0, f64::INFINITY);
+            for k in 0..=steps {
+                let w = k as f64 / steps as f64;
+                let v = value(&fused_cov(&a.cov, &b.cov, w));
+                if v < v_best {
+                    (w_best, v_best) = (w, v);
+                }
+            }
+            assert!(w_best > 0.01 && w_best < 0.99, "interior optimum expected");
+            let got = value(&p);
+            assert!(
+                got <= v_best * (1.0 + 1e-9),
+                "{criterion:?}: {got} > {v_best}"
+            );
+            assert!(
+                got >= v_best * (1.0 - 1e-6),
+                "{criterion:?}: {got} << {v_best}"
+            );
+            // the fused state is the CI state at the grid optimum, up to the grid spacing
+            let pg = fused_cov(&a.cov, &b.cov, w_best);
+            let xg = pg
+                * (a.cov.try_inverse().unwrap() * a.state * w_best
+                    + b.cov.try_inverse().unwrap() * b.state * (1.0 - w_best));
+            assert!((x - xg).norm() < 1e-2, "{x} vs {xg}");
+            assert!(crate::center::fusion::blue::is_psd(&p));
+        }
+    }
+
+    #[test]
+    fn dominated_track_gets_weight_zero() {
+        // b is a much better estimate in every direction: CI returns b.
+        let a = local(1, 1, 0.0, 0.0, 0.0, 0.0, 100.0);
+        let b = local(2, 1, 1.0, 1.0, 1.0, 1.0, 1.0);
+        let ci = CovarianceIntersection::default();
+        let (x, p) = ci.fuse(&[&a, &b], &[1.0, 1.0], &ctx()).unwrap();
+        assert!((x - b.state).norm() < 1e-9);
+        assert!((p - b.cov).norm() < 1e-9);
+    }
+
+    #[test]
+    fn equal_covariances_give_balanced_weights() {
+        let a = local(1, 1, 0.0, 0.0, 0.0, 0.0, 4.0);
+        let b = local(2, 1, 2.0, 2.0, 2.0, 2.0, 4.0);
+        let (x, p) = CovarianceIntersection::default()
+            .fuse(&[&a, &b], &[1.0, 1.0], &ctx())
+            .unwrap();
+        assert!((x - StateVec::repeat(1.0)).norm() < 1e-6, "{x}");
+        assert!((p - a.cov).norm() < 1e-9);
+    }
+
+    #[test]
+    fn three_tracks_beat_every_pair_and_vertex() {
+        let (a, b) = two_tracks();
+        let mut c = local(3, 1, 98.0, 11.0, 199.0, -6.0, 1.0);
+        c.cov = StateCov::from_diagonal(&StateVec::new(30.0, 1.0, 30.0, 8.0));
+        for criterion in [CiCriterion::Det, CiCriterion::Trace] {
+            let ci = CovarianceIntersection::new(CovarianceIntersectionParams { criterion });
+            let value = |p: &StateCov| match criterion {
+                CiCriterion::Det => p.determinant(),
+                CiCriterion::Trace => p.trace(),
+            };
+            let (_, p3) = ci.fuse(&[&a, &b, &c], &[1.0; 3], &ctx()).unwrap();
+            // coarse grid over the 2-simplex
+            let steps = 120;
+            let mut v_best = f64::INFINITY;
+            for i in 0..=steps {
+                for j in 0..=(steps - i) {
+                    let (wa, wb) = (i as f64 / steps as f64, j as f64 / steps as f64);
+                    let wc = 1.0 - wa - wb;
+                    let info = a.cov.try_inverse().unwrap() * wa
+                        + b.cov.try_inverse().unwrap() * wb
+                        + c.cov.try_inverse().unwrap() * wc;
+                    if let Some(p) = info.try_inverse() {
+                        v_best = v_best.min(value(&p));
+                    }
+                }
+            }
+            assert!(value(&p3) <= v_best * (1.0 + 1e-9), "{criterion:?}");
+            assert!(value(&p3) >= v_best * (1.0 - 1e-3), "{criterion:?}");
+        }
+    }
+
+    #[test]
+    fn singular_member_falls_back_to_the_best_vertex() {
+        let a = local(1, 1, 0.0, 0.0, 0.0, 0.0, 0.0);
+        let b = local(2, 1, 1.0, 1.0, 1.0, 1.0, 1.0);
+        let ci = CovarianceIntersection::default();
+        let (x, p) = ci.fuse(&[&b, &a], &[1.0, 1.0], &ctx()).unwrap();
+        assert_eq!((x, p), (a.state, a.cov));
+        assert_eq!(ci.fallback_count(), 1);
+        let (x, _) = ci.fuse(&[&b], &[1.0], &ctx()).unwrap();
+        assert_eq!(x, b.state);
+    }
+}

@@ -1,0 +1,967 @@
+//! `chi2-gnn`: the classical statistical track-to-track association test followed by
+//! optimal (global nearest neighbour) assignment, sequentially over the sensors.
+//!
+//! # The test (Singer & Kanyuck 1970; Bar-Shalom 1981)
+//! For two estimates `x_i, P_i` and `x_j, P_j` of one target the difference
+//! `d = x_i - x_j` is zero-mean with covariance `S = P_i + P_j - P_ij - P_ji`; the pair
+//! passes when `d^T S^-1 d <= gamma`, the chi-square quantile of the gate probability
+//! (`gate_probability`, default 0.99) with 4 degrees of freedom on the full state or 2 on
+//! the position `[x, y]` (`gate_on` = `"state"` (default) | `"position"`).
+//! **Cross terms:** `S = P_i + P_j`, i.e. `P_ij = 0` — Singer & Kanyuck's independence
+//! assumption. Bar-Shalom (1981) subtracts the common-process-noise cross-covariance,
+//! which needs the local filters' gains; against a predicted global track (the usual
+//! reference here) it has no defined value, and ignoring it only widens `S` (the test is
+//! slightly more permissive), so it is left out.
+//!
+//! # Assignment over several sensors
+//! Sensors are processed one at a time, in increasing `sensor_id` (the tracks reach the
+//! associator sorted by `(sensor_id, track_id)`). The *references* start as the global
+//! tracks predicted to the scan time (`AssociationContext::predicted`); each sensor's
+//! tracks are assigned, one-to-one, against all references existing before that sensor:
+//! - cost of a gated pair: `d^T S^-1 d`; leaving a track (or a reference) unassigned costs
+//!   `gamma / 2` each side, so a pair is made only when it beats leaving both alone, and
+//!   the total cost is minimised exactly (linear sum assignment, `lsap`, on cost
+//!   `min(d^2, gamma)`);
+//! - an assigned track joins its reference's group; an unassigned track starts a new
+//!   group (and a new reference, global `None`) that later sensors can join.
+//! - **Which global a group continues:** the one whose predicted reference it grew from —
+//!   the first track assigned to a predicted global decides it; groups started in this
+//!   scan continue none. Global tracks no track was assigned to are in no group.
+//! - **The reference of a group** once it has members is the convex combination (`cc`,
+//!   information-weighted) of its members' estimates, no longer the prediction: the
+//!   local tracks of the scan are better estimates than a prediction, and this is the
+//!   track-to-track test of the original method. A member whose covariance is not
+//!   positive definite does not enter that combination (a group whose only members are
+//!   such tracks is referenced by its first member).
+//!
+//! # Scaling
+//! No all-pairs comparison and no dense assignment: a pair can pass the gate only if
+//! `|dx| <= sqrt(gamma S_xx) <= sqrt(gamma P_i,xx) + sqrt(gamma P_j,xx)`, so each track and
+//! reference is an interval on the x axis and candidate pairs are the overlapping
+//! intervals, found by one sorted sweep (`O((n + m) log(n + m) + pairs)`); the same bound
+//! on y prunes before the full test. The gate graph (gated pairs) is split into connected
+//! components (union–find) and each component is solved on its own — components are a
+//! handful of tracks when targets are separated — with a single-edge component assigned
+//! directly. This is the exact optimum of the dense problem (pairs in different components
+//! cost `gamma`, like leaving both unassigned). Buffers live in the associator and are
+//! reused scan after scan.
+//!
+//! # Degenerate input
+//! A pair whose `S` is not positive definite (e.g. two zero covariances) cannot be tested
+//! and is not gated. Tracks not sorted by sensor, non-finite estimates, or a `predicted`
+//! slice of the wrong length are input errors.
+//!
+//! # References
+//! R. A. Singer, A. J. Kanyuck, "Computer control of multiple site track correlation",
+//! Automatica 7, 1971 (1970 report). Y. Bar-Shalom, "On the track-to-track correlation
+//! problem", IEEE Trans. AC 26(2), 1981.
+
+use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
+use crate::params::{parse_params, ParamError, ParamTables};
+use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
+use serde::Deserialize;
+
+/// Which part of the state the test uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum GateOn {
+    /// The full state `[x, vx, y, vy]`: 4 degrees of freedom.
+    #[default]
+    State,
+    /// The position `[x, y]`: 2 degrees of freedom.
+    Position,
+}
+
+/// Parameters of `chi2-gnn` (`[fusion.params.chi2-gnn]`).
+///
+/// - `gate_probability` (default 0.99, in `(0, 1)`): probability that the difference of
+///   two tracks of one target passes the test.
+/// - `gate_on` = `"state"` (default, 4 dof) | `"position"` (2 dof).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Chi2GnnParams {
+    #[serde(default = "default_gate_probability")]
+    pub gate_probability: f64,
+    #[serde(default)]
+    pub gate_on: GateOn,
+}
+
+fn default_gate_probability() -> f64 {
+    0.99
+}
+
+impl Default for Chi2GnnParams {
+    fn default() -> Self {
+        Chi2GnnParams {
+            gate_probability: default_gate_probability(),
+            gate_on: GateOn::default(),
+        }
+    }
+}
+
+/// The chi-square quantile of probability `p` with 2 or 4 degrees of freedom:
+/// 2 dof `-2 ln(1 - p)`; 4 dof solves `(1 + g/2) exp(-g/2) = 1 - p` (Newton on
+/// `ln(1 + y) - y = ln(1 - p)`, `y = g/2`, which converges monotonically from the right
+/// after the first step).
+pub fn chi2_gate(gate_on: GateOn, p: f64) -> f64 {
+    let tail = 1.0 - p;
+    match gate_on {
+        GateOn::Position => -2.0 * tail.ln(),
+        GateOn::State => {
+            let target = tail.ln();
+            let mut y = -target; // g(y) = ln(1 + y) - y - target > 0 here
+            for _ in 0..100 {
+                let g = (1.0 + y).ln() - y - target;
+                let slope = 1.0 / (1.0 + y) - 1.0;
+                let next = y - g / slope;
+                if (next - y).abs() <= 1e-14 * y.max(1.0) {
+                    y = next;
+                    break;
+                }
+                y = next;
+            }
+            2.0 * y
+        }
+    }
+}
+
+/// A track or group the scan's tracks are tested against.
+#[derive(Debug, Clone)]
+struct Reference {
+    state: StateVec,
+    cov: StateCov,
+    global: Option<usize>,
+    /// Information sum of the members with positive definite covariance.
+    info: StateCov,
+    info_state: StateVec,
+    informed: bool,
+    members: u32,
+}
+
+impl Reference {
+    fn predicted(state: StateVec, cov: StateCov, global: usize) -> Self {
+        Reference {
+            state,
+            cov,
+            global: Some(global),
+            info: StateCov::zeros(),
+            info_state: StateVec::zeros(),
+            informed: false,
+            members: 0,
+        }
+    }
+
+    fn started_by(track: &LocalTrack) -> Self {
+        let mut r = Reference {
+            state: track.state,
+            cov: track.cov,
+            global: None,
+            info: StateCov::zeros(),
+            info_state: StateVec::zeros(),
+            informed: false,
+            members: 0,
+        };
+        r.add(track);
+        r
+    }
+
+    /// Add a member: the reference becomes the convex combination of the members.
+    fn add(&mut self, track: &LocalTrack) {
+        self.members += 1;
+        if let Some(ch) = symmetrize(&track.cov).cholesky() {
+            let inv = ch.inverse();
+            self.info += inv;
+            self.info_state += inv * track.state;
+            self.informed = true;
+            if let Some(c) = symmetrize(&self.info).cholesky() {
+                self.cov = symmetrize(&c.inverse());
+                self.state = self.cov * self.info_state;
+            }
+        } else if !self.informed && self.members == 1 {
+            self.state = track.state;
+            self.cov = track.cov;
+        }
+    }
+}
+
+/// An interval of the x sweep.
+#[derive(Debug, Clone, Copy)]
+struct Interval {
+    lo: f64,
+    hi: f64,
+    /// 0 = reference, 1 = track (references first at equal `lo`).
+    kind: u8,
+    index: u32,
+}
+
+/// A gated pair: batch-local track index, reference index, statistic.
+#[derive(Debug, Clone, Copy)]
+struct Edge {
+    root: u32,
+    track: u32,
+    reference: u32,
+    d2: f64,
+}
+
+const NONE: u32 = u32::MAX;
+
+/// Chi-square test + sequential optimal assignment (see the module docs).
+#[derive(Debug, Clone)]
+pub struct Chi2Gnn {
+    gamma: f64,
+    gate_on: GateOn,
+    refs: Vec<Reference>,
+    intervals: Vec<Interval>,
+    active_refs: Vec<(u32, f64)>,
+    active_tracks: Vec<(u32, f64)>,
+    edges: Vec<Edge>,
+    parent: Vec<u32>,
+    matched: Vec<u32>,
+    group_of: Vec<u32>,
+    comp_tracks: Vec<u32>,
+    comp_refs: Vec<u32>,
+    cost: Vec<f64>,
+    is_edge: Vec<bool>,
+}
+
+fn find(parent: &mut [u32], mut i: u32) -> u32 {
+    while parent[i as usize] != i {
+        let p = parent[i as usize];
+        parent[i as usize] = parent[p as usize];
+        i = p;
+    }
+    i
+}
+
+impl Chi2Gnn {
+    /// The associator with checked parameters.
+    pub fn new(params: Chi2GnnParams) -> Result<Self, ParamError> {
+        let p = params.gate_probability;
+        if !(p.is_finite() && p > 0.0 && p < 1.0) {
+            return Err(ParamError::new(
+                "params.chi2-gnn.gate_probability",
+                format!("{p} must be in (0, 1)"),
+            ));
+        }
+        Ok(Chi2Gnn {
+            gamma: chi2_gate(params.gate_on, p),
+            gate_on: params.gate_on,
+            refs: Vec::new(),
+            intervals: Vec::new(),
+            active_refs: Vec::new(),
+            active_tracks: Vec::new(),
+            edges: Vec::new(),
+            parent: Vec::new(),
+            matched: Vec::new(),
+            group_of: Vec::new(),
+            comp_tracks: Vec::new(),
+            comp_refs: Vec::new(),
+            cost: Vec::new(),
+            is_edge: Vec::new(),
+        })
+    }
+
+    /// Build from `[fusion.params.chi2-gnn]`.
+    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
+        Chi2Gnn::new(parse_params(tables, "chi2-gnn")?)
+    }
+
+    /// The gate threshold `gamma` in use.
+    pub fn gate(&self) -> f64 {
+        self.gamma
+    }
+
+    /// The test statistic `d^T (P_t + P_r)^-1 d` of a track and a reference, or `None`
+    /// when the pair is outside the gate (or cannot be tested).
+    fn statistic(&self, track: &LocalTrack, reference: &Reference) -> Option<f64> {
+        let d = track.state - reference.state;
+        let s = track.cov + reference.cov;
+        let (dx, dy) = (d[0], d[2]);
+        if dy * dy > self.gamma * s[(2, 2)] {
+            return None;
+        }
+        let d2 = match self.gate_on {
+            GateOn::Position => {
+                let (sxx, syy, sxy) = (s[(0, 0)], s[(2, 2)], 0.5 * (s[(0, 2)] + s[(2, 0)]));
+                let det = sxx * syy - sxy * sxy;
+                if !(sxx > 0.0 && det > 0.0) {
+                    return None;
+                }
+                (syy * dx * dx - 2.0 * sxy * dx * dy + sxx * dy * dy) / det
+            }
+            GateOn::State => {
+                let ch = symmetrize(&s).cholesky()?;
+                let w = ch.l_dirty().solve_lower_triangular(&d)?;
+                w.norm_squared()
+            }
+        };
+        (d2.is_finite() && d2 <= self.gamma).then_some(d2)
+    }
+
+    /// Candidate pairs of the batch `tracks` against references `0..n_refs` by the sorted
+    /// sweep on x, tested exactly; fills `self.edges` (root unset).
+    fn gate_batch(&mut self, tracks: &[LocalTrack], n_refs: usize) {
+        self.intervals.clear();
+        self.edges.clear();
+        let gamma = self.gamma;
+        let half = |cov: &StateCov| (gamma * cov[(0, 0)].max(0.0)).sqrt();
+        for (r, reference) in self.refs[..n_refs].iter().enumerate() {
+            let h = half(&reference.cov);
+            let x = reference.state[0];
+            self.intervals.push(Interval {
+                lo: x - h,
+                hi: x + h,
+                kind: 0,
+                index: r as u32,
+            });
+        }
+        for (t, track) in tracks.iter().enumerate() {
+            let h = half(&track.cov);
+            let x = track.state[0];
+            self.intervals.push(Interval {
+                lo: x - h,
+                hi: x + h,
+                kind: 1,
+                index: t as u32,
+            });
+        }
+        self.intervals.sort_unstable_by(|a, b| {
+            a.lo.total_cmp(&b.lo)
+                .then(a.kind.cmp(&b.kind))
+                .then(a.index.cmp(&b.index))
+        });
+        self.active_refs.clear();
+        self.active_tracks.clear();
+        for k in 0..self.intervals.len() {
+            let item = self.intervals[k];
+            if item.kind == 1 {
+                self.active_refs.retain(|&(_, hi)| hi >= item.lo);
+                let track = &tracks[item.index as usize];
+                for a in 0..self.active_refs.len() {
+                    let r = self.active_refs[a].0;
+                    if let Some(d2) = self.statistic(track, &self.refs[r as usize]) {
+                        self.edges.push(Edge {
+                            root: 0,
+                            track: item.index,
+                            reference: r,
+                            d2,
+                        });
+                    }
+                }
+                self.active_tracks.push((item.index, item.hi));
+            } else {
+                self.active_tracks.retain(|&(_, hi)| hi >= item.lo);
+                let reference = &self.refs[item.index as usize];
+                for a in 0..self.active_tracks.len() {
+                    let t = self.active_tracks[a].0;
+                    if let Some(d2) = self.statistic(&tracks[t as usize], reference) {
+                        self.edges.push(Edge {
+                            root: 0,
+                            track: t,
+                            reference: item.index,
+                            d2,
+                        });
+                    }
+                }
+                self.active_refs.push((item.index, item.hi));
+            }
+        }
+    }
+
+    /// Optimal assignment of the gated pairs, component by component; fills
+    /// `self.matched[t]` (reference index or `NONE`) for the batch's `n_tracks` tracks.
+    fn assign_batch(&mut self, n_tracks: usize, n_refs: usize) -> Result<(), CenterError> {
+        self.matched.clear();
+        self.matched.resize(n_tracks, NONE);
+        if self.edges.is_empty() {
+            return Ok(());
+        }
+        // union-find over tracks (0..n_tracks) and references (n_tracks..)
+        self.parent.clear();
+        self.parent.extend(0..(n_tracks + n_refs) as u32);
+        for e in &self.edges {
+            let a = find(&mut self.parent, e.track);
+            let b = find(&mut self.parent, n_tracks as u32 + e.reference);
+            if a != b {
+                self.parent[a.max(b) as usize] = a.min(b);
+            }
+        }
+        for k in 0..self.edges.len() {
+            let t = self.edges[k].track;
+            self.edges[k].root = find(&mut self.parent, t);
+        }
+        self.edges.sort_unstable_by(|a, b| {
+            (a.root, a.track, a.reference).cmp(&(b.root, b.track, b.reference))
+        });
+        let mut start = 0;
+        while start < self.edges.len() {
+            let root = self.edges[start].root;
+            let mut end = start + 1;
+            while end < self.edges.len() && self.edges[end].root == root {
+                end += 1;
+            }
+            if end - start == 1 {
+                let e = self.edges[start];
+                self.matched[e.track as usize] = e.reference;
+            } else {
+                self.solve_component(start, end)?;
+            }
+            start = end;
+        }
+        Ok(())
+    }
+
+    /// Solve one component `edges[start..end]` (sorted by track) exactly.
+    fn solve_component(&mut self, start: usize, end: usize) -> Result<(), CenterError> {
+        let edges = &self.edges[start..end];
+        self.comp_tracks.clear();
+        self.comp_refs.clear();
+        for e in edges {
+            if self.comp_tracks.last() != Some(&e.track) {
+                self.comp_tracks.push(e.track);
+            }
+            self.comp_refs.push(e.reference);
+        }
+        self.comp_refs.sort_unstable();
+        self.comp_refs.dedup();
+        let (nr, nc) = (self.comp_tracks.len(), self.comp_refs.len());
+        self.cost.clear();
+        self.cost.resize(nr * nc, self.gamma);
+        self.is_edge.clear();
+        self.is_edge.resize(nr * nc, false);
+        let mut row = 0;
+        for e in edges {
+            while self.comp_tracks[row] != e.track {
+                row += 1;
+            }
+            let col = self.comp_refs.binary_search(&e.reference).unwrap_or(0);
+            self.cost[row * nc + col] = e.d2;
+            self.is_edge[row * nc + col] = true;
+        }
+        let (rows, cols) = lsap::solve(nr, nc, &self.cost, false)
+            .map_err(|e| CenterError::Input(format!("chi2-gnn: assignment failed ({e:?})")))?;
+        for (a, b) in rows.into_iter().zip(cols) {
+            if self.is_edge[a * nc + b] {
+                self.matched[self.comp_tracks[a] as usize] = self.comp_refs[b];
+            }
+        }
+        Ok(())
+    }
+}
+
+fn finite(state: &StateVec, cov: &StateCov) -> bool {
+    state.iter().chain(cov.iter()).all(|v| v.is_finite())
+}
+
+impl TrackAssociator for Chi2Gnn {
+    fn name(&self) -> &'static str {
+        "chi2-gnn"
+    }
+
+    fn associate(
+        &mut self,
+        ctx: &AssociationContext<'_>,
+        tracks: &[LocalTrack],
+        globals: &[GlobalTrack],
+    ) -> Result<Vec<TrackGroup>, CenterError> {
+        if ctx.predicted.len() != globals.len() {
+            return Err(CenterError::Input(format!(
+                "chi2-gnn: {} predicted estimates for {} global tracks",
+                ctx.predicted.len(),
+                globals.len()
+            )));
+        }
+        if tracks.len() >= NONE as usize || globals.len() + tracks.len() >= NONE as usize {
+            return Err(CenterError::Input("chi2-gnn: too many tracks".to_string()));
+        }
+        for (k, t) in tracks.iter().enumerate() {
+            if k > 0 && t.sensor_id < tracks[k - 1].sensor_id {
+                return Err(CenterError::Input(
+                    "chi2-gnn: local tracks are not sorted by sensor".to_string(),
+                ));
+            }
+            if !finite(&t.state, &t.cov) {
+                return Err(CenterError::Input(format!(
+                    "chi2-gnn: local track {} of sensor {} is not finite",
+                    t.track_id, t.sensor_id
+                )));
+            }
+        }
+        self.refs.clear();
+        for (g, (state, cov)) in ctx.predicted.iter().enumerate() {
+            if !finite(state, cov) {
+                return Err(CenterError::Input(format!(
+                    "chi2-gnn: predicted global track {} is not finite",
+                    globals[g].id
+                )));
+            }
+            self.refs.push(Reference::predicted(*state, *cov, g));
+        }
+        self.group_of.clear();
+        self.group_of.resize(tracks.len(), NONE);
+        let mut start = 0;
+        while start < tracks.len() {
+            let sensor = tracks[start].sensor_id;
+            let mut end = start + 1;
+            while end < tracks.len() && tracks[end].sensor_id == sensor {
+                end += 1;
+            }
+            let batch = &tracks[start..end];
+            let n_refs = self.refs.len();
+            self.gate_batch(batch, n_refs);
+            self.assign_batch(batch.len(), n_refs)?;
+            for (t, track) in batch.iter().enumerate() {
+                let r = self.matched[t];
+                if r == NONE {
+                    self.group_of[start + t] = self.refs.len() as u32;
+                    self.refs.push(Reference::started_by(track));
+                } else {
+                    self.group_of[start + t] = r;
+                    self.refs[r as usize].add(track);
+                }
+            }
+            start = end;
+        }
+        // Groups: references with members, globals first (in global order), then the
+        // groups started in this scan (in creation order); members in track order.
+        let mut slot = vec![NONE; self.refs.len()];
+        let mut groups: Vec<TrackGroup> = Vec::new();
+        for (r, reference) in self.refs.iter().enumerate() {
+            if reference.members > 0 {
+                slot[r] = groups.len() as u32;
+                groups.push(TrackGroup {
+                    members: Vec::with_capacity(reference.members as usize),
+                    weights: vec![1.0; reference.members as usize],
+                    global: reference.global,
+                });
+            }
+        }
+        for (t, &r) in self.group_of.iter().enumerate() {
+            groups[slot[r as usize] as usize].members.push(t);
+        }
+        Ok(groups)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::center::testing::{check_groups, local};
+    use crate::rng::stream;
+    use rand::RngExt;
+
+    fn ctx<'a>(predicted: &'a [(StateVec, StateCov)]) -> AssociationContext<'a> {
+        AssociationContext {
+            scan: 0,
+            time: 0.0,
+            sensors: None,
+            predicted,
+            dt: 1.0,
+            labels: None,
+        }
+    }
+
+    fn global(id: i64, state: StateVec, cov: StateCov) -> GlobalTrack {
+        GlobalTrack {
+            id,
+            scan: 0,
+            time: 0.0,
+            state,
+            cov,
+            previous: None,
+            sources: vec![],
+            updates: 1,
+            misses: 0,
+        }
+    }
+
+    fn sorted_members(groups: &[TrackGroup]) -> Vec<Vec<usize>> {
+        let mut m: Vec<Vec<usize>> = groups.iter().map(|g| g.members.clone()).collect();
+        m.sort();
+        m
+    }
+
+    #[test]
+    fn gate_thresholds() {
+        assert!((chi2_gate(GateOn::Position, 0.99) - 9.210340371976182).abs() < 1e-12);
+        let g4 = chi2_gate(GateOn::State, 0.99);
+        // 4-dof CDF: 1 - exp(-g/2)(1 + g/2)
+        assert!((1.0 - (-g4 / 2.0).exp() * (1.0 + g4 / 2.0) - 0.99).abs() < 1e-13);
+        assert!((g4 - 13.2767).abs() < 1e-3);
+        let g = chi2_gate(GateOn::State, 0.5);
+        assert!((1.0 - (-g / 2.0).exp() * (1.0 + g / 2.0) - 0.5).abs() < 1e-13);
+        assert!(Chi2Gnn::new(Chi2GnnParams {
+            gate_probability: 1.0,
+            ..Default::default()
+        })
+        .is_err());
+        let mut t = ParamTables::new();
+        let mut table = toml::Table::new();
+        table.insert("gate_on".into(), toml::Value::String("position".into()));
+        table.insert("gate_probability".into(), toml::Value::Float(0.95));
+        t.insert("chi2-gnn".into(), table.clone());
+        let a = Chi2Gnn::from_params(&t).unwrap();
+        assert!((a.gate() - chi2_gate(GateOn::Position, 0.95)).abs() < 1e-12);
+        table.insert("gate".into(), toml::Value::Float(3.0));
+        t.insert("chi2-gnn".into(), table);
+        assert!(Chi2Gnn::from_params(&t).is_err());
+    }
+
+    #[test]
+    fn two_sensors_two_targets_pair_correctly() {
+        // target A near (0, 0) moving +x, target B near (1000, 500) moving -y
+        let tracks = [
+            local(1, 1, 0.0, 10.0, 0.0, 0.0, 25.0),
+            local(1, 2, 1000.0, 0.0, 500.0, -8.0, 25.0),
+            local(2, 1, 1004.0, 0.5, 497.0, -8.5, 25.0),
+            local(2, 2, -3.0, 9.0, 2.0, 0.5, 25.0),
+        ];
+        let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
+        let groups = gnn.associate(&ctx(&[]), &tracks, &[]).unwrap();
+        check_groups(&tracks, &groups, 0);
+        assert_eq!(sorted_members(&groups), vec![vec![0, 3], vec![1, 2]]);
+        assert!(groups.iter().all(|g| g.global.is_none()));
+        assert!(groups.iter().all(|g| g.weights.iter().all(|&w| w == 1.0)));
+
+        // a third sensor sees both
+        let mut three = tracks.to_vec();
+        three.push(local(3, 7, 2.0, 10.5, -1.0, 0.0, 25.0));
+        three.push(local(3, 8, 998.0, 0.0, 503.0, -7.5, 25.0));
+        let groups = gnn.associate(&ctx(&[]), &three, &[]).unwrap();
+        check_groups(&three, &groups, 0);
+        assert_eq!(sorted_members(&groups), vec![vec![0, 3, 4], vec![1, 2, 5]]);
+    }
+
+    #[test]
+    fn groups_continue_the_predicted_globals() {
+        let globals = [
+            global(
+                10,
+                StateVec::new(1001.0, 0.0, 499.0, -8.0),
+                StateCov::identity() * 40.0,
+            ),
+            global(
+                11,
+                StateVec::new(1.0, 10.0, 0.5, 0.0),
+                StateCov::identity() * 40.0,
+            ),
+            global(
+                12,
+                StateVec::new(-5000.0, 0.0, 0.0, 0.0),
+                StateCov::identity() * 40.0,
+            ),
+        ];
+        let predicted: Vec<(StateVec, StateCov)> =
+            globals.iter().map(|g| (g.state, g.cov)).collect();
+        let tracks = [
+            local(1, 1, 0.0, 10.0, 0.0, 0.0, 25.0),
+            local(1, 2, 1000.0, 0.0, 500.0, -8.0, 25.0),
+            local(2, 1, 1004.0, 0.5, 497.0, -8.5, 25.0),
+            local(2, 2, -3.0, 9.0, 2.0, 0.5, 25.0),
+        ];
+        let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
+        let groups = gnn.associate(&ctx(&predicted), &tracks, &globals).unwrap();
+        check_groups(&tracks, &groups, globals.len());
+        assert_eq!(groups.len(), 2);
+        let of = |m: usize| groups.iter().find(|g| g.members.contains(&m)).unwrap();
+        assert_eq!(of(1).members, vec![1, 2]);
+        assert_eq!(of(1).global, Some(0));
+        assert_eq!(of(0).members, vec![0, 3]);
+        assert_eq!(of(0).global, Some(1));
+        // global 12 got no track: in no group
+    }
+
+    #[test]
+    fn a_track_outside_the_gate_starts_a_new_group() {
+        let globals = [global(
+            3,
+            StateVec::new(0.0, 10.0, 0.0, 0.0),
+            StateCov::identity() * 25.0,
+        )];
+        let predicted = [(globals[0].state, globals[0].cov)];
+        let tracks = [
+            local(1, 1, 2.0, 10.0, 1.0, 0.0, 25.0),
+            // 60 m away with S = 50 m^2: d^2 = 72 > 13.28
+            local(2, 1, 60.0, 10.0, 0.0, 0.0, 25.0),
+            // sensor 3 sees both; its second track matches the new group
+            local(3, 1, 1.0, 10.0, -1.0, 0.0, 25.0),
+            local(3, 2, 61.0, 10.0, 1.0, 0.0, 25.0),
+        ];
+        let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
+        let groups = gnn.associate(&ctx(&predicted), &tracks, &globals).unwrap();
+        check_groups(&tracks, &groups, 1);
+        assert_eq!(groups.len(), 2);
+        assert_eq!(groups[0].members, vec![0, 2]);
+        assert_eq!(groups[0].global, Some(0));
+        assert_eq!(groups[1].members, vec![1, 3]);
+        assert_eq!(groups[1].global, None);
+    }
+
+    #[test]
+    fn optimal_assignment_beats_greedy_nearest() {
+        // position gate, S = 10 m^2 per pair: d^2 = dx^2 / 10.
+        // references at x = 0 and 10; tracks at 5.5 and 14.
+        // greedy would give 5.5 -> 10 (2.025) and leave 14 out (14 -> 0 is 19.6, outside);
+        // the optimum is 5.5 -> 0 (3.025) + 14 -> 10 (1.6) = 4.625 < 2.025 + gamma.
+        let tracks = [
+            local(1, 1, 0.0, 0.0, 0.0, 0.0, 5.0),
+            local(1, 2, 10.0, 0.0, 0.0, 0.0, 5.0),
+            local(2, 1, 5.5, 0.0, 0.0, 0.0, 5.0),
+            local(2, 2, 14.0, 0.0, 0.0, 0.0, 5.0),
+        ];
+        let mut gnn = Chi2Gnn::new(Chi2GnnParams {
+            gate_on: GateOn::Position,
+            ..Default::default()
+        })
+        .unwrap();
+        let groups = gnn.associate(&ctx(&[]), &tracks, &[]).unwrap();
+        check_groups(&tracks, &groups, 0);
+        assert_eq!(sorted_members(&groups), vec![vec![0, 2], vec![1, 3]]);
+    }
+
+    #[test]
+    fn degenerate_input() {
+        let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
+        assert!(gnn.associate(&ctx(&[]), &[], &[]).unwrap().is_empty());
+        // coincident tracks with zero covariance cannot be tested: separate groups
+        let z = [
+            local(1, 1, 0.0, 0.0, 0.0, 0.0, 0.0),
+            local(2, 1, 0.0, 0.0, 0.0, 0.0, 0.0),
+        ];
+        let groups = gnn.associate(&ctx(&[]), &z, &[]).unwrap();
+        check_groups(&z, &groups, 0);
+        assert_eq!(groups.len(), 2);
+        // coincident tracks with a covariance: one group
+        let c = [
+            local(1, 1, 0.0, 0.0, 0.0, 0.0, 1.0),
+            local(2, 1, 0.0, 0.0, 0.0, 0.0, 1.0),
+        ];
+        assert_eq!(gnn.associate(&ctx(&[]), &c, &[]).unwrap().len(), 1);
+        // unsorted sensors, wrong predicted length, non-finite
+        let u = [c[1], c[0]];
+        assert!(gnn.associate(&ctx(&[]), &u, &[]).is_err());
+        let g = [global(1, StateVec::zeros(), StateCov::identity())];
+        assert!(gnn.associate(&ctx(&[]), &c, &g).is_err());
+        let mut bad = c;
+        bad[0].cov[(1, 1)] = f64::NAN;
+        assert!(gnn.associate(&ctx(&[]), &bad, &[]).is_err());
+    }
+
+    /// Dense brute force: every track against every reference, one lsap on min(d^2, gamma),
+    /// with d^2 computed by an explicit inverse.
+    fn dense(
+        tracks: &[LocalTrack],
+        refs: &[(StateVec, StateCov)],
+        gamma: f64,
+    ) -> Vec<Option<usize>> {
+        let (nr, nc) = (tracks.len(), refs.len());
+        let mut cost = vec![gamma; nr * nc];
+        for (i, t) in tracks.iter().enumerate() {
+            for (j, (x, p)) in refs.iter().enumerate() {
+                let d = t.state - x;
+                if let Some(inv) = (t.cov + p).try_inverse() {
+                    let d2 = (d.transpose() * inv * d)[0];
+                    if d2 <= gamma {
+                        cost[i * nc + j] = d2;
+                    }
+                }
+            }
+        }
+        let mut out = vec![None; nr];
+        let (rows, cols) = lsap::solve(nr, nc, &cost, false).unwrap();
+        for (a, b) in rows.into_iter().zip(cols) {
+            if cost[a * nc + b] < gamma {
+                out[a] = Some(b);
+            }
+        }
+        out
+    }
+
+    fn random_cov(rng: &mut crate::rng::StreamRng, pos: f64, vel: f64) -> StateCov {
+        let mut p = StateCov::zeros();
+        let (a, b) = (
+            pos * rng.random_range(0.5..2.0),
+            pos * rng.random_range(0.5..2.0),
+        );
+        let c = rng.random_range(-0.5..0.5) * (a * b).sqrt();
+        p[(0, 0)] = a;
+        p[(2, 2)] = b;
+        p[(0, 2)] = c;
+        p[(2, 0)] = c;
+        p[(1, 1)] = vel * rng.random_range(0.5..2.0);
+        p[(3, 3)] = vel * rng.random_range(0.5..2.0);
+        let xv = 0.3 * (p[(0, 0)] * p[(1, 1)]).sqrt();
+        p[(0, 1)] = xv;
+        p[(1, 0)] = xv;
+        p
+    }
+
+    #[test]
+    fn large_random_case_equals_a_dense_assignment() {
+        let mut rng = stream(7, 0, "chi2-gnn-test", 0);
+        // dense enough that gates overlap and components have several members
+        let n_globals = 150;
+        let area = 2400.0;
+        let predicted: Vec<(StateVec, StateCov)> = (0..n_globals)
+            .map(|_| {
+                let x = StateVec::new(
+                    rng.random_range(0.0..area),
+                    rng.random_range(-20.0..20.0),
+                    rng.random_range(0.0..area),
+                    rng.random_range(-20.0..20.0),
+                );
+                (x, random_cov(&mut rng, 900.0, 25.0))
+            })
+            .collect();
+        let globals: Vec<GlobalTrack> = predicted
+            .iter()
+            .enumerate()
+            .map(|(k, (x, p))| global(k as i64, *x, *p))
+            .collect();
+        let mut tracks: Vec<LocalTrack> = Vec::new();
+        for (k, (x, _)) in predicted.iter().enumerate() {
+            if k % 10 == 3 {
+                continue; // missed
+            }
+            let mut t = local(1, k as i64, 0.0, 0.0, 0.0, 0.0, 1.0);
+            t.cov = random_cov(&mut rng, 400.0, 16.0);
+            t.state = x + StateVec::new(
+                rng.random_range(-60.0..60.0),
+                rng.random_range(-6.0..6.0),
+                rng.random_range(-60.0..60.0),
+                rng.random_range(-6.0..6.0),
+            );
+            tracks.push(t);
+        }
+        for k in 0..15 {
+            let mut t = local(1, 1000 + k, 0.0, 0.0, 0.0, 0.0, 1.0);
+            t.cov = random_cov(&mut rng, 400.0, 16.0);
+            t.state = StateVec::new(
+                rng.random_range(0.0..area),
+                rng.random_range(-20.0..20.0),
+                rng.random_range(0.0..area),
+                rng.random_range(-20.0..20.0),
+            );
+            tracks.push(t);
+        }
+        for gate_on in [GateOn::State, GateOn::Position] {
+            let mut gnn = Chi2Gnn::new(Chi2GnnParams {
+                gate_on,
+                ..Default::default()
+            })
+            .unwrap();
+            let groups = gnn.associate(&ctx(&predicted), &tracks, &globals).unwrap();
+            check_groups(&tracks, &groups, globals.len());
+            let mut got = vec![None; tracks.len()];
+            for g in &groups {
+                got[g.members[0]] = g.global;
+            }
+            let expected = if gate_on == GateOn::State {
+                dense(&tracks, &predicted, gnn.gate())
+            } else {
+                // the position test: the dense problem on the position parts only
+                let pos = |x: &StateVec| StateVec::new(x[0], 0.0, x[2], 0.0);
+                let pcov = |p: &StateCov| {
+                    let mut q = StateCov::identity();
+                    q[(0, 0)] = p[(0, 0)];
+                    q[(0, 2)] = p[(0, 2)];
+                    q[(2, 0)] = p[(2, 0)];
+                    q[(2, 2)] = p[(2, 2)];
+                    q
+                };
+                let t2: Vec<LocalTrack> = tracks
+                    .iter()
+                    .map(|t| LocalTrack {
+                        state: pos(&t.state),
+                        cov: pcov(&t.cov),
+                        ..*t
+                    })
+                    .collect();
+                let r2: Vec<(StateVec, StateCov)> =
+                    predicted.iter().map(|(x, p)| (pos(x), pcov(p))).collect();
+                dense(&t2, &r2, gnn.gate())
+            };
+            assert_eq!(got, expected, "{gate_on:?}");
+            let matched = got.iter().filter(|g| g.is_some()).count();
+            assert!(
+                matched > 110,
+                "{gate_on:?}: a real test needs matches ({matched})"
+            );
+            let conflicts = gnn.edges.len();
+            assert!(conflicts > matched, "{gate_on:?}: gates should overlap");
+        }
+
+        // two sensors, no globals: sensor 2 against the groups sensor 1 started
+        let sensor1: Vec<LocalTrack> = tracks
+            .iter()
+            .map(|t| LocalTrack { sensor_id: 1, ..*t })
+            .collect();
+        let mut all = sensor1.clone();
+        for (k, (x, _)) in predicted.iter().enumerate().take(110) {
+            let mut t = local(2, k as i64, 0.0, 0.0, 0.0, 0.0, 1.0);
+            t.cov = random_cov(&mut rng, 400.0, 16.0);
+            t.state = x + StateVec::new(
+                rng.random_range(-60.0..60.0),
+                rng.random_range(-6.0..6.0),
+                rng.random_range(-60.0..60.0),
+                rng.random_range(-6.0..6.0),
+            );
+            all.push(t);
+        }
+        let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
+        let groups = gnn.associate(&ctx(&[]), &all, &[]).unwrap();
+        check_groups(&all, &groups, 0);
+        let refs: Vec<(StateVec, StateCov)> = sensor1.iter().map(|t| (t.state, t.cov)).collect();
+        let expected = dense(&all[sensor1.len()..], &refs, gnn.gate());
+        let n1 = sensor1.len();
+        for (k, e) in expected.iter().enumerate() {
+            let g = groups
+                .iter()
+                .find(|g| g.members.contains(&(n1 + k)))
+                .unwrap();
+            match e {
+                Some(r) => assert_eq!(g.members, vec![*r, n1 + k]),
+                None => assert_eq!(g.members, vec![n1 + k]),
+            }
+        }
+    }
+
+    #[test]
+    fn thousand_targets_four_sensors() {
+        // well-separated targets on a grid; every sensor sees every target
+        let mut rng = stream(11, 0, "chi2-gnn-test", 1);
+        let truth: Vec<StateVec> = (0..1000)
+            .map(|k| {
+                StateVec::new(
+                    (k % 40) as f64 * 500.0,
+                    rng.random_range(-20.0..20.0),
+                    (k / 40) as f64 * 500.0,
+                    rng.random_range(-20.0..20.0),
+                )
+            })
+            .collect();
+        let mut tracks = Vec::new();
+        for s in 1..=4 {
+            for (k, x) in truth.iter().enumerate() {
+                let mut t = local(s, k as i64, 0.0, 0.0, 0.0, 0.0, 1.0);
+                t.cov = random_cov(&mut rng, 400.0, 16.0);
+                t.state = x + StateVec::new(
+                    rng.random_range(-10.0..10.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-10.0..10.0),
+                    rng.random_range(-1.0..1.0),
+                );
+                tracks.push(t);
+            }
+        }
+        let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
+        let groups = gnn.associate(&ctx(&[]), &tracks, &[]).unwrap();
+        check_groups(&tracks, &groups, 0);
+        assert_eq!(groups.len(), 1000);
+        for g in &groups {
+            assert_eq!(g.members.len(), 4);
+            let target = tracks[g.members[0]].track_id;
+            assert!(g.members.iter().all(|&m| tracks[m].track_id == target));
+        }
+    }
+}
