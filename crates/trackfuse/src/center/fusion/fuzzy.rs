@@ -90,17 +90,21 @@ pub fn weighted_fusion(
             "{NAME}: weight {w} is not a finite number >= 0"
         )));
     }
-    let sum: f64 = weights.iter().sum();
+    // sum in (sensor_id, track_id) order, so the result is the same to the last bit
+    // whatever order the associator lists the members in
+    let mut order: Vec<usize> = (0..members.len()).collect();
+    order.sort_unstable_by_key(|&i| (members[i].sensor_id, members[i].track_id));
+    let sum: f64 = order.iter().map(|&i| weights[i]).sum();
     let n = members.len() as f64;
     let norm = |w: f64| if sum > 0.0 { w / sum } else { 1.0 / n };
     let mut x = StateVec::zeros();
-    for (t, &w) in members.iter().zip(weights) {
-        x += t.state * norm(w);
+    for &i in &order {
+        x += members[i].state * norm(weights[i]);
     }
     let mut p = StateCov::zeros();
-    for (t, &w) in members.iter().zip(weights) {
-        let d = t.state - x;
-        p += (t.cov + d * d.transpose()) * norm(w);
+    for &i in &order {
+        let d = members[i].state - x;
+        p += (members[i].cov + d * d.transpose()) * norm(weights[i]);
     }
     Ok((x, symmetrize(&p)))
 }
