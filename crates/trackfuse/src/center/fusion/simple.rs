@@ -144,6 +144,26 @@ mod tests {
     }
 
     #[test]
+    fn three_tracks_by_hand() {
+        // y: 1, 2, 6 with variances 3, 6, 9: mean 3; independent P = 18 / 9 = 2;
+        // spread P = [(3 + 4) + (6 + 1) + (9 + 9)] / 3 = 32 / 3.
+        let a = local(1, 1, 0.0, 0.0, 1.0, 0.0, 3.0);
+        let b = local(2, 1, 0.0, 0.0, 2.0, 0.0, 6.0);
+        let c = local(3, 1, 0.0, 0.0, 6.0, 0.0, 9.0);
+        let (x, p) = SimpleFusion::default()
+            .fuse(&[&c, &a, &b], &[1.0; 3], &ctx())
+            .unwrap();
+        assert!((x[2] - 3.0).abs() < 1e-12);
+        assert!((p[(2, 2)] - 2.0).abs() < 1e-12);
+        let spread = SimpleFusion::new(SimpleFusionParams {
+            covariance: SimpleCovariance::Spread,
+        });
+        let (_, p) = spread.fuse(&[&a, &b, &c], &[1.0; 3], &ctx()).unwrap();
+        assert!((p[(2, 2)] - 32.0 / 3.0).abs() < 1e-12);
+        assert!((p[(0, 0)] - 6.0).abs() < 1e-12);
+    }
+
+    #[test]
     fn one_member_unchanged_and_params() {
         let a = local(1, 1, 1.0, 2.0, 3.0, 4.0, 2.5);
         let (x, p) = SimpleFusion::default().fuse(&[&a], &[1.0], &ctx()).unwrap();
