@@ -33,10 +33,25 @@ pub struct BiasInfo {
 }
 
 /// Every finished track-to-track association method.
-pub const METHODS: &[MethodInfo] = &[];
+pub const METHODS: &[MethodInfo] = &[
+    MethodInfo {
+        name: super::t2ta::fdtta::NAME,
+        summary: "fuzzy double-threshold association, fixed or adaptive threshold (004)",
+        make: super::t2ta::fdtta::make,
+    },
+    MethodInfo {
+        name: super::t2ta::ftta::NAME,
+        summary: "fuzzy c-means track-to-track association with sensor resolutions (003)",
+        make: super::t2ta::ftta::make,
+    },
+];
 
 /// Every finished fusion rule.
-pub const RULES: &[RuleInfo] = &[];
+pub const RULES: &[RuleInfo] = &[RuleInfo {
+    name: super::fusion::superior::NAME,
+    summary: "adopt the superior track, the largest diagonal membership (003 eq. 5.2-5.3)",
+    make: super::fusion::superior::make,
+}];
 
 /// Every finished bias estimator.
 pub const BIAS_ESTIMATORS: &[BiasInfo] = &[];

@@ -1,3 +1,6 @@
 //! Track-to-track association methods, one file per method, named after it
 //! (ALGORITHMS.md section 3). Each implements [`super::TrackAssociator`] and is listed in
 //! [`super::registry`].
+
+pub mod fdtta;
+pub mod ftta;
