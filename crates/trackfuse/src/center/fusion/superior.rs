@@ -231,7 +231,11 @@ mod tests {
         let c = local(4, 0, 0.0, 3.0, 80.0, 0.0, 3.0);
         let members = [&a, &b, &c];
         let r2 = [5000.0, 45000.0, 80000.0];
-        let d2 = [[0.0, 3600.0, 6400.0], [3600.0, 0.0, 10000.0], [6400.0, 10000.0, 0.0]];
+        let d2 = [
+            [0.0, 3600.0, 6400.0],
+            [3600.0, 0.0, 10000.0],
+            [6400.0, 10000.0, 0.0],
+        ];
         let mu: Vec<f64> = (0..3)
             .map(|k| {
                 let others: f64 = (0..3).filter(|&i| i != k).map(|i| 1.0 / d2[i][k]).sum();
@@ -241,9 +245,13 @@ mod tests {
         let expected = (0..3).max_by(|&i, &j| mu[i].total_cmp(&mu[j])).unwrap();
         assert_eq!(expected, 0);
         let rule = Superior::new(SuperiorParams::default()).unwrap();
-        let k = rule.select(&members, &[1.0; 3], &ctx(Some(&sensors))).unwrap();
+        let k = rule
+            .select(&members, &[1.0; 3], &ctx(Some(&sensors)))
+            .unwrap();
         assert_eq!(k, expected);
-        let (x, p) = rule.fuse(&members, &[1.0; 3], &ctx(Some(&sensors))).unwrap();
+        let (x, p) = rule
+            .fuse(&members, &[1.0; 3], &ctx(Some(&sensors)))
+            .unwrap();
         assert_eq!(x, a.state);
         assert_eq!(p, a.cov);
         // with equal resolutions the similarity decides: the report farthest from the
@@ -256,7 +264,11 @@ mod tests {
         let col = |k: usize| -> f64 { (0..3).filter(|&i| i != k).map(|i| 1.0 / d2[i][k]).sum() };
         let expected = (0..3).min_by(|&i, &j| col(i).total_cmp(&col(j))).unwrap();
         assert_eq!(expected, 2);
-        assert_eq!(rule.select(&members, &[1.0; 3], &ctx(Some(&equal))).unwrap(), 2);
+        assert_eq!(
+            rule.select(&members, &[1.0; 3], &ctx(Some(&equal)))
+                .unwrap(),
+            2
+        );
     }
 
     #[test]
@@ -269,8 +281,16 @@ mod tests {
         let a = local(1, 0, 1000.0, 0.0, 0.0, 0.0, 1.0);
         let b = local(2, 0, 1010.0, 0.0, 5.0, 0.0, 1.0);
         let rule = Superior::new(SuperiorParams::default()).unwrap();
-        assert_eq!(rule.select(&[&b, &a], &[1.0, 1.0], &ctx(Some(&sensors))).unwrap(), 1);
-        assert_eq!(rule.select(&[&a, &b], &[1.0, 1.0], &ctx(Some(&sensors))).unwrap(), 0);
+        assert_eq!(
+            rule.select(&[&b, &a], &[1.0, 1.0], &ctx(Some(&sensors)))
+                .unwrap(),
+            1
+        );
+        assert_eq!(
+            rule.select(&[&a, &b], &[1.0, 1.0], &ctx(Some(&sensors)))
+                .unwrap(),
+            0
+        );
     }
 
     #[test]

@@ -33,9 +33,10 @@
 //!
 //! # Double threshold: fixed association pairs (`n0`, `k`)
 //! A pair *passes* at scan `l` when its similarity exceeds the threshold the assignment
-//! of that scan stopped at (the first threshold). When, over the last `n0` scans (all the
-//! scans so far while fewer than `n0` have passed), a pair has passed more than `k` times
-//! (the second threshold), it becomes a *fixed association pair*: from the next scan on
+//! of that scan stopped at (the first threshold). When a pair passes at scan `l` and,
+//! over the last `n0` scans (all the scans so far while fewer than `n0` have passed), it
+//! has passed more than `k` times (the second threshold), it becomes a *fixed association
+//! pair* (a pair that fails at `l` is not confirmed at `l`): from the next scan on
 //! the local track goes to that global track without a test, for as long as both exist
 //! (the paper never releases a fixed pair; `release > 0` releases one whose similarity
 //! falls below `release`). Counting every pair that passes, not only the pairs the
@@ -305,11 +306,7 @@ pub fn association_matrix(
     cols: &[(StateVec, StateCov)],
 ) -> DMatrix<f64> {
     DMatrix::from_fn(rows.len(), cols.len(), |i, j| {
-        similarity(
-            params,
-            (&rows[i].0, &rows[i].1),
-            (&cols[j].0, &cols[j].1),
-        )
+        similarity(params, (&rows[i].0, &rows[i].1), (&cols[j].0, &cols[j].1))
     })
 }
 
@@ -346,8 +343,8 @@ fn greedy(
             continue;
         }
         // `e` is the largest entry of F left after zeroing the chosen rows and columns
-        if !(e.f > eps) && params.threshold == ThresholdMode::Adaptive && e.f > params.eps_min {
-            while !(e.f > eps) && eps > params.eps_min {
+        if e.f <= eps && params.threshold == ThresholdMode::Adaptive && e.f > params.eps_min {
+            while e.f <= eps && eps > params.eps_min {
                 eps = (eps - params.eps_step).max(params.eps_min);
             }
         }
@@ -496,7 +493,9 @@ impl Fdtta {
 
     /// The global id local track `(sensor_id, track_id)` is fixed to, if any.
     pub fn fixed_global(&self, sensor_id: Id, track_id: Id) -> Option<Id> {
-        self.history.get(&(sensor_id, track_id)).and_then(|h| h.fixed)
+        self.history
+            .get(&(sensor_id, track_id))
+            .and_then(|h| h.fixed)
     }
 
     /// How many times, in the window ending at the last scan the track was seen, the pair
@@ -531,13 +530,16 @@ impl Fdtta {
         let mask = self.window_mask();
         // (a) shift the windows; fixed pairs join without a test
         self.rows.clear();
-        for i in a..b {
-            let t = &tracks[i];
+        for (i, t) in tracks.iter().enumerate().take(b).skip(a) {
             let h = self.history.entry((t.sensor_id, t.track_id)).or_default();
             let shift = scan.saturating_sub(h.last_seen);
             if shift > 0 {
                 for p in h.pairs.iter_mut() {
-                    p.window = if shift >= 64 { 0 } else { (p.window << shift) & mask };
+                    p.window = if shift >= 64 {
+                        0
+                    } else {
+                        (p.window << shift) & mask
+                    };
                 }
                 h.pairs.retain(|p| p.window != 0);
             }
@@ -547,7 +549,8 @@ impl Fdtta {
                 match self.global_index.get(&gid) {
                     Some(&c) if self.taken_by[c] != sensor => {
                         let cand = &self.candidates[c];
-                        let f = similarity(&self.params, (&t.state, &t.cov), (&cand.state, &cand.cov));
+                        let f =
+                            similarity(&self.params, (&t.state, &t.cov), (&cand.state, &cand.cov));
                         if f >= self.params.release {
                             self.taken_by[c] = sensor;
                             let g = join(&mut self.candidates[c], groups, i);
@@ -605,8 +608,7 @@ impl Fdtta {
             }
             let radius = if mu1_min > 0.0 {
                 let tr = t.cov[(0, 0)] + t.cov[(2, 2)] + max_tr;
-                ((-mu1_min.ln()) / self.params.tau[0] * tr).max(0.0).sqrt() * (1.0 + 1e-9)
-                    + 1e-9
+                ((-mu1_min.ln()) / self.params.tau[0] * tr).max(0.0).sqrt() * (1.0 + 1e-9) + 1e-9
             } else {
                 f64::INFINITY
             };
@@ -666,7 +668,7 @@ impl Fdtta {
         }
         // (d) count the pairs with global tracks that passed
         for e in &self.entries {
-            if !(e.f > eps) {
+            if e.f <= eps {
                 break;
             }
             let Some(n) = self.candidates[e.col as usize].global else {
@@ -700,7 +702,7 @@ impl Fdtta {
             let mut best: Option<(u32, f64, Id)> = None;
             for p in &h.pairs {
                 let count = p.window.count_ones();
-                if count <= k || !self.global_index.contains_key(&p.global) {
+                if count <= k || p.passed_at != scan || !self.global_index.contains_key(&p.global) {
                     continue;
                 }
                 // a global keeps at most one fixed track of a sensor
@@ -714,7 +716,7 @@ impl Fdtta {
                 if held {
                     continue;
                 }
-                let sim = if p.passed_at == scan { p.similarity } else { 0.0 };
+                let sim = p.similarity;
                 let better = match best {
                     None => true,
                     Some((bc, bs, bg)) => {
@@ -868,4 +870,355 @@ impl TrackAssociator for Fdtta {
 pub fn make(tables: &ParamTables) -> Result<Box<dyn TrackAssociator>, ParamError> {
     let params: FdttaParams = parse_params(tables, NAME)?;
     Ok(Box::new(Fdtta::new(params)?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::center::testing::{check_groups, local};
+
+    fn diag(px: f64, pv: f64) -> StateCov {
+        StateCov::from_diagonal(&nalgebra::Vector4::new(px, pv, px, pv))
+    }
+
+    fn track(sensor_id: Id, track_id: Id, x: [f64; 4], cov: StateCov) -> LocalTrack {
+        let mut t = local(sensor_id, track_id, x[0], x[1], x[2], x[3], 0.0);
+        t.cov = cov;
+        t
+    }
+
+    fn global(id: Id, x: [f64; 4], cov: StateCov) -> GlobalTrack {
+        GlobalTrack {
+            id,
+            scan: 0,
+            time: 0.0,
+            state: StateVec::from(x),
+            cov,
+            previous: None,
+            sources: Vec::new(),
+            updates: 1,
+            misses: 0,
+        }
+    }
+
+    fn ctx<'a>(scan: u32, predicted: &'a [(StateVec, StateCov)]) -> AssociationContext<'a> {
+        AssociationContext {
+            scan,
+            time: scan as f64,
+            sensors: None,
+            predicted,
+            dt: 1.0,
+            labels: None,
+        }
+    }
+
+    fn predicted(globals: &[GlobalTrack]) -> Vec<(StateVec, StateCov)> {
+        globals.iter().map(|g| (g.state, g.cov)).collect()
+    }
+
+    fn fixed(eps: f64) -> FdttaParams {
+        FdttaParams {
+            threshold: ThresholdMode::Fixed,
+            eps,
+            ..FdttaParams::default()
+        }
+    }
+
+    /// Eq. 1-3, 10-12 on a 2x2 case, by hand with the paper's tau = (0.5, 0.2, 0.3) and
+    /// a = (0.55, 0.35, 0.1).
+    #[test]
+    fn memberships_and_similarity_2x2_by_hand() {
+        let p = FdttaParams::default();
+        let rows = [
+            (StateVec::new(0.0, 10.0, 0.0, 0.0), diag(25.0, 4.0)),
+            (StateVec::new(1000.0, 0.0, 0.0, 10.0), diag(25.0, 4.0)),
+        ];
+        let cols = [
+            (StateVec::new(10.0, 11.0, 5.0, 0.0), diag(16.0, 1.0)),
+            (StateVec::new(1000.0, 0.0, 20.0, -12.0), diag(16.0, 1.0)),
+        ];
+        let f = association_matrix(&p, &rows, &cols);
+        // sigma1^2 = 25 + 16 + 25 + 16 = 82, sigma2^2 = 4 + 1 + 4 + 1 = 10, sigma3^2 = pi^2/12
+        let s3 = PI * PI / 12.0;
+        let g = |tau: f64, u2: f64, s2: f64| (-tau * u2 / s2).exp();
+        let fv = |u1sq: f64, du: f64, dh: f64| {
+            0.55 * g(0.5, u1sq, 82.0) + 0.35 * g(0.2, du * du, 10.0) + 0.1 * g(0.3, dh * dh, s3)
+        };
+        // (0,0): u1^2 = 10^2 + 5^2, speeds 10 vs 11, same heading
+        let f00 = fv(125.0, -1.0, 0.0);
+        // (0,1): u1^2 = 1000^2 + 20^2, speeds 10 vs 12, headings 0 vs -pi/2
+        let f01 = fv(1000.0 * 1000.0 + 400.0, -2.0, PI / 2.0);
+        // (1,0): u1^2 = 990^2 + 5^2, speeds 10 vs 11, headings pi/2 vs 0
+        let f10 = fv(990.0 * 990.0 + 25.0, -1.0, PI / 2.0);
+        // (1,1): u1 = 20, speeds 10 vs 12, headings pi/2 vs -pi/2 (opposite)
+        let f11 = fv(400.0, -2.0, PI);
+        for (i, j, e) in [(0, 0, f00), (0, 1, f01), (1, 0, f10), (1, 1, f11)] {
+            assert!(
+                (f[(i, j)] - e).abs() < 1e-12,
+                "f[{i},{j}] = {} vs {e}",
+                f[(i, j)]
+            );
+        }
+        assert!((f00 - 0.6997).abs() < 1e-4, "{f00}");
+        let mu = memberships(&p, (&rows[0].0, &rows[0].1), (&cols[0].0, &cols[0].1));
+        assert!((mu[0] - (-0.5f64 * 125.0 / 82.0).exp()).abs() < 1e-12);
+        assert!((mu[1] - (-0.02f64).exp()).abs() < 1e-12);
+        assert_eq!(mu[2], 1.0);
+        // max-similarity assignment: only (0,0) exceeds the thresholds
+        let (pairs, eps) = assign_by_max_similarity(&fixed(0.6), &f);
+        assert_eq!((pairs, eps), (vec![(0, 0)], 0.6));
+        let (pairs, _) = assign_by_max_similarity(&p, &f);
+        assert_eq!(pairs, vec![(0, 0)]);
+    }
+
+    #[test]
+    fn fixed_vs_adaptive_threshold() {
+        let f = DMatrix::from_row_slice(3, 3, &[0.9, 0.3, 0.1, 0.2, 0.57, 0.52, 0.1, 0.53, 0.45]);
+        // FT-FDTTA at 0.6 stops at 0.57
+        assert_eq!(
+            assign_by_max_similarity(&fixed(0.6), &f),
+            (vec![(0, 0)], 0.6)
+        );
+        // AT-FDTTA from 0.6: lowered to 0.55 to take 0.57; 0.45 is below eps_min
+        let at = FdttaParams::default();
+        let (pairs, eps) = assign_by_max_similarity(&at, &f);
+        assert_eq!(pairs, vec![(0, 0), (1, 1)]);
+        assert!((eps - 0.55).abs() < 1e-12);
+        // from 0.8: the same pairs, stepping 0.75, 0.7, ..., 0.55
+        let at8 = FdttaParams {
+            eps: 0.8,
+            ..at.clone()
+        };
+        let (pairs, eps) = assign_by_max_similarity(&at8, &f);
+        assert_eq!(pairs, vec![(0, 0), (1, 1)]);
+        assert!((eps - 0.55).abs() < 1e-9);
+        // between eps_min and the first step: the threshold stops at eps_min
+        let one = DMatrix::from_element(1, 1, 0.51);
+        assert_eq!(assign_by_max_similarity(&at, &one), (vec![(0, 0)], 0.5));
+        assert!(assign_by_max_similarity(&fixed(0.6), &one).0.is_empty());
+        // exactly eps_min is not above it
+        let edge = DMatrix::from_element(1, 1, 0.5);
+        assert!(assign_by_max_similarity(&at, &edge).0.is_empty());
+
+        // the same through the associator: a local track with f = 0.45 + 0.55 exp(-1.5625)
+        let g = [global(3, [0.0, 10.0, 0.0, 0.0], diag(50.0, 1.0))];
+        let pred = predicted(&g);
+        let t = [track(1, 0, [25.0, 10.0, 0.0, 0.0], diag(50.0, 1.0))];
+        let expected = 0.45 + 0.55 * (-0.5f64 * 625.0 / 200.0).exp();
+        let mut ft = Fdtta::new(fixed(0.6)).unwrap();
+        let groups = ft.associate(&ctx(0, &pred), &t, &g).unwrap();
+        check_groups(&t, &groups, 1);
+        assert_eq!(groups[0].global, None);
+        assert_eq!(ft.decisions()[0].similarity, None);
+        let mut at = Fdtta::new(FdttaParams::default()).unwrap();
+        let groups = at.associate(&ctx(0, &pred), &t, &g).unwrap();
+        check_groups(&t, &groups, 1);
+        assert_eq!(groups[0].global, Some(0));
+        let d = at.decisions()[0];
+        assert!((d.similarity.unwrap() - expected).abs() < 1e-12);
+        assert!((d.threshold - 0.55).abs() < 1e-12);
+        assert!(!d.fixed);
+    }
+
+    #[test]
+    fn fixed_pairs_after_n0_k() {
+        let params = FdttaParams {
+            n0: 4,
+            k: 2,
+            ..FdttaParams::default()
+        };
+        let g = [global(42, [0.0, 10.0, 0.0, 0.0], diag(50.0, 1.0))];
+        let pred = predicted(&g);
+        let near = [track(1, 5, [3.0, 10.0, 1.0, 0.0], diag(50.0, 1.0))];
+        let far = [track(1, 5, [5000.0, -30.0, 0.0, 5.0], diag(50.0, 1.0))];
+        let mut fd = Fdtta::new(params.clone()).unwrap();
+        let mut unconfirmed = Fdtta::new(FdttaParams {
+            k: 3,
+            ..params.clone()
+        })
+        .unwrap();
+        let mut released = Fdtta::new(FdttaParams {
+            release: 0.3,
+            ..params.clone()
+        })
+        .unwrap();
+        for scan in 0..3 {
+            for a in [&mut fd, &mut unconfirmed, &mut released] {
+                let groups = a.associate(&ctx(scan, &pred), &near, &g).unwrap();
+                assert_eq!(groups[0].global, Some(0));
+                assert!(!a.decisions()[0].fixed);
+            }
+            assert_eq!(fd.pass_count(1, 5, 42), scan + 1);
+            // fixed once the count exceeds k = 2, within the first n0 scans
+            let expect = if scan >= 2 { Some(42) } else { None };
+            assert_eq!(fd.fixed_global(1, 5), expect, "scan {scan}");
+            assert_eq!(unconfirmed.fixed_global(1, 5), None);
+        }
+        // the track jumps away: the fixed pair holds without a test
+        let groups = fd.associate(&ctx(3, &pred), &far, &g).unwrap();
+        check_groups(&far, &groups, 1);
+        assert_eq!(groups[0].global, Some(0));
+        assert!(fd.decisions()[0].fixed);
+        assert!(fd.decisions()[0].similarity.unwrap() < 0.1);
+        let groups = unconfirmed.associate(&ctx(3, &pred), &far, &g).unwrap();
+        assert_eq!(groups[0].global, None);
+        let groups = released.associate(&ctx(3, &pred), &far, &g).unwrap();
+        assert_eq!(groups[0].global, None);
+        assert_eq!(released.fixed_global(1, 5), None);
+        // the global is gone: the fixed pair is released
+        let groups = fd.associate(&ctx(4, &[]), &near, &[]).unwrap();
+        assert_eq!(groups[0].global, None);
+        assert_eq!(fd.fixed_global(1, 5), None);
+        // scans must increase
+        assert!(matches!(
+            fd.associate(&ctx(4, &[]), &near, &[]),
+            Err(CenterError::Input(_))
+        ));
+    }
+
+    /// One local track similar to two globals: both pairs pass at every scan, both counts
+    /// exceed k at once, the more similar global at that scan wins.
+    #[test]
+    fn multivalency_resolution() {
+        let params = FdttaParams {
+            n0: 3,
+            k: 1,
+            ..fixed(0.6)
+        };
+        let g = [
+            global(1, [0.0, 10.0, 0.0, 0.0], diag(50.0, 1.0)),
+            global(2, [30.0, 10.0, 0.0, 0.0], diag(50.0, 1.0)),
+        ];
+        let pred = predicted(&g);
+        let at = |x: f64| [track(1, 0, [x, 10.0, 0.0, 0.0], diag(50.0, 1.0))];
+        // f(d) = 0.45 + 0.55 exp(-0.5 d^2 / 200): both above 0.6 for d <= 20
+        let f = |d: f64| 0.45 + 0.55 * (-0.5 * d * d / 200.0).exp();
+        assert!(f(20.0) > 0.6 && f(18.0) > 0.6);
+        for (second, winner) in [(12.0, 1), (18.0, 2)] {
+            let mut fd = Fdtta::new(params.clone()).unwrap();
+            let groups = fd.associate(&ctx(0, &pred), &at(20.0), &g).unwrap();
+            // scan 0: the nearer global (index 1, at 30) is the assignment
+            assert_eq!(groups[0].global, Some(1));
+            assert!((fd.decisions()[0].similarity.unwrap() - f(10.0)).abs() < 1e-12);
+            assert_eq!(fd.fixed_global(1, 0), None);
+            fd.associate(&ctx(1, &pred), &at(second), &g).unwrap();
+            assert_eq!(fd.pass_count(1, 0, 1), 2);
+            assert_eq!(fd.pass_count(1, 0, 2), 2);
+            assert_eq!(
+                fd.fixed_global(1, 0),
+                Some(winner),
+                "second scan at x = {second}"
+            );
+        }
+        // two tracks of one sensor qualify for one global: the first keeps it
+        let two = [
+            track(1, 0, [2.0, 10.0, 0.0, 0.0], diag(50.0, 1.0)),
+            track(1, 1, [-2.0, 10.0, 9.0, 0.0], diag(50.0, 1.0)),
+        ];
+        let one = [g[0].clone()];
+        let pred1 = predicted(&one);
+        let mut fd = Fdtta::new(params).unwrap();
+        for scan in 0..2 {
+            let groups = fd.associate(&ctx(scan, &pred1), &two, &one).unwrap();
+            check_groups(&two, &groups, 1);
+        }
+        assert_eq!(fd.pass_count(1, 1, 1), 2);
+        assert_eq!(fd.fixed_global(1, 0), Some(1));
+        assert_eq!(fd.fixed_global(1, 1), None);
+    }
+
+    #[test]
+    fn three_sensors_in_turn_keep_invariants() {
+        let mut tracks = Vec::new();
+        for s in 0..3i64 {
+            for t in 0..12i64 {
+                if (t + 2 * s) % 5 == 0 {
+                    continue;
+                }
+                let off = ((t * 7 + s * 3) % 5) as f64 * 2.0 - 4.0;
+                let x = [t as f64 * 400.0 + off, 10.0 + s as f64 * 0.2, off, -5.0];
+                tracks.push(track(s, t + 100 * s, x, diag(40.0, 2.0)));
+            }
+        }
+        let mut fd = Fdtta::new(FdttaParams::default()).unwrap();
+        let groups = fd.associate(&ctx(0, &[]), &tracks, &[]).unwrap();
+        check_groups(&tracks, &groups, 0);
+        assert_eq!(groups.len(), 12);
+        for g in &groups {
+            let target = tracks[g.members[0]].track_id % 100;
+            assert!(g
+                .members
+                .iter()
+                .all(|&m| tracks[m].track_id % 100 == target));
+            assert!(g.weights.iter().all(|&w| w == 1.0));
+        }
+        for (i, d) in fd.decisions().iter().enumerate() {
+            assert_eq!(
+                (d.sensor_id, d.track_id),
+                (tracks[i].sensor_id, tracks[i].track_id)
+            );
+            assert!(groups[d.group].members.contains(&i));
+        }
+        // next scan: globals at the targets, in reverse order
+        let globals: Vec<GlobalTrack> = (0..12)
+            .rev()
+            .map(|t| global(t, [t as f64 * 400.0, 10.0, 0.0, -5.0], diag(30.0, 1.0)))
+            .collect();
+        let pred = predicted(&globals);
+        let groups = fd.associate(&ctx(1, &pred), &tracks, &globals).unwrap();
+        check_groups(&tracks, &groups, globals.len());
+        for g in &groups {
+            let target = tracks[g.members[0]].track_id % 100;
+            assert_eq!(g.global.map(|n| globals[n].id), Some(target));
+        }
+    }
+
+    #[test]
+    fn coincident_and_degenerate_tracks_are_finite() {
+        let p = FdttaParams::default();
+        let zero = StateCov::zeros();
+        let x = StateVec::new(5.0, 0.0, 5.0, 0.0);
+        assert_eq!(memberships(&p, (&x, &zero), (&x, &zero)), [1.0, 1.0, 1.0]);
+        assert!((similarity(&p, (&x, &zero), (&x, &zero)) - 1.0).abs() < 1e-12);
+        let y = StateVec::new(6.0, 1.0, 5.0, 0.0);
+        let mu = memberships(&p, (&x, &zero), (&y, &zero));
+        assert!(mu.iter().all(|m| m.is_finite()));
+        assert_eq!(mu[0], 0.0);
+        let g = [global(0, [5.0, 0.0, 5.0, 0.0], zero)];
+        let pred = predicted(&g);
+        let t = [
+            track(0, 0, [5.0, 0.0, 5.0, 0.0], zero),
+            track(1, 0, [5.0, 0.0, 5.0, 0.0], zero),
+        ];
+        let mut fd = Fdtta::new(p).unwrap();
+        let groups = fd.associate(&ctx(0, &pred), &t, &g).unwrap();
+        check_groups(&t, &groups, 1);
+        assert_eq!(groups.len(), 1);
+        assert_eq!(groups[0].global, Some(0));
+        assert!(fd.associate(&ctx(1, &[]), &[], &[]).unwrap().is_empty());
+    }
+
+    #[test]
+    fn params_are_checked() {
+        let mut t = ParamTables::new();
+        assert!(make(&t).is_ok());
+        let parse = |text: &str| -> Result<Box<dyn TrackAssociator>, ParamError> {
+            let mut t = ParamTables::new();
+            t.insert(NAME.into(), toml::from_str(text).unwrap());
+            make(&t)
+        };
+        assert!(parse("threshold = \"fixed\"\neps_0 = 0.8").is_ok());
+        let e = parse("weights = [0.5, 0.5, 0.5]").err().unwrap();
+        assert!(e.to_string().contains("weights"), "{e}");
+        let e = parse("n0 = 5\nk = 5").err().unwrap();
+        assert!(e.to_string().contains("params.fdtta.k"), "{e}");
+        let e = parse("eps = 0.4").err().unwrap();
+        assert!(e.to_string().contains("eps_min"), "{e}");
+        assert!(parse("eps = 0.4\nthreshold = \"fixed\"").is_ok());
+        let e = parse("tau = [0.5, 0.0, 0.3]").err().unwrap();
+        assert!(e.to_string().contains("tau[1]"), "{e}");
+        assert!(parse("threshold = \"sliding\"").is_err());
+        assert!(parse("bogus = 1").is_err());
+        t.clear();
+    }
 }

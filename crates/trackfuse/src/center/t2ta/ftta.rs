@@ -248,7 +248,10 @@ pub fn similarity_matrix(reports: &[Report], m: f64) -> DMatrix<f64> {
             };
             mu[(i, j)] = log_weight(d, p);
         }
-        let max = mu.column(j).iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
+        let max = mu
+            .column(j)
+            .iter()
+            .fold(f64::NEG_INFINITY, |a, &b| a.max(b));
         let sum: f64 = mu.column(j).iter().map(|&l| (l - max).exp()).sum();
         let lse = max + sum.ln();
         for i in 0..n {
@@ -359,7 +362,12 @@ impl FttaParams {
         check_m("params.ftta.m", self.m)?;
         positive("params.ftta.resolution_scale", self.resolution_scale)?;
         positive("params.ftta.covariance_scale", self.covariance_scale)?;
-        in_range("params.ftta.global_gate", self.global_gate, 1e-12, 1.0 - 1e-15)?;
+        in_range(
+            "params.ftta.global_gate",
+            self.global_gate,
+            1e-12,
+            1.0 - 1e-15,
+        )?;
         Ok(())
     }
 
@@ -453,7 +461,8 @@ impl Ftta {
         self.tail.extend(0..n);
         // candidate pairs through a sorted index on x
         self.positions.clear();
-        self.positions.extend(self.reports.iter().map(|r| r.position));
+        self.positions
+            .extend(self.reports.iter().map(|r| r.position));
         self.index.build(&self.positions);
         let r_max = self
             .reports
@@ -506,7 +515,8 @@ fn group_weights(reports: &[Report], members: &[usize], p: f64, weights: &mut Ve
     }
     let n = members.len();
     let pos = |i: usize| reports[members[i]].position;
-    let logs = (0..n).map(|k| log_diagonal_membership(k, n, pos, reports[members[k]].resolution, p));
+    let logs =
+        (0..n).map(|k| log_diagonal_membership(k, n, pos, reports[members[k]].resolution, p));
     weights.extend(logs);
     let max = weights.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
     let underflow = weights.iter().all(|&l| l.exp() < f64::MIN_POSITIVE);
@@ -721,7 +731,10 @@ mod tests {
         }
     }
 
-    fn ctx<'a>(sensors: Option<&'a [Sensor]>, predicted: &'a [(StateVec, StateCov)]) -> AssociationContext<'a> {
+    fn ctx<'a>(
+        sensors: Option<&'a [Sensor]>,
+        predicted: &'a [(StateVec, StateCov)],
+    ) -> AssociationContext<'a> {
         AssociationContext {
             scan: 0,
             time: 0.0,
@@ -768,7 +781,7 @@ mod tests {
         assert!((mu[(1, 0)] - (1.0 - mu11)).abs() < 1e-12); // eq. 4.12
         assert!((mu[(0, 1)] - mu12).abs() < 1e-12);
         assert!((mu[(1, 1)] - (1.0 - mu12)).abs() < 1e-12); // eq. 4.13
-        // eq. 4.15: mu_12 = 0.735 > mu_22 = 0.265: same target
+                                                            // eq. 4.15: mu_12 = 0.735 > mu_22 = 0.265: same target
         let corr = correlation_matrix(&reports, 2.0);
         assert_eq!(corr[(0, 1)], 1);
         assert_eq!(corr[(1, 0)], 1);
@@ -806,11 +819,18 @@ mod tests {
         assert!((reports[2].resolution - 150.0).abs() < 1e-9);
         let mu = similarity_matrix(&reports, 2.0);
         // squared distances: d12 = 60, d13 = 80, d23 = 100
-        let d2 = [[2500.0, 3600.0, 6400.0], [3600.0, 10000.0, 10000.0], [6400.0, 10000.0, 22500.0]];
+        let d2 = [
+            [2500.0, 3600.0, 6400.0],
+            [3600.0, 10000.0, 10000.0],
+            [6400.0, 10000.0, 22500.0],
+        ];
         for j in 0..3 {
             let s: f64 = (0..3).map(|i| 1.0 / d2[i][j]).sum();
             for i in 0..3 {
-                assert!((mu[(i, j)] - (1.0 / d2[i][j]) / s).abs() < 1e-12, "mu[{i},{j}]");
+                assert!(
+                    (mu[(i, j)] - (1.0 / d2[i][j]) / s).abs() < 1e-12,
+                    "mu[{i},{j}]"
+                );
             }
         }
         // pairs: (1,2) 60 <= 100, (1,3) 80 <= 150, (2,3) 100 <= 150: all correlated
@@ -819,7 +839,9 @@ mod tests {
             assert_eq!(corr[(i, j)], 1, "({i},{j})");
         }
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta.associate(&ctx(Some(&sensors), &[]), &tracks, &[]).unwrap();
+        let groups = ftta
+            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
+            .unwrap();
         check_groups(&tracks, &groups, 0);
         assert_eq!(groups.len(), 1);
         assert_eq!(groups[0].members, vec![0, 1, 2]);
@@ -897,7 +919,9 @@ mod tests {
             local(3, 0, 170.0, 0.0, 0.0, 0.0, 1.0),
         ];
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta.associate(&ctx(Some(&sensors), &[]), &tracks, &[]).unwrap();
+        let groups = ftta
+            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
+            .unwrap();
         check_groups(&tracks, &groups, 0);
         // B-C (80) is closer than A-B (90): B joins C
         assert_eq!(groups.len(), 2);
@@ -919,23 +943,40 @@ mod tests {
         let predicted: Vec<(StateVec, StateCov)> =
             globals.iter().map(|g| (g.state, g.cov)).collect();
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta.associate(&ctx(None, &predicted), &tracks, &globals).unwrap();
+        let groups = ftta
+            .associate(&ctx(None, &predicted), &tracks, &globals)
+            .unwrap();
         check_groups(&tracks, &groups, 2);
         assert_eq!(groups.len(), 3);
-        assert_eq!((groups[0].members.clone(), groups[0].global), (vec![0, 3], Some(1)));
-        assert_eq!((groups[1].members.clone(), groups[1].global), (vec![1, 4], Some(0)));
-        assert_eq!((groups[2].members.clone(), groups[2].global), (vec![2], None));
+        assert_eq!(
+            (groups[0].members.clone(), groups[0].global),
+            (vec![0, 3], Some(1))
+        );
+        assert_eq!(
+            (groups[1].members.clone(), groups[1].global),
+            (vec![1, 4], Some(0))
+        );
+        assert_eq!(
+            (groups[2].members.clone(), groups[2].global),
+            (vec![2], None)
+        );
     }
 
     #[test]
     fn coincident_tracks_give_finite_weights() {
-        let sensors = [position_sensor(1, 10.0), position_sensor(2, 20.0), position_sensor(3, 0.0)];
+        let sensors = [
+            position_sensor(1, 10.0),
+            position_sensor(2, 20.0),
+            position_sensor(3, 0.0),
+        ];
         let tracks = [
             local(1, 0, 100.0, 0.0, 100.0, 0.0, 0.0),
             local(2, 0, 100.0, 0.0, 100.0, 0.0, 0.0),
         ];
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta.associate(&ctx(Some(&sensors), &[]), &tracks, &[]).unwrap();
+        let groups = ftta
+            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
+            .unwrap();
         check_groups(&tracks, &groups, 0);
         assert_eq!(groups.len(), 1);
         let w = &groups[0].weights;
@@ -947,27 +988,43 @@ mod tests {
             local(1, 0, 0.0, 0.0, 0.0, 0.0, 0.0),
             local(3, 0, 0.0, 0.0, 0.0, 0.0, 0.0),
         ];
-        let groups = ftta.associate(&ctx(Some(&sensors), &[]), &tracks, &[]).unwrap();
+        let groups = ftta
+            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
+            .unwrap();
         check_groups(&tracks, &groups, 0);
         let mut cov_only = Ftta::new(FttaParams::default()).unwrap();
         let groups = cov_only.associate(&ctx(None, &[]), &tracks, &[]).unwrap();
         check_groups(&tracks, &groups, 0);
-        assert!(groups.iter().all(|g| g.weights.iter().all(|w| w.is_finite())));
+        assert!(groups
+            .iter()
+            .all(|g| g.weights.iter().all(|w| w.is_finite())));
         // high fuzzification exponent (m -> 1): underflow falls back to relative weights
-        let mut sharp = Ftta::new(FttaParams { m: 1.02, ..FttaParams::default() }).unwrap();
+        let mut sharp = Ftta::new(FttaParams {
+            m: 1.02,
+            ..FttaParams::default()
+        })
+        .unwrap();
         let tracks = [
             local(1, 0, 0.0, 0.0, 0.0, 0.0, 0.0),
             local(2, 0, 0.0, 0.0, 0.0, 0.0, 0.0),
         ];
-        let groups = sharp.associate(&ctx(Some(&sensors), &[]), &tracks, &[]).unwrap();
+        let groups = sharp
+            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
+            .unwrap();
         let w = &groups[0].weights;
-        assert!(w.iter().all(|w| w.is_finite()) && w.iter().any(|&w| w > 0.0), "{w:?}");
+        assert!(
+            w.iter().all(|w| w.is_finite()) && w.iter().any(|&w| w > 0.0),
+            "{w:?}"
+        );
     }
 
     #[test]
     fn empty_scan_and_needs() {
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        assert!(ftta.associate(&ctx(None, &[]), &[], &[]).unwrap().is_empty());
+        assert!(ftta
+            .associate(&ctx(None, &[]), &[], &[])
+            .unwrap()
+            .is_empty());
         let mut strict = Ftta::new(FttaParams {
             resolution: ResolutionSource::Sensor,
             ..FttaParams::default()
@@ -979,7 +1036,9 @@ mod tests {
         assert!(e.to_string().contains("sensors.csv"), "{e}");
         // a track whose sensor is not among the sensors
         let sensors = [position_sensor(2, 10.0)];
-        let e = ftta.associate(&ctx(Some(&sensors), &[]), &tracks, &[]).unwrap_err();
+        let e = ftta
+            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
+            .unwrap_err();
         assert!(matches!(e, CenterError::Needs { .. }), "{e}");
     }
 
@@ -992,7 +1051,10 @@ mod tests {
             ..position_sensor(1, 0.0)
         };
         let t = local(1, 0, 4000.0, 0.0, 0.0, 0.0, 1.0);
-        let r = FttaParams::default().model().resolution(&t, Some(&[radar]), NAME).unwrap();
+        let r = FttaParams::default()
+            .model()
+            .resolution(&t, Some(&[radar]), NAME)
+            .unwrap();
         assert!((r - (900.0f64 + 1600.0).sqrt()).abs() < 1e-9);
     }
 
@@ -1003,7 +1065,11 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("m".into(), toml::Value::Float(1.0));
         t.insert(NAME.into(), table.clone());
-        assert!(make(&t).err().unwrap().to_string().contains("params.ftta.m"));
+        assert!(make(&t)
+            .err()
+            .unwrap()
+            .to_string()
+            .contains("params.ftta.m"));
         table.insert("m".into(), toml::Value::Float(2.0));
         table.insert("resolution".into(), toml::Value::String("sensor".into()));
         table.insert("global_gate".into(), toml::Value::Float(1.5));
