@@ -1221,4 +1221,50 @@ mod tests {
         assert!(parse("bogus = 1").is_err());
         t.clear();
     }
+
+    mod properties {
+        use super::*;
+        use proptest::prelude::*;
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(48))]
+            /// Random local tracks of three sensors against random globals, over three
+            /// scans: the invariants hold and every decision names its group.
+            #[test]
+            fn invariants_hold(
+                raw in prop::collection::vec((0i64..3, 0.0..300.0f64, 0.0..300.0f64, -20.0..20.0f64), 0..10),
+                globals_raw in prop::collection::vec((0.0..300.0f64, 0.0..300.0f64), 0..4),
+                adaptive in any::<bool>(),
+            ) {
+                let mut tracks: Vec<LocalTrack> = raw
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &(s, x, y, v))| track(s, k as i64, [x, v, y, 5.0], diag(100.0, 4.0)))
+                    .collect();
+                tracks.sort_by_key(|t| (t.sensor_id, t.track_id));
+                let globals: Vec<GlobalTrack> = globals_raw
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &(x, y))| global(k as i64, [x, 0.0, y, 5.0], diag(80.0, 4.0)))
+                    .collect();
+                let pred = predicted(&globals);
+                let params = FdttaParams {
+                    threshold: if adaptive { ThresholdMode::Adaptive } else { ThresholdMode::Fixed },
+                    n0: 3,
+                    k: 1,
+                    ..FdttaParams::default()
+                };
+                let mut fd = Fdtta::new(params).unwrap();
+                for scan in 0..3 {
+                    let groups = fd.associate(&ctx(scan, &pred), &tracks, &globals).unwrap();
+                    check_groups(&tracks, &groups, globals.len());
+                    for (i, d) in fd.decisions().iter().enumerate() {
+                        prop_assert!(groups[d.group].members.contains(&i));
+                        prop_assert_eq!(d.global, groups[d.group].global);
+                        prop_assert!(d.similarity.iter().all(|f| f.is_finite()));
+                    }
+                }
+            }
+        }
+    }
 }

@@ -1103,4 +1103,53 @@ mod tests {
         }
         assert_eq!(groups.len(), 30);
     }
+
+    mod properties {
+        use super::*;
+        use proptest::prelude::*;
+
+        fn scene() -> impl Strategy<Value = Vec<(i64, f64, f64, f64)>> {
+            prop::collection::vec(
+                (0i64..3, 0.0..400.0f64, 0.0..400.0f64, 1.0..2000.0f64),
+                0..9,
+            )
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(64))]
+            /// The matrix decisions equal the pairwise form; the associator's groups keep
+            /// the invariants and are cliques of the correlation matrix.
+            #[test]
+            fn groups_are_cliques(raw in scene()) {
+                let mut tracks: Vec<LocalTrack> = raw
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &(s, x, y, var))| local(s, k as i64, x, 0.0, y, 0.0, var))
+                    .collect();
+                tracks.sort_by_key(|t| (t.sensor_id, t.track_id));
+                let model = FttaParams::default().model();
+                let reports: Vec<Report> =
+                    tracks.iter().map(|t| Report::of_track(t, &model, None).unwrap()).collect();
+                let corr = correlation_matrix(&reports, 2.0);
+                for i in 0..reports.len() {
+                    for j in 0..reports.len() {
+                        if i != j {
+                            prop_assert_eq!(corr[(i, j)] == 1, correlated(&reports[i], &reports[j]));
+                        }
+                    }
+                }
+                let mut ftta = Ftta::new(FttaParams::default()).unwrap();
+                let groups = ftta.associate(&ctx(None, &[]), &tracks, &[]).unwrap();
+                check_groups(&tracks, &groups, 0);
+                for g in &groups {
+                    for &a in &g.members {
+                        for &b in &g.members {
+                            prop_assert!(a == b || corr[(a, b)] == 1);
+                        }
+                    }
+                    prop_assert!(g.weights.iter().all(|w| w.is_finite() && *w > 0.0));
+                }
+            }
+        }
+    }
 }
