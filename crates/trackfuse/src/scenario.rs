@@ -211,6 +211,22 @@ pub enum ScenarioError {
 pub const BUILTIN_SCENARIOS: &[(&str, &str)] = &[
     ("000-s2", include_str!("../../../scenarios/000-s2.toml")),
     (
+        "003-case1",
+        include_str!("../../../scenarios/003-case1.toml"),
+    ),
+    (
+        "003-case2",
+        include_str!("../../../scenarios/003-case2.toml"),
+    ),
+    (
+        "004-case1",
+        include_str!("../../../scenarios/004-case1.toml"),
+    ),
+    (
+        "004-case2",
+        include_str!("../../../scenarios/004-case2.toml"),
+    ),
+    (
         "grid-bench",
         include_str!("../../../scenarios/grid-bench.toml"),
     ),
@@ -579,6 +595,49 @@ sigma_theta = 0.001
         let e = Scenario::from_toml(&format!("{MINIMAL}\n[clutter]\ndensity = 1.0\n"), "t")
             .unwrap_err();
         assert!(e.to_string().contains("max_range"), "{e}");
+    }
+
+    #[test]
+    fn paper_003_004_scenarios_parse() {
+        for (name, sigmas) in [
+            ("003-case1", [100.0, 100.0, 100.0, 100.0]),
+            ("003-case2", [40.0, 50.0, 150.0, 200.0]),
+        ] {
+            let s = Scenario::builtin(name).expect(name);
+            assert_eq!(s.name, name);
+            assert_eq!((s.dt, s.scans, s.monte_carlo.runs), (0.1, 601, 200));
+            assert_eq!(s.targets.len(), 3);
+            assert_eq!(s.targets[2].acceleration.len(), 3);
+            assert_eq!(s.targets[2].acceleration[0].accel, [98.1, 19.62]);
+            let table = s.sensor_table();
+            let got: Vec<f64> = table.iter().map(|s| s.sigma_a).collect();
+            assert_eq!(got, sigmas);
+            assert!(table.iter().all(|s| s.kind == SensorKind::Position));
+            // coverage of 003 Fig. 5: six reports
+            let visible: Vec<Vec<Id>> = s
+                .sensors
+                .iter()
+                .map(|s| s.visible_targets.clone().expect("coverage"))
+                .collect();
+            assert_eq!(visible, vec![vec![1], vec![2, 3], vec![2, 3], vec![3]]);
+            // one scan simulates the six reports T11, T22, T32, T23, T33, T34
+            let mut sim = crate::sim::Simulation::new(&s, 0);
+            let (mut truth, mut z) = (Vec::new(), Vec::new());
+            assert!(sim.next_scan(&mut truth, &mut z));
+            let mut seen: Vec<(Id, Id)> = z.iter().map(|m| (m.target_id, m.sensor_id)).collect();
+            seen.sort_unstable();
+            assert_eq!(seen, vec![(1, 1), (2, 2), (2, 3), (3, 2), (3, 3), (3, 4)]);
+        }
+        for name in ["004-case1", "004-case2"] {
+            let s = Scenario::builtin(name).expect(name);
+            assert_eq!(s.name, name);
+            assert_eq!(s.target_count(), 60);
+            assert_eq!((s.dt, s.monte_carlo.runs, s.sensors.len()), (1.0, 50, 2));
+            let mut sim = crate::sim::Simulation::new(&s, 0);
+            let (mut truth, mut z) = (Vec::new(), Vec::new());
+            assert!(sim.next_scan(&mut truth, &mut z));
+            assert_eq!((truth.len(), z.len()), (60, 120));
+        }
     }
 
     #[test]

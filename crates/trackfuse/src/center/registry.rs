@@ -50,6 +50,16 @@ MethodInfo {
     summary: "chi-square test on the track difference + optimal assignment, sensor by sensor",
     make: |p| Ok(Box::new(Chi2Gnn::from_params(p)?)),
 },
+    MethodInfo {
+        name: super::t2ta::fdtta::NAME,
+        summary: "fuzzy double-threshold association, fixed or adaptive threshold (004)",
+        make: super::t2ta::fdtta::make,
+    },
+    MethodInfo {
+        name: super::t2ta::ftta::NAME,
+        summary: "fuzzy c-means track-to-track association with sensor resolutions (003)",
+        make: super::t2ta::ftta::make,
+    },
 ];
 
 /// Every finished fusion rule.
@@ -83,6 +93,11 @@ pub const RULES: &[RuleInfo] = &[
         name: "mmse",
         summary: "Bayesian MMSE reference of 000: optimal fusion given the true association",
         make: |p| Ok(Box::new(Mmse::from_params(p)?)),
+    },
+    RuleInfo {
+        name: super::fusion::superior::NAME,
+        summary: "adopt the superior track, the largest diagonal membership (003 eq. 5.2-5.3)",
+        make: super::fusion::superior::make,
     },
 ];
 

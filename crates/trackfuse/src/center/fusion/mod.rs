@@ -10,3 +10,4 @@ pub mod mmse;
 #[cfg(test)]
 mod properties;
 pub mod simple;
+pub mod superior;

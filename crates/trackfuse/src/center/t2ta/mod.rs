@@ -4,3 +4,5 @@
 
 pub mod chi2_gnn;
 pub mod fdbsc;
+pub mod fdtta;
+pub mod ftta;
