@@ -20,7 +20,10 @@
 //! With `threshold = "fixed"` (FT-FDTTA) the threshold is `eps`; with `"adaptive"`
 //! (AT-FDTTA) it starts at `eps` (the paper's `eps_0`) and, while the largest remaining
 //! entry exceeds `eps_min`, is lowered by `eps_step` (never below `eps_min`) and the
-//! assignment goes on ([`assign_by_max_similarity`]).
+//! assignment goes on ([`assign_by_max_similarity`]). The order in which pairs are taken
+//! (largest first) does not depend on the threshold, so at one scan AT-FDTTA associates
+//! the pairs FT-FDTTA would at `eps_min`, whatever `eps_0`; `eps_0` matters through the
+//! threshold the scan stops at, which decides which pairs pass (below).
 //!
 //! # Reading of the printed equations
 //! - Eq. 10 as printed lost the dots of the velocity components (the state is printed
@@ -62,8 +65,11 @@
 //! (counts, fixed pairs) is per `(local track, global id)` and lives in the associator;
 //! pairs with a global born in this scan are counted from the next scan on, once it has
 //! an id. Entries at or below the lowest threshold reachable (`eps`, or `eps_min`) never
-//! matter, so when `eps_floor > a2 + a3` the candidates of a track are restricted, with a
+//! matter, so when that floor exceeds `a2 + a3` the candidates of a track are restricted, with a
 //! sorted index, to the distance at which `a1 mu1` could still lift `f` above it.
+//!
+//! The history needs the scans in increasing order (an earlier or repeated scan is a
+//! [`CenterError::Input`]) and stable global ids; a new run needs a new associator.
 //!
 //! # Output
 //! Groups have weight 1 per member (the decisions are hard). [`Fdtta::decisions`] gives,
