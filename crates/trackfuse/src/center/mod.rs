@@ -19,6 +19,7 @@
 
 pub mod bias;
 pub mod fusion;
+pub mod hough;
 pub mod registry;
 pub mod t2ta;
 #[cfg(test)]

@@ -1,3 +1,8 @@
 //! Track-to-track association methods, one file per method, named after it
 //! (ALGORITHMS.md section 3). Each implements [`super::TrackAssociator`] and is listed in
 //! [`super::registry`].
+
+// pub mod fta;
+pub(crate) mod grouping;
+pub mod ht_t2gt;
+// pub mod wfc;
