@@ -53,6 +53,8 @@ pub(crate) struct Candidate {
     pub score: f64,
     /// Breaks ties of `score`: lower is better (a distance).
     pub tiebreak: f64,
+    /// The member weight the track gets in the group when this candidate is taken.
+    pub weight: f64,
 }
 
 /// Sort candidates best first: score descending, then tiebreak ascending, then track,
@@ -133,11 +135,6 @@ impl GroupTable {
         self.group_of_track[track].is_some()
     }
 
-    /// The track that started new group `j` (target `n_globals + j`).
-    pub fn new_group_seed(&self, j: usize) -> usize {
-        self.new_seed[j]
-    }
-
     /// Whether `target` already holds a track of `sensor`.
     pub fn target_has_sensor(&self, target: usize, sensor: Id) -> bool {
         self.group_index(target)
@@ -211,8 +208,35 @@ impl GroupTable {
     pub fn take_greedy(&mut self, tracks: &[LocalTrack], candidates: &mut [Candidate]) {
         sort_best_first(candidates);
         for c in candidates.iter() {
-            self.assign(tracks, c.track, c.target, c.score);
+            self.assign(tracks, c.track, c.target, c.weight);
         }
+    }
+
+    /// Index the seeds of the new groups formed so far by position (call before
+    /// [`GroupTable::new_groups_near`] whenever new groups were added).
+    pub fn index_new_groups(&mut self, tracks: &[LocalTrack]) {
+        let seeds = &self.new_seed;
+        self.seed_index
+            .build(seeds.iter().map(|&s| tracks[s].state[0]));
+    }
+
+    /// `(target, seed track)` of the indexed new groups whose seed lies within `radius`
+    /// of `position` in both x and y.
+    pub fn new_groups_near<'a>(
+        &'a self,
+        tracks: &'a [LocalTrack],
+        position: &Vec2,
+        radius: f64,
+    ) -> impl Iterator<Item = (usize, usize)> + 'a {
+        let (x, y) = (position[0], position[1]);
+        self.seed_index
+            .range(x - radius, x + radius)
+            .iter()
+            .filter_map(move |&j| {
+                let seed = *self.new_seed.get(j as usize)?;
+                ((tracks[seed].state[2] - y).abs() <= radius)
+                    .then_some((self.n_globals + j as usize, seed))
+            })
     }
 
     /// Group the still unassigned tracks of `block` (one sensor's tracks) with the new
@@ -230,31 +254,24 @@ impl GroupTable {
         mut distance: impl FnMut(usize, usize) -> Option<f64>,
     ) {
         candidates.clear();
-        let first_new = self.n_globals;
-        if self.n_new > 0 {
-            let seeds = &self.new_seed;
-            self.seed_index
-                .build(seeds.iter().map(|&s| tracks[s].state[0]));
-        }
+        self.index_new_groups(tracks);
         for i in block.0..block.1 {
-            if self.is_assigned(i) || self.n_new == 0 {
+            if self.is_assigned(i) {
                 continue;
             }
-            let (x, y) = (tracks[i].state[0], tracks[i].state[2]);
-            for &j in self.seed_index.range(x - radius, x + radius) {
-                let seed = self.new_seed[j as usize];
-                if tracks[seed].sensor_id == tracks[i].sensor_id
-                    || (tracks[seed].state[2] - y).abs() > radius
-                {
+            let position = track_position(&tracks[i]);
+            for (target, seed) in self.new_groups_near(tracks, &position, radius) {
+                if tracks[seed].sensor_id == tracks[i].sensor_id {
                     continue;
                 }
                 if let Some(d) = distance(i, seed) {
                     if d.is_finite() && d <= gate {
                         candidates.push(Candidate {
                             track: i,
-                            target: first_new + j as usize,
+                            target,
                             score: -d,
                             tiebreak: 0.0,
+                            weight: 1.0,
                         });
                     }
                 }
@@ -263,7 +280,7 @@ impl GroupTable {
         sort_best_first(candidates);
         for c in candidates.iter() {
             // new groups are joined with weight 1 (a hard decision)
-            self.assign(tracks, c.track, c.target, 1.0);
+            self.assign(tracks, c.track, c.target, c.weight);
         }
         for i in block.0..block.1 {
             if !self.is_assigned(i) {
@@ -329,6 +346,7 @@ mod tests {
             target,
             score,
             tiebreak: 0.0,
+            weight: score,
         };
         let mut cs = vec![c(0, 0, 0.9), c(1, 0, 0.95), c(0, 1, 0.1)];
         table.take_greedy(&tracks, &mut cs);

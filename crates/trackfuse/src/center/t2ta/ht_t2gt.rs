@@ -510,6 +510,7 @@ impl HtT2gt {
                         target: l as usize,
                         score: 0.0,
                         tiebreak: d2,
+                        weight: 0.0,
                     });
                     self.d2_buf.push(d2);
                 }
@@ -519,6 +520,7 @@ impl HtT2gt {
             max_entropy_memberships(&self.d2_buf, self.params.epsilon, &mut self.u_buf);
             for (c, &u) in self.candidates[first..].iter_mut().zip(&self.u_buf) {
                 c.score = u;
+                c.weight = u;
             }
         }
     }
@@ -600,6 +602,7 @@ impl TrackAssociator for HtT2gt {
                         target: k.centre as usize,
                         score: k.u,
                         tiebreak: k.d2,
+                        weight: k.u,
                     });
                 }
             }

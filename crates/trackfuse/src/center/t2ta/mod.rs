@@ -2,7 +2,7 @@
 //! (ALGORITHMS.md section 3). Each implements [`super::TrackAssociator`] and is listed in
 //! [`super::registry`].
 
-// pub mod fta;
+pub mod fta;
 pub(crate) mod grouping;
 pub mod ht_t2gt;
 // pub mod wfc;
