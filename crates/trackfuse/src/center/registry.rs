@@ -33,10 +33,30 @@ pub struct BiasInfo {
 }
 
 /// Every finished track-to-track association method.
-pub const METHODS: &[MethodInfo] = &[];
+pub const METHODS: &[MethodInfo] = &[
+    MethodInfo {
+        name: super::t2ta::ht_t2gt::NAME,
+        summary: "002: tracklets mapped to Hough space, maximum-entropy fuzzy c-means against the global tracks",
+        make: |p| Ok(Box::new(super::t2ta::ht_t2gt::HtT2gt::from_params(p)?)),
+    },
+    MethodInfo {
+        name: super::t2ta::wfc::NAME,
+        summary: "002 baseline: feature-weighted fuzzy clustering of whole tracks (Gao & Li 2007)",
+        make: |p| Ok(Box::new(super::t2ta::wfc::Wfc::from_params(p)?)),
+    },
+    MethodInfo {
+        name: super::t2ta::fta::NAME,
+        summary: "002 baseline: fuzzy track association with association quality m (He, Wang, Guan 2010)",
+        make: |p| Ok(Box::new(super::t2ta::fta::Fta::from_params(p)?)),
+    },
+];
 
 /// Every finished fusion rule.
-pub const RULES: &[RuleInfo] = &[];
+pub const RULES: &[RuleInfo] = &[RuleInfo {
+    name: super::fusion::sdf::NAME,
+    summary: "002: support-degree fusion of tracklets in Hough space (eq. 17-22)",
+    make: |p| Ok(Box::new(super::fusion::sdf::Sdf::from_params(p)?)),
+}];
 
 /// Every finished bias estimator.
 pub const BIAS_ESTIMATORS: &[BiasInfo] = &[];
@@ -82,4 +102,27 @@ pub fn make_bias(name: &str, params: &ParamTables) -> Result<Box<dyn BiasEstimat
             )
         })?;
     Ok((b.make)(params)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_002_methods_are_registered() {
+        let none = ParamTables::new();
+        for name in ["ht-t2gt", "wfc", "fta"] {
+            let m = make_method(name, &none).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(m.name(), name);
+        }
+        assert_eq!(make_rule("sdf", &none).unwrap().name(), "sdf");
+        let e = make_method("nope", &none).err().unwrap();
+        assert!(e.to_string().contains("ht-t2gt"), "{e}");
+        let mut bad = ParamTables::new();
+        let mut t = toml::Table::new();
+        t.insert("rho_max".into(), toml::Value::Float(-1.0));
+        bad.insert("sdf".into(), t);
+        let e = make_rule("sdf", &bad).err().unwrap();
+        assert!(e.to_string().contains("rho_max"), "{e}");
+    }
 }

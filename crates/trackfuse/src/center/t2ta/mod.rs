@@ -5,4 +5,4 @@
 pub mod fta;
 pub(crate) mod grouping;
 pub mod ht_t2gt;
-// pub mod wfc;
+pub mod wfc;
