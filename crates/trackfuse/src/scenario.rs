@@ -210,6 +210,7 @@ pub enum ScenarioError {
 /// The scenarios compiled into the library, by name. The first is the default.
 pub const BUILTIN_SCENARIOS: &[(&str, &str)] = &[
     ("000-s2", include_str!("../../../scenarios/000-s2.toml")),
+    ("002-s1", include_str!("../../../scenarios/002-s1.toml")),
     (
         "003-case1",
         include_str!("../../../scenarios/003-case1.toml"),
@@ -638,6 +639,36 @@ sigma_theta = 0.001
             assert!(sim.next_scan(&mut truth, &mut z));
             assert_eq!((truth.len(), z.len()), (60, 120));
         }
+    }
+
+    #[test]
+    fn scenario_002_s1_parses() {
+        let s = Scenario::builtin("002-s1").expect("registered");
+        assert_eq!(s.dt, 3.0);
+        assert_eq!(s.target_count(), 4);
+        assert!(s.targets.iter().all(|t| t.initial[0] == 9000.0));
+        let y0: Vec<f64> = s.targets.iter().map(|t| t.initial[2]).collect();
+        assert_eq!(y0, vec![7400.0, 7300.0, 7200.0, 6200.0]);
+        let sensors = s.sensor_table();
+        let pos: Vec<(f64, f64)> = sensors.iter().map(|x| (x.x, x.y)).collect();
+        assert_eq!(
+            pos,
+            vec![
+                (8500.0, 4500.0),
+                (21000.0, 4500.0),
+                (8500.0, 24000.0),
+                (21000.0, 24000.0)
+            ]
+        );
+        for x in &sensors {
+            assert_eq!(x.sigma_a, 100.0);
+            assert!((x.sigma_b - 0.1f64.to_radians()).abs() < 1e-15);
+        }
+        // targets 2 and 4 cross at t = 11 s
+        let (a, b) = (s.targets[1].initial, s.targets[3].initial);
+        let at = |t: [f64; 4], time: f64| (t[0] + t[1] * time, t[2] + t[3] * time);
+        let (pa, pb) = (at(a, 11.0), at(b, 11.0));
+        assert!((pa.0 - pb.0).abs() < 1e-9 && (pa.1 - pb.1).abs() < 1e-9);
     }
 
     #[test]

@@ -243,6 +243,22 @@ impl FusionCenter {
             self.method.associate(&ctx, &sorted, &self.globals)?
         };
         check_groups(self.method.name(), &sorted, &groups, self.globals.len())?;
+        // members in (sensor_id, track_id) order (the tracks are sorted so), so no rule's
+        // result depends on the order an associator lists them in
+        let mut groups = groups;
+        for g in &mut groups {
+            if g.members.windows(2).any(|w| w[0] > w[1]) {
+                let mut pairs: Vec<(usize, f64)> = g
+                    .members
+                    .iter()
+                    .copied()
+                    .zip(g.weights.iter().copied())
+                    .collect();
+                pairs.sort_unstable_by_key(|p| p.0);
+                g.members = pairs.iter().map(|p| p.0).collect();
+                g.weights = pairs.iter().map(|p| p.1).collect();
+            }
+        }
         // 5. fuse, update the table
         let mut fused_est: Vec<(StateVec, StateCov)> = Vec::with_capacity(groups.len());
         let mut members: Vec<&LocalTrack> = Vec::new();

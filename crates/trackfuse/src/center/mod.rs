@@ -21,6 +21,7 @@ pub mod bias;
 pub mod bias_estimation;
 pub mod fusion;
 pub mod fusion_center;
+pub mod hough;
 pub mod registry;
 pub mod t2ta;
 

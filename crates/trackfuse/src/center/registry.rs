@@ -60,6 +60,21 @@ MethodInfo {
         summary: "fuzzy c-means track-to-track association with sensor resolutions (003)",
         make: super::t2ta::ftta::make,
     },
+    MethodInfo {
+        name: super::t2ta::ht_t2gt::NAME,
+        summary: "002: tracklets mapped to Hough space, maximum-entropy fuzzy c-means against the global tracks",
+        make: |p| Ok(Box::new(super::t2ta::ht_t2gt::HtT2gt::from_params(p)?)),
+    },
+    MethodInfo {
+        name: super::t2ta::wfc::NAME,
+        summary: "002 baseline: feature-weighted fuzzy clustering of whole tracks (Gao & Li 2007)",
+        make: |p| Ok(Box::new(super::t2ta::wfc::Wfc::from_params(p)?)),
+    },
+    MethodInfo {
+        name: super::t2ta::fta::NAME,
+        summary: "002 baseline: fuzzy track association with association quality m (He, Wang, Guan 2010)",
+        make: |p| Ok(Box::new(super::t2ta::fta::Fta::from_params(p)?)),
+    },
 ];
 
 /// Every finished fusion rule.
@@ -98,6 +113,11 @@ pub const RULES: &[RuleInfo] = &[
         name: super::fusion::superior::NAME,
         summary: "adopt the superior track, the largest diagonal membership (003 eq. 5.2-5.3)",
         make: super::fusion::superior::make,
+    },
+    RuleInfo {
+        name: super::fusion::sdf::NAME,
+        summary: "002: support-degree fusion of tracklets in Hough space (eq. 17-22)",
+        make: |p| Ok(Box::new(super::fusion::sdf::Sdf::from_params(p)?)),
     },
 ];
 
@@ -149,4 +169,27 @@ pub fn make_bias(name: &str, params: &ParamTables) -> Result<Box<dyn BiasEstimat
             )
         })?;
     Ok((b.make)(params)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_002_methods_are_registered() {
+        let none = ParamTables::new();
+        for name in ["ht-t2gt", "wfc", "fta"] {
+            let m = make_method(name, &none).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(m.name(), name);
+        }
+        assert_eq!(make_rule("sdf", &none).unwrap().name(), "sdf");
+        let e = make_method("nope", &none).err().unwrap();
+        assert!(e.to_string().contains("ht-t2gt"), "{e}");
+        let mut bad = ParamTables::new();
+        let mut t = toml::Table::new();
+        t.insert("rho_max".into(), toml::Value::Float(-1.0));
+        bad.insert("sdf".into(), t);
+        let e = make_rule("sdf", &bad).err().unwrap();
+        assert!(e.to_string().contains("rho_max"), "{e}");
+    }
 }

@@ -9,5 +9,6 @@ pub mod fuzzy;
 pub mod mmse;
 #[cfg(test)]
 mod properties;
+pub mod sdf;
 pub mod simple;
 pub mod superior;

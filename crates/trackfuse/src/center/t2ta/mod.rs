@@ -5,4 +5,8 @@
 pub mod chi2_gnn;
 pub mod fdbsc;
 pub mod fdtta;
+pub mod fta;
 pub mod ftta;
+pub(crate) mod grouping;
+pub mod ht_t2gt;
+pub mod wfc;

@@ -1,0 +1,932 @@
+//! `ht-t2gt`: tracklet-to-global-track association by the Hough transform and maximum-
+//! entropy fuzzy c-means (paper 002, Fan En et al. 2016, Sec. 2-3, eq. 1-16).
+//!
+//! # What it does, one scan at a time
+//! 1. **Tracklets** (eq. 1-2). The associator keeps, in `self`, the last estimate the
+//!    center received from each local track `(sensor_id, track_id)`. A local track with
+//!    such an estimate from an earlier scan (at most `max_gap_scans` before) forms the
+//!    tracklet `{x_{k-1}, x_k}`; one without is a *candidate tracklet* `{x_k}`.
+//! 2. **Hough mapping** (eq. 3-8): each tracklet is mapped to the point `(rho, theta)` of
+//!    the line through its two positions, normalised by `rho_max` and `theta_max`
+//!    (see [`crate::center::hough`] for the exact mapping and its seam handling).
+//! 3. **Cluster centres** (eq. 14, 18): global track `l` is mapped to
+//!    `v_l = f({x_{g,k-1}, x_{g,k|k-1}})`, the line through its last fused position and its
+//!    position predicted to this scan. The center predicts with the constant-velocity
+//!    model, so this is the line through the predicted position along the predicted
+//!    velocity; we compute it in that form, which also holds when `dt = 0`. A global with
+//!    zero velocity falls back to the line through its two last fused positions
+//!    (`GlobalTrack::previous` -> `state`); with neither it has no Hough centre.
+//! 4. **Maximum-entropy memberships** (eq. 9-13): `d_il = |p_i - v_l|^2` (squared
+//!    Euclidean in normalised Hough space) and
+//!    `u_il = exp(-omega_i d_il) / sum_l exp(-omega_i d_il)` over the centres within the
+//!    gate. **Omega by eq. 15**, `omega_i = -ln(epsilon) / d_min,i`: eq. 16 needs each
+//!    sensor's false-alarm rate `xi`, which is zero in the clutter-free 002 scenario (eq. 16
+//!    is then undefined), and eq. 16 equals eq. 15 with `eta / xi = -ln(epsilon)`. With
+//!    eq. 15 the nearest centre's unnormalised membership is exactly `epsilon`.
+//!    `d_min = 0` (a tracklet on a centre) gives that centre (or those centres, shared
+//!    equally) membership 1.
+//! 5. **Fuzzy c-means iterations**: the centres start at the global tracks' points (as the
+//!    paper does "to reduce the iteration times") and are updated as the maximum-entropy
+//!    FCM stationarity condition gives, `v_l = sum_i omega_i u_il p_i / sum_i omega_i u_il`
+//!    (points taken in their representation nearest `v_l` across the theta seam), then the
+//!    memberships are recomputed, until the largest centre move is below `tolerance` or
+//!    `max_iterations` is reached (0: memberships against the global tracks' points only).
+//!    The set of centres a tracklet may belong to is fixed by the gate at the start.
+//! 6. **Assignment by maximum membership with a rejection threshold**: a tracklet farther
+//!    than `gate` (normalised Hough distance) from every centre is rejected (the paper's
+//!    "threshold of distances" beyond which memberships are neglected, after eq. 16) and
+//!    starts a global track. The memberships are the group weights.
+//!
+//! # Choices where the paper is silent
+//! - **One track per sensor per group.** Conflicts are resolved sensor by sensor: all
+//!   `(tracklet, centre)` pairs of one sensor are taken greedily by decreasing membership
+//!   (ties by track, then global index); a tracklet whose best centre is already taken by
+//!   a track of its own sensor takes its next gated centre, and with none left it starts
+//!   a new global track.
+//! - **First scan of a local track** (a candidate tracklet, or a tracklet whose two
+//!   positions coincide): position-gated association to the predicted global tracks,
+//!   within `position_gate` metres, with maximum-entropy memberships (eq. 13, 15) over
+//!   the squared position distances. Within a sensor, tracklets are assigned first (they
+//!   carry more information, the paper's premise), candidate tracklets take what is left.
+//! - **New global tracks.** The tracks left unassigned are grouped with one another sensor
+//!   by sensor, in sensor order: each joins the nearest new group started by an earlier
+//!   sensor (distance between current positions, at most `position_gate`, one track per
+//!   sensor), else it starts one. Without this every sensor's track of a new target would
+//!   start its own global track. New-group members have weight 1.
+//! - `position_gate_tracklets = true` also requires a tracklet's position to be within
+//!   `position_gate` of a global's predicted position (the Hough point ignores where a
+//!   target is along its line, so two targets on one line map to one point); default off,
+//!   as in the paper.
+//! - Gating uses a sorted sweep over the centres' `theta` (and over the predicted
+//!   positions' x), so no all-pairs comparison is made.
+//!
+//! # Parameters
+//! See [`HtT2gtParams`]; `[fusion.params.ht-t2gt]`.
+//!
+//! # References
+//! Fan En, Shen Shi-gen, Hu Ke-li, Yuan Chang-hong, Wang Pin, "Tracklet-global track
+//! association and fusion methods in distributed sensor networks", IJSIP 9(6), 2016.
+
+use super::grouping::{sensor_blocks, track_position, Candidate, GroupTable, SweepIndex};
+use crate::center::hough::{HoughPoint, HoughSpace};
+use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
+use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
+use crate::types::{Id, LocalTrack, Vec2};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// The registered name.
+pub const NAME: &str = "ht-t2gt";
+
+/// Parameters of `ht-t2gt` (`[fusion.params.ht-t2gt]`). The paper gives no values; the
+/// defaults are ours:
+/// - `epsilon = 1e-6`: the constant of eq. 15, in (0, 1) (the value ALGORITHMS.md fixes
+///   for the same maximum-entropy form in 001).
+/// - `gate = 0.15`: rejection threshold, the largest normalised Hough distance at which a
+///   tracklet may belong to a global track (about 13.5 degrees of direction, or
+///   0.15 `rho_max` of offset); a tracklet beyond it for every global starts a new one.
+/// - `rho_max = 30000` m: `rho_max` of the normalisation, the extent of the 002 Sec. 5.1
+///   surveillance area.
+/// - `theta_max = pi/2`: the largest `|theta|` eq. 6 yields.
+/// - `signed_rho = true`: keep the sign of `rho` (see [`crate::center::hough`]); `false`
+///   is eq. 5's `|rho|` literally.
+/// - `origin = [0, 0]` m: origin of the Hough transform.
+/// - `max_iterations = 10`, `tolerance = 1e-6`: fuzzy c-means iterations and the largest
+///   normalised centre move that stops them.
+/// - `position_gate = 2000` m: gate of the position-based association of first-scan
+///   tracks and of the grouping of new global tracks.
+/// - `position_gate_tracklets = false`: also gate tracklets by position.
+/// - `max_gap_scans = 5`: the oldest previous estimate (in scans) that still forms a
+///   tracklet with the current one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HtT2gtParams {
+    #[serde(default = "default_epsilon")]
+    pub epsilon: f64,
+    #[serde(default = "default_gate")]
+    pub gate: f64,
+    #[serde(default = "default_rho_max")]
+    pub rho_max: f64,
+    #[serde(default = "default_theta_max")]
+    pub theta_max: f64,
+    #[serde(default = "default_true")]
+    pub signed_rho: bool,
+    #[serde(default)]
+    pub origin: [f64; 2],
+    #[serde(default = "default_iterations")]
+    pub max_iterations: u32,
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    #[serde(default = "default_position_gate")]
+    pub position_gate: f64,
+    #[serde(default)]
+    pub position_gate_tracklets: bool,
+    #[serde(default = "default_max_gap")]
+    pub max_gap_scans: u32,
+}
+
+fn default_epsilon() -> f64 {
+    1e-6
+}
+fn default_gate() -> f64 {
+    0.15
+}
+pub(crate) fn default_rho_max() -> f64 {
+    30_000.0
+}
+pub(crate) fn default_theta_max() -> f64 {
+    FRAC_PI_2
+}
+pub(crate) fn default_true() -> bool {
+    true
+}
+fn default_iterations() -> u32 {
+    10
+}
+fn default_tolerance() -> f64 {
+    1e-6
+}
+fn default_position_gate() -> f64 {
+    2000.0
+}
+fn default_max_gap() -> u32 {
+    5
+}
+
+impl Default for HtT2gtParams {
+    fn default() -> Self {
+        HtT2gtParams {
+            epsilon: default_epsilon(),
+            gate: default_gate(),
+            rho_max: default_rho_max(),
+            theta_max: default_theta_max(),
+            signed_rho: true,
+            origin: [0.0, 0.0],
+            max_iterations: default_iterations(),
+            tolerance: default_tolerance(),
+            position_gate: default_position_gate(),
+            position_gate_tracklets: false,
+            max_gap_scans: default_max_gap(),
+        }
+    }
+}
+
+impl HtT2gtParams {
+    /// Range-check every value; errors name the key.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let key = |k: &str| format!("params.{NAME}.{k}");
+        positive(&key("epsilon"), self.epsilon)?;
+        if self.epsilon >= 1.0 {
+            return Err(ParamError::new(
+                key("epsilon"),
+                format!("{} must be below 1", self.epsilon),
+            ));
+        }
+        positive(&key("gate"), self.gate)?;
+        positive(&key("rho_max"), self.rho_max)?;
+        positive(&key("theta_max"), self.theta_max)?;
+        in_range(&key("tolerance"), self.tolerance, 0.0, f64::MAX)?;
+        positive(&key("position_gate"), self.position_gate)?;
+        if self.origin.iter().any(|v| !v.is_finite()) {
+            return Err(ParamError::new(key("origin"), "must be finite"));
+        }
+        if self.max_gap_scans == 0 {
+            return Err(ParamError::new(key("max_gap_scans"), "must be at least 1"));
+        }
+        Ok(())
+    }
+
+    /// The Hough space these parameters describe.
+    pub fn space(&self) -> HoughSpace {
+        HoughSpace {
+            origin: Vec2::new(self.origin[0], self.origin[1]),
+            rho_max: self.rho_max,
+            theta_max: self.theta_max,
+            signed: self.signed_rho,
+        }
+    }
+}
+
+/// Maximum-entropy memberships of one point (002 eq. 13 with omega by eq. 15):
+/// `u_l = exp(-omega d_l) / sum exp(-omega d_l)`, `omega = -ln(epsilon) / d_min`, over the
+/// squared distances `d2`; writes `out` (same length) and returns omega (infinite when
+/// `d_min = 0`: the centres at distance 0 share membership 1). Empty input: nothing.
+pub fn max_entropy_memberships(d2: &[f64], epsilon: f64, out: &mut [f64]) -> f64 {
+    let d_min = d2.iter().copied().fold(f64::INFINITY, f64::min);
+    if d2.is_empty() || !d_min.is_finite() {
+        out.iter_mut().for_each(|u| *u = 0.0);
+        return 0.0;
+    }
+    if d_min <= 0.0 {
+        let zeros = d2.iter().filter(|&&d| d <= 0.0).count() as f64;
+        for (u, &d) in out.iter_mut().zip(d2) {
+            *u = if d <= 0.0 { 1.0 / zeros } else { 0.0 };
+        }
+        return f64::INFINITY;
+    }
+    let ln_eps = epsilon.ln();
+    // exp(-omega d_l) / exp(-omega d_min) = exp(ln(eps) (d_l / d_min - 1)) <= 1
+    let mut sum = 0.0;
+    for (u, &d) in out.iter_mut().zip(d2) {
+        *u = (ln_eps * (d / d_min - 1.0)).exp();
+        sum += *u;
+    }
+    for u in out.iter_mut() {
+        *u /= sum;
+    }
+    -ln_eps / d_min
+}
+
+/// The last estimate received from one local track.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct LastEstimate {
+    key: (Id, Id),
+    scan: u32,
+    position: Vec2,
+}
+
+/// One gated (tracklet, centre) pair.
+#[derive(Debug, Clone, Copy)]
+struct Link {
+    centre: u32,
+    d2: f64,
+    u: f64,
+}
+
+/// The `ht-t2gt` associator. Keeps each local track's last estimate between scans, and
+/// its per-scan buffers.
+#[derive(Debug, Clone)]
+pub struct HtT2gt {
+    params: HtT2gtParams,
+    space: HoughSpace,
+    last: Vec<LastEstimate>,
+    next_last: Vec<LastEstimate>,
+    points: Vec<Option<HoughPoint>>,
+    centres: Vec<Option<HoughPoint>>,
+    centre_sum: Vec<(f64, f64, f64)>,
+    omega: Vec<f64>,
+    link_start: Vec<u32>,
+    links: Vec<Link>,
+    d2_buf: Vec<f64>,
+    u_buf: Vec<f64>,
+    theta_index: SweepIndex,
+    theta_of_index: Vec<u32>,
+    position_index: SweepIndex,
+    table: GroupTable,
+    candidates: Vec<Candidate>,
+}
+
+impl HtT2gt {
+    /// A new associator with validated parameters.
+    pub fn new(params: HtT2gtParams) -> Result<Self, ParamError> {
+        params.validate()?;
+        Ok(HtT2gt {
+            space: params.space(),
+            params,
+            last: Vec::new(),
+            next_last: Vec::new(),
+            points: Vec::new(),
+            centres: Vec::new(),
+            centre_sum: Vec::new(),
+            omega: Vec::new(),
+            link_start: Vec::new(),
+            links: Vec::new(),
+            d2_buf: Vec::new(),
+            u_buf: Vec::new(),
+            theta_index: SweepIndex::default(),
+            theta_of_index: Vec::new(),
+            position_index: SweepIndex::default(),
+            table: GroupTable::default(),
+            candidates: Vec::new(),
+        })
+    }
+
+    /// Build from the `[fusion.params.*]` tables.
+    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
+        Self::new(parse_params(tables, NAME)?)
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &HtT2gtParams {
+        &self.params
+    }
+
+    fn previous_position(&self, t: &LocalTrack, scan: u32) -> Option<Vec2> {
+        let key = (t.sensor_id, t.track_id);
+        let i = self.last.binary_search_by(|e| e.key.cmp(&key)).ok()?;
+        let e = &self.last[i];
+        (e.scan < scan && scan - e.scan <= self.params.max_gap_scans).then_some(e.position)
+    }
+
+    /// Step 1-2: tracklets and their Hough points.
+    fn map_tracklets(&mut self, tracks: &[LocalTrack], scan: u32) {
+        self.points.clear();
+        for t in tracks {
+            let p = self
+                .previous_position(t, scan)
+                .and_then(|prev| self.space.tracklet(&prev, &track_position(t)));
+            self.points.push(p);
+        }
+    }
+
+    /// Step 3: the centres of the global tracks.
+    fn map_centres(&mut self, ctx: &AssociationContext<'_>, globals: &[GlobalTrack]) {
+        self.centres.clear();
+        for (g, (pred, _)) in globals.iter().zip(ctx.predicted) {
+            let pos = Vec2::new(pred[0], pred[2]);
+            let vel = Vec2::new(pred[1], pred[3]);
+            let c = self.space.line(&pos, &vel).or_else(|| {
+                g.previous.and_then(|(_, prev)| {
+                    self.space.tracklet(
+                        &Vec2::new(prev[0], prev[2]),
+                        &Vec2::new(g.state[0], g.state[2]),
+                    )
+                })
+            });
+            self.centres.push(c);
+        }
+    }
+
+    /// Step 4 (gating part): the gated centres of each tracklet.
+    fn gate_tracklets(&mut self, ctx: &AssociationContext<'_>, tracks: &[LocalTrack]) {
+        let HtT2gt {
+            params,
+            space,
+            points,
+            centres,
+            theta_index,
+            theta_of_index,
+            links,
+            link_start,
+            ..
+        } = self;
+        let gate2 = params.gate * params.gate;
+        // index the centres by theta
+        theta_of_index.clear();
+        theta_of_index.extend((0..centres.len() as u32).filter(|&l| centres[l as usize].is_some()));
+        theta_index.build(
+            theta_of_index
+                .iter()
+                .map(|&l| centres[l as usize].map_or(0.0, |c| c.theta)),
+        );
+        let half = params.gate * params.theta_max;
+        // a window of width >= pi covers every theta: scan all centres once
+        let all = half >= FRAC_PI_2;
+        let pos_gate2 = params.position_gate * params.position_gate;
+        link_start.clear();
+        links.clear();
+        for (i, p) in points.iter().enumerate() {
+            link_start.push(links.len() as u32);
+            let Some(p) = p else { continue };
+            let first = links.len();
+            let shifts: &[f64] = if all { &[0.0] } else { &[0.0, PI, -PI] };
+            for &shift in shifts {
+                let window = if all {
+                    theta_index.range(f64::NEG_INFINITY, f64::INFINITY)
+                } else {
+                    theta_index.range(p.theta + shift - half, p.theta + shift + half)
+                };
+                for &k in window {
+                    let l = theta_of_index[k as usize];
+                    let Some(c) = centres[l as usize] else {
+                        continue;
+                    };
+                    let d2 = space.distance2(p, &c);
+                    if d2 > gate2 {
+                        continue;
+                    }
+                    if params.position_gate_tracklets {
+                        let pred = &ctx.predicted[l as usize].0;
+                        let dp = track_position(&tracks[i]) - Vec2::new(pred[0], pred[2]);
+                        if dp.norm_squared() > pos_gate2 {
+                            continue;
+                        }
+                    }
+                    links.push(Link {
+                        centre: l,
+                        d2,
+                        u: 0.0,
+                    });
+                }
+            }
+            links[first..].sort_unstable_by_key(|k| k.centre);
+        }
+        link_start.push(links.len() as u32);
+    }
+
+    fn links_of(&self, i: usize) -> std::ops::Range<usize> {
+        self.link_start[i] as usize..self.link_start[i + 1] as usize
+    }
+
+    /// Step 4 (memberships) for every tracklet; fills `omega`.
+    fn memberships(&mut self) {
+        self.omega.clear();
+        for i in 0..self.points.len() {
+            let r = self.links_of(i);
+            self.d2_buf.clear();
+            self.d2_buf
+                .extend(self.links[r.clone()].iter().map(|k| k.d2));
+            self.u_buf.clear();
+            self.u_buf.resize(self.d2_buf.len(), 0.0);
+            let w = max_entropy_memberships(&self.d2_buf, self.params.epsilon, &mut self.u_buf);
+            for (k, &u) in self.links[r].iter_mut().zip(&self.u_buf) {
+                k.u = u;
+            }
+            self.omega.push(w);
+        }
+    }
+
+    /// Step 5: fuzzy c-means iterations of the centres (among the gated pairs).
+    fn iterate(&mut self) {
+        // a point on a centre has infinite omega; cap it so it dominates but stays finite
+        let omega_cap = -self.params.epsilon.ln() / 1e-12;
+        for _ in 0..self.params.max_iterations {
+            self.centre_sum.clear();
+            self.centre_sum.resize(self.centres.len(), (0.0, 0.0, 0.0));
+            for i in 0..self.points.len() {
+                let Some(p) = self.points[i] else { continue };
+                let w_i = self.omega[i].min(omega_cap);
+                for k in &self.links[self.links_of(i)] {
+                    let l = k.centre as usize;
+                    let Some(c) = self.centres[l] else { continue };
+                    let q = self.space.nearest_representation(&p, &c);
+                    let w = w_i * k.u;
+                    let s = &mut self.centre_sum[l];
+                    s.0 += w * q.rho;
+                    s.1 += w * q.theta;
+                    s.2 += w;
+                }
+            }
+            let mut moved: f64 = 0.0;
+            for (l, s) in self.centre_sum.iter().enumerate() {
+                let Some(c) = self.centres[l] else { continue };
+                if !(s.2 > 0.0 && s.2.is_finite()) {
+                    continue;
+                }
+                let new = self.space.canonical(&HoughPoint {
+                    rho: s.0 / s.2,
+                    theta: s.1 / s.2,
+                });
+                if !(new.rho.is_finite() && new.theta.is_finite()) {
+                    continue;
+                }
+                moved = moved.max(self.space.distance2(&new, &c).sqrt());
+                self.centres[l] = Some(new);
+            }
+            for i in 0..self.points.len() {
+                let Some(p) = self.points[i] else { continue };
+                for j in self.links_of(i) {
+                    let l = self.links[j].centre as usize;
+                    if let Some(c) = self.centres[l] {
+                        self.links[j].d2 = self.space.distance2(&p, &c);
+                    }
+                }
+            }
+            self.memberships();
+            if moved <= self.params.tolerance {
+                break;
+            }
+        }
+    }
+
+    /// Candidates of the first-scan tracks of one sensor block: position-gated globals with
+    /// maximum-entropy memberships over squared position distances.
+    fn position_candidates(
+        &mut self,
+        ctx: &AssociationContext<'_>,
+        tracks: &[LocalTrack],
+        block: (usize, usize),
+    ) {
+        self.candidates.clear();
+        let gate = self.params.position_gate;
+        for i in block.0..block.1 {
+            if self.points[i].is_some() || self.table.is_assigned(i) {
+                continue;
+            }
+            let pos = track_position(&tracks[i]);
+            let first = self.candidates.len();
+            self.d2_buf.clear();
+            for &l in self.position_index.range(pos[0] - gate, pos[0] + gate) {
+                let pred = &ctx.predicted[l as usize].0;
+                let d2 = (pos - Vec2::new(pred[0], pred[2])).norm_squared();
+                if d2 <= gate * gate {
+                    self.candidates.push(Candidate {
+                        track: i,
+                        target: l as usize,
+                        score: 0.0,
+                        tiebreak: d2,
+                        weight: 0.0,
+                    });
+                    self.d2_buf.push(d2);
+                }
+            }
+            self.u_buf.clear();
+            self.u_buf.resize(self.d2_buf.len(), 0.0);
+            max_entropy_memberships(&self.d2_buf, self.params.epsilon, &mut self.u_buf);
+            for (c, &u) in self.candidates[first..].iter_mut().zip(&self.u_buf) {
+                c.score = u;
+                c.weight = u;
+            }
+        }
+    }
+
+    /// Remember this scan's estimates (and older ones still within `max_gap_scans`).
+    fn remember(&mut self, tracks: &[LocalTrack], scan: u32) {
+        self.next_last.clear();
+        let max_gap = self.params.max_gap_scans;
+        let mut old = self.last.iter().peekable();
+        for t in tracks {
+            let key = (t.sensor_id, t.track_id);
+            while let Some(e) = old.peek() {
+                if e.key >= key {
+                    break;
+                }
+                if e.scan < scan && scan - e.scan < max_gap {
+                    self.next_last.push(**e);
+                }
+                old.next();
+            }
+            if old.peek().is_some_and(|e| e.key == key) {
+                old.next();
+            }
+            if self.next_last.last().is_some_and(|e| e.key == key) {
+                // a duplicate (sensor, track) in one scan: keep the later one
+                self.next_last.pop();
+            }
+            self.next_last.push(LastEstimate {
+                key,
+                scan,
+                position: track_position(t),
+            });
+        }
+        for e in old {
+            if e.scan < scan && scan - e.scan < max_gap {
+                self.next_last.push(*e);
+            }
+        }
+        std::mem::swap(&mut self.last, &mut self.next_last);
+    }
+}
+
+impl TrackAssociator for HtT2gt {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn associate(
+        &mut self,
+        ctx: &AssociationContext<'_>,
+        tracks: &[LocalTrack],
+        globals: &[GlobalTrack],
+    ) -> Result<Vec<TrackGroup>, CenterError> {
+        if ctx.predicted.len() != globals.len() {
+            return Err(CenterError::Input(format!(
+                "{NAME}: {} predictions for {} global tracks",
+                ctx.predicted.len(),
+                globals.len()
+            )));
+        }
+        self.map_tracklets(tracks, ctx.scan);
+        self.map_centres(ctx, globals);
+        self.gate_tracklets(ctx, tracks);
+        self.memberships();
+        self.iterate();
+        self.position_index
+            .build(ctx.predicted.iter().map(|(x, _)| x[0]));
+
+        self.table.reset(tracks.len(), globals.len());
+        let pos_gate = self.params.position_gate;
+        let mut candidates = std::mem::take(&mut self.candidates);
+        for block in sensor_blocks(tracks) {
+            // tracklets first, by decreasing membership
+            candidates.clear();
+            for i in block.0..block.1 {
+                for k in &self.links[self.links_of(i)] {
+                    candidates.push(Candidate {
+                        track: i,
+                        target: k.centre as usize,
+                        score: k.u,
+                        tiebreak: k.d2,
+                        weight: k.u,
+                    });
+                }
+            }
+            self.table.take_greedy(tracks, &mut candidates);
+            // then first-scan tracks, position-gated
+            self.candidates = std::mem::take(&mut candidates);
+            self.position_candidates(ctx, tracks, block);
+            candidates = std::mem::take(&mut self.candidates);
+            self.table.take_greedy(tracks, &mut candidates);
+            // the rest start, or join, new global tracks
+            self.table.group_leftovers(
+                tracks,
+                block,
+                pos_gate,
+                pos_gate,
+                &mut candidates,
+                |i, s| Some((track_position(&tracks[i]) - track_position(&tracks[s])).norm()),
+            );
+        }
+        self.candidates = candidates;
+        self.remember(tracks, ctx.scan);
+        Ok(self.table.finish())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::center::testing::{check_groups, local};
+    use crate::types::{StateCov, StateVec};
+    use approx::assert_relative_eq;
+
+    fn ctx<'a>(scan: u32, predicted: &'a [(StateVec, StateCov)]) -> AssociationContext<'a> {
+        AssociationContext {
+            scan,
+            time: scan as f64,
+            sensors: None,
+            predicted,
+            dt: 1.0,
+            labels: None,
+        }
+    }
+
+    fn at(mut t: LocalTrack, scan: u32) -> LocalTrack {
+        t.scan = scan;
+        t.time = scan as f64;
+        t
+    }
+
+    fn global(id: Id, state: StateVec) -> GlobalTrack {
+        GlobalTrack {
+            id,
+            scan: 0,
+            time: 0.0,
+            state,
+            cov: StateCov::identity(),
+            previous: None,
+            sources: Vec::new(),
+            updates: 1,
+            misses: 0,
+        }
+    }
+
+    fn params() -> HtT2gtParams {
+        HtT2gtParams {
+            rho_max: 1000.0,
+            max_iterations: 0,
+            ..HtT2gtParams::default()
+        }
+    }
+
+    #[test]
+    fn memberships_follow_eq_13_and_15() {
+        // Two tracklets, two centres, in normalised Hough space (rho_max = 1000 m,
+        // theta_max = pi/2). Centres: lines y = 0 (theta = -pi/2, rho = 0) and x = 0
+        // (theta = 0, rho = 0), as global tracks moving east and north through the origin.
+        let space = params().space();
+        let c_east = space
+            .line(&Vec2::new(0.0, 0.0), &Vec2::new(10.0, 0.0))
+            .unwrap();
+        let c_north = space
+            .line(&Vec2::new(0.0, 0.0), &Vec2::new(0.0, 10.0))
+            .unwrap();
+        // Tracklet A: (0, 0) -> (1000, 100): eta = 0.1; tracklet B: (0,0) -> (100, 1000).
+        let ta = space
+            .tracklet(&Vec2::new(0.0, 0.0), &Vec2::new(1000.0, 100.0))
+            .unwrap();
+        let tb = space
+            .tracklet(&Vec2::new(0.0, 0.0), &Vec2::new(100.0, 1000.0))
+            .unwrap();
+        // by hand: theta_A = arctan(-1/0.1), rho_A = 0 (through the origin)
+        let theta_a = (-1.0f64 / 0.1).atan();
+        let theta_b = (-1.0f64 / 10.0).atan();
+        let n = |t: f64| t / FRAC_PI_2;
+        // d = |p - v|^2 with theta modulo pi: A to east: theta_a - (-pi/2)
+        let da_east = (n(theta_a) - n(-FRAC_PI_2)).powi(2);
+        let da_north = (n(theta_a) - 0.0).powi(2);
+        let db_east = (n(theta_b) + 1.0).powi(2).min((n(theta_b) - 1.0).powi(2));
+        let db_north = n(theta_b).powi(2);
+        assert_relative_eq!(space.distance2(&ta, &c_east), da_east, epsilon = 1e-12);
+        assert_relative_eq!(space.distance2(&ta, &c_north), da_north, epsilon = 1e-12);
+        assert_relative_eq!(space.distance2(&tb, &c_east), db_east, epsilon = 1e-12);
+        assert_relative_eq!(space.distance2(&tb, &c_north), db_north, epsilon = 1e-12);
+        // eq. 15 and 13 directly
+        let eps: f64 = 1e-2;
+        for (d1, d2) in [(da_east, da_north), (db_east, db_north)] {
+            let omega = -eps.ln() / d1.min(d2);
+            let e1 = (-omega * d1).exp();
+            let e2 = (-omega * d2).exp();
+            let mut u = [0.0; 2];
+            let w = max_entropy_memberships(&[d1, d2], eps, &mut u);
+            assert_relative_eq!(w, omega, epsilon = 1e-9);
+            assert_relative_eq!(u[0], e1 / (e1 + e2), epsilon = 1e-12);
+            assert_relative_eq!(u[1], e2 / (e1 + e2), epsilon = 1e-12);
+        }
+        // and the associator reproduces them as group weights
+        let g = [
+            global(10, StateVec::new(0.0, 10.0, 0.0, 0.0)),
+            global(11, StateVec::new(0.0, 0.0, 0.0, 10.0)),
+        ];
+        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let mut a = HtT2gt::new(HtT2gtParams {
+            epsilon: eps,
+            gate: 2.0,
+            ..params()
+        })
+        .unwrap();
+        let prev = [
+            local(0, 1, 0.0, 0.0, 0.0, 0.0, 1.0),
+            local(0, 2, 0.0, 0.0, 0.0, 0.0, 1.0),
+        ];
+        a.associate(&ctx(0, &pred), &prev, &g).unwrap();
+        let cur = [
+            at(local(0, 1, 1000.0, 0.0, 100.0, 0.0, 1.0), 1),
+            at(local(0, 2, 100.0, 0.0, 1000.0, 0.0, 1.0), 1),
+        ];
+        let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
+        check_groups(&cur, &groups, 2);
+        let omega_a = -eps.ln() / da_east;
+        let ua = 1.0 / (1.0 + (-omega_a * (da_north - da_east)).exp());
+        assert_eq!(groups[0].global, Some(0));
+        assert_eq!(groups[0].members, vec![0]);
+        assert_relative_eq!(groups[0].weights[0], ua, epsilon = 1e-12);
+        assert_eq!(groups[1].global, Some(1));
+        assert_eq!(groups[1].members, vec![1]);
+    }
+
+    #[test]
+    fn zero_distance_and_empty_memberships_are_defined() {
+        let mut u = [0.0; 3];
+        let w = max_entropy_memberships(&[0.0, 0.5, 0.0], 1e-6, &mut u);
+        assert!(w.is_infinite());
+        assert_eq!(u, [0.5, 0.0, 0.5]);
+        let mut none: [f64; 0] = [];
+        assert_eq!(max_entropy_memberships(&[], 1e-6, &mut none), 0.0);
+    }
+
+    #[test]
+    fn rejection_threshold_starts_a_new_global() {
+        // one global moving east along y = 0; a tracklet moving north (90 degrees off,
+        // normalised distance 1) is beyond the gate of 0.15 and starts a new global track;
+        // a tracklet moving east along y = 50 m is within it.
+        let g = [global(7, StateVec::new(0.0, 100.0, 0.0, 0.0))];
+        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let mut a = HtT2gt::new(params()).unwrap();
+        let prev = [
+            local(0, 1, 0.0, 100.0, 50.0, 0.0, 1.0),
+            local(1, 1, 500.0, 0.0, 0.0, 100.0, 1.0),
+        ];
+        let groups = a.associate(&ctx(0, &pred), &prev, &g).unwrap();
+        // first scan: both within the position gate of the global -> position association
+        check_groups(&prev, &groups, 1);
+        assert_eq!(groups.len(), 1);
+        let cur = [
+            at(local(0, 1, 100.0, 100.0, 50.0, 0.0, 1.0), 1),
+            at(local(1, 1, 500.0, 0.0, 100.0, 100.0, 1.0), 1),
+        ];
+        let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
+        check_groups(&cur, &groups, 1);
+        assert_eq!(groups.len(), 2);
+        assert_eq!(groups[0].global, Some(0));
+        assert_eq!(groups[0].members, vec![0]);
+        assert_eq!(groups[1].global, None, "rejected tracklet starts a global");
+        assert_eq!(groups[1].members, vec![1]);
+    }
+
+    #[test]
+    fn one_track_per_sensor_and_new_targets_grouped_across_sensors() {
+        // no globals: two targets seen by two sensors -> two new groups, one per target
+        let mut a = HtT2gt::new(params()).unwrap();
+        let tracks = [
+            local(0, 1, 0.0, 10.0, 0.0, 0.0, 1.0),
+            local(0, 2, 5000.0, 10.0, 0.0, 0.0, 1.0),
+            local(1, 4, 5020.0, 10.0, 10.0, 0.0, 1.0),
+            local(1, 5, 30.0, 10.0, -10.0, 0.0, 1.0),
+        ];
+        let groups = a.associate(&ctx(0, &[]), &tracks, &[]).unwrap();
+        check_groups(&tracks, &groups, 0);
+        assert_eq!(groups.len(), 2);
+        assert_eq!(groups[0].members, vec![0, 3]);
+        assert_eq!(groups[1].members, vec![1, 2]);
+        // two tracks of one sensor on the same line as one global: only one joins it
+        let g = [global(1, StateVec::new(0.0, 100.0, 0.0, 0.0))];
+        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let mut a = HtT2gt::new(params()).unwrap();
+        let prev = [
+            local(0, 1, 10.0, 100.0, 1.0, 0.0, 1.0),
+            local(0, 2, 0.0, 100.0, 0.0, 0.0, 1.0),
+        ];
+        a.associate(&ctx(0, &pred), &prev, &g).unwrap();
+        // both tracklets are horizontal (membership 1 to the only centre); the one on the
+        // centre's line (distance 0) wins, the other (rho 1 m off) starts a new global
+        let cur = [
+            at(local(0, 1, 110.0, 100.0, 1.0, 0.0, 1.0), 1),
+            at(local(0, 2, 100.0, 100.0, 0.0, 0.0, 1.0), 1),
+        ];
+        let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
+        check_groups(&cur, &groups, 1);
+        assert_eq!(groups[0].global, Some(0));
+        assert_eq!(
+            groups[0].members,
+            vec![1],
+            "the tracklet on the centre wins"
+        );
+        assert_eq!(groups[1].global, None);
+    }
+
+    #[test]
+    fn coincident_tracks_give_finite_results() {
+        // identical tracks of three sensors, a standing target (degenerate tracklets),
+        // a global exactly on them, with zero velocity
+        let g = [global(3, StateVec::new(100.0, 0.0, 100.0, 0.0))];
+        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let mut a = HtT2gt::new(HtT2gtParams::default()).unwrap();
+        let t: Vec<_> = (0..3)
+            .map(|s| local(s, 1, 100.0, 0.0, 100.0, 0.0, 0.0))
+            .collect();
+        for scan in 0..3 {
+            let tracks: Vec<_> = t.iter().map(|x| at(*x, scan)).collect();
+            let groups = a.associate(&ctx(scan, &pred), &tracks, &g).unwrap();
+            check_groups(&tracks, &groups, 1);
+            assert_eq!(groups.len(), 1);
+            assert!(groups[0].weights.iter().all(|w| w.is_finite()));
+        }
+        // moving coincident tracks on a moving global: tracklets at distance 0
+        let g = [global(3, StateVec::new(0.0, 10.0, 0.0, 10.0))];
+        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let mut a = HtT2gt::new(HtT2gtParams::default()).unwrap();
+        for scan in 0..3 {
+            let x = 10.0 * scan as f64;
+            let tracks: Vec<_> = (0..3)
+                .map(|s| at(local(s, 1, x, 10.0, x, 10.0, 0.0), scan))
+                .collect();
+            let groups = a.associate(&ctx(scan, &pred), &tracks, &g).unwrap();
+            check_groups(&tracks, &groups, 1);
+            assert_eq!(groups.len(), 1);
+            assert!(groups[0].weights.iter().all(|w| w.is_finite() && *w > 0.0));
+        }
+        // empty input
+        let groups = a.associate(&ctx(5, &pred), &[], &g).unwrap();
+        assert!(groups.is_empty());
+    }
+
+    #[test]
+    fn crossing_lines_separate_in_hough_space() {
+        // two globals crossing at the origin, one at 45 degrees and one at 0 degrees; at the
+        // crossing their positions coincide, but the tracklets map to distinct points and
+        // each sensor's tracklets follow their own global.
+        let g = [
+            global(1, StateVec::new(0.0, 100.0, 0.0, 100.0)),
+            global(2, StateVec::new(0.0, 100.0, 0.0, 0.0)),
+        ];
+        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let mut a = HtT2gt::new(HtT2gtParams {
+            max_iterations: 10,
+            ..params()
+        })
+        .unwrap();
+        let prev = [
+            local(0, 1, -100.0, 100.0, -100.0, 100.0, 1.0),
+            local(0, 2, -100.0, 100.0, 0.0, 0.0, 1.0),
+            local(1, 7, -100.0, 100.0, 0.0, 0.0, 1.0),
+            local(1, 8, -100.0, 100.0, -100.0, 100.0, 1.0),
+        ];
+        a.associate(&ctx(0, &pred), &prev, &g).unwrap();
+        let cur = [
+            at(local(0, 1, 0.0, 100.0, 1.0, 100.0, 1.0), 1),
+            at(local(0, 2, 0.0, 100.0, -1.0, 0.0, 1.0), 1),
+            at(local(1, 7, 0.0, 100.0, 0.0, 0.0, 1.0), 1),
+            at(local(1, 8, 0.0, 100.0, 0.0, 100.0, 1.0), 1),
+        ];
+        let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
+        check_groups(&cur, &groups, 2);
+        assert_eq!(groups.len(), 2);
+        assert_eq!(
+            (groups[0].global, groups[0].members.clone()),
+            (Some(0), vec![0, 3])
+        );
+        assert_eq!(
+            (groups[1].global, groups[1].members.clone()),
+            (Some(1), vec![1, 2])
+        );
+    }
+
+    #[test]
+    fn params_are_validated_and_named() {
+        let mut t = ParamTables::new();
+        let mut table = toml::Table::new();
+        table.insert("epsilon".into(), toml::Value::Float(1.5));
+        t.insert(NAME.into(), table);
+        let e = HtT2gt::from_params(&t).unwrap_err();
+        assert!(e.key.contains("epsilon"), "{e}");
+        let mut table = toml::Table::new();
+        table.insert("gat".into(), toml::Value::Float(1.0));
+        t.insert(NAME.into(), table);
+        assert!(HtT2gt::from_params(&t)
+            .unwrap_err()
+            .to_string()
+            .contains("gat"));
+        assert!(HtT2gt::from_params(&ParamTables::new()).is_ok());
+    }
+}
