@@ -68,6 +68,11 @@ pub const FILTERS: &[FilterInfo] = &[
         summary: "interacting multiple model: CV and coordinated turns at +omega and -omega",
         make: super::filter::imm::ImmFilter::make,
     },
+    FilterInfo {
+        name: "mie",
+        summary: "input estimation: windowed manoeuvre detection, least-squares acceleration, state correction",
+        make: super::filter::input_estimation::InputEstimationFilter::make,
+    },
 ];
 
 /// Every finished local data associator, by ALGORITHMS.md name.

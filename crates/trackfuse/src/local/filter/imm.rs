@@ -10,9 +10,9 @@
 //! scaled by `turn_noise_scale`. A CV + constant-acceleration pair, the other IMM of
 //! ALGORITHMS.md, is impossible here: a CA model needs the acceleration in the state
 //! (6 dims), and every mode must share the track's 4-dim state (`FilterState`, the local
-//! track format). Turns cover the papers' manoeuvres (000 Table 5, 001 Table 3: the
-//! acceleration changes direction every 12-33 s), the CT models' process noise the
-//! along-track part.
+//! track format). The turn models cover the normal part of a manoeuvre; an along-track
+//! acceleration (large in 000 Table 5 and 001 Table 3) is left to the process noise,
+//! which is why `mie` tracks those manoeuvres better (numbers in `input_estimation`).
 //!
 //! # One cycle
 //! - **Predict** (`dt > 0`): mixing with the Markov matrix `pi_ij` (per prediction step;

@@ -16,6 +16,7 @@ pub mod cmkf;
 pub mod common;
 pub mod ekf;
 pub mod imm;
+pub mod input_estimation;
 pub mod kalman;
 #[cfg(test)]
 pub(crate) mod testing;
@@ -24,7 +25,8 @@ use crate::types::{Mat2, Sensor, SensorKind, StateCov, StateVec, Vec2};
 use nalgebra::SMatrix;
 
 /// One model's estimate inside a multiple-model filter (IMM), or a filter's auxiliary
-/// estimate (e.g. the input estimate of input estimation).
+/// estimate. (Input estimation, `mie`, keeps its input estimate and detection window in
+/// [`FilterState::aux`] instead.)
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModeEstimate {
     /// Mode probability (IMM) or a filter-defined scalar.
@@ -180,4 +182,70 @@ pub trait Filter: Send + Sync {
         weights: &[(u32, f64)],
         sensor: &Sensor,
     ) -> bool;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::testing::{measure, position_sensor, radar};
+    use crate::local::registry::{make_filter, FilterSettings, FILTERS};
+    use crate::models::cv_transition;
+    use crate::params::ParamTables;
+    use crate::types::{SensorKind, StateCov, StateVec, Vec2};
+
+    /// Every registered filter builds with default parameters under its own name, and
+    /// runs hard, soft (three weights) and missed updates on every sensor kind it
+    /// supports, keeping a finite, symmetric, positive-definite covariance.
+    #[test]
+    fn registered_filters_run_on_supported_sensors() {
+        let tables = ParamTables::new();
+        let settings = FilterSettings {
+            process_noise: [2.0, 2.0],
+            params: &tables,
+        };
+        for info in FILTERS {
+            let f = make_filter(info.name, &settings).unwrap();
+            assert_eq!(f.name(), info.name);
+            for sensor in [position_sensor(20.0, 20.0), radar(-100.0, 50.0, 10.0, 2e-3)] {
+                if !f.supports(sensor.kind) {
+                    assert_eq!(info.name, "kf");
+                    assert_eq!(sensor.kind, SensorKind::RangeBearing);
+                    continue;
+                }
+                let mut truth = StateVec::new(3000.0, 50.0, 4000.0, -20.0);
+                let mut s = f.init(truth, StateCov::identity() * 400.0);
+                for k in 0..15 {
+                    truth = cv_transition(1.0) * truth;
+                    f.predict(&mut s, 1.0);
+                    let z: Vec<Vec2> = [(0.3, -0.2), (2.5, 1.0), (-1.8, 2.2)]
+                        .iter()
+                        .map(|(a, b)| f.convert(&measure(&truth, &sensor, *a, *b), &sensor))
+                        .collect();
+                    let w: &[(u32, f64)] = match k % 3 {
+                        0 => &[(0, 1.0)],
+                        1 => &[(0, 0.5), (1, 0.2), (2, 0.1)],
+                        _ => &[],
+                    };
+                    let pred = f.predict_measurement(&s, &sensor).unwrap();
+                    assert_eq!(
+                        pred.angular,
+                        sensor.kind == SensorKind::RangeBearing && info.name != "cmkf"
+                    );
+                    assert!(f.update(&mut s, &pred, &z, w, &sensor), "{}", info.name);
+                    assert!(s.mean.iter().all(|v| v.is_finite()));
+                    assert!((s.cov - s.cov.transpose()).norm() < 1e-9 * s.cov.norm());
+                    assert!(
+                        s.cov.cholesky().is_some(),
+                        "{} {:?}",
+                        info.name,
+                        sensor.kind
+                    );
+                }
+                let e = truth - s.mean;
+                assert!(e[0].hypot(e[2]) < 100.0, "{}: {e}", info.name);
+            }
+        }
+        let names: Vec<_> = FILTERS.iter().map(|f| f.name).collect();
+        assert_eq!(names, ["kf", "ekf", "cmkf", "imm", "mie"]);
+        assert!(make_filter("ukf", &settings).is_err());
+    }
 }

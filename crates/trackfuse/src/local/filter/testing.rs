@@ -198,7 +198,6 @@ pub(crate) fn assert_nees_in_band(
     setup: &NeesSetup,
 ) -> NeesResult {
     let r = nees_experiment(filter, sensor, q, motion, setup);
-    eprintln!("NEES {}: {r:?}", filter.name());
     assert!(
         r.anees >= r.band.0 && r.anees <= r.band.1 && r.in_band >= setup.min_in_band,
         "{}: {r:?}",
