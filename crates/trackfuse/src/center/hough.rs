@@ -92,7 +92,9 @@ impl HoughSpace {
     /// [`MIN_DIRECTION`].
     pub fn line(&self, point: &Vec2, direction: &Vec2) -> Option<HoughPoint> {
         let (dx, dy) = (direction[0], direction[1]);
-        if !(dx.hypot(dy) >= MIN_DIRECTION) {
+        let length = dx.hypot(dy);
+        // also rejects a NaN direction
+        if length.is_nan() || length < MIN_DIRECTION {
             return None;
         }
         // tan(theta) = -dx / dy = -1 / eta (eq. 6)
@@ -150,7 +152,11 @@ impl HoughSpace {
             return *p;
         }
         HoughPoint {
-            rho: if self.signed && is_odd(k) { -p.rho } else { p.rho },
+            rho: if self.signed && is_odd(k) {
+                -p.rho
+            } else {
+                p.rho
+            },
             theta: p.theta - k * PI,
         }
     }
@@ -259,7 +265,10 @@ mod tests {
         let lit = space(false);
         let pa = lit.tracklet(&a.0, &a.1).unwrap();
         let pb = lit.tracklet(&b.0, &b.1).unwrap();
-        assert!(lit.distance2(&pa, &pb) < 1e-20, "eq. 5 literally merges them");
+        assert!(
+            lit.distance2(&pa, &pb) < 1e-20,
+            "eq. 5 literally merges them"
+        );
         let s = space(true);
         let pa = s.tracklet(&a.0, &a.1).unwrap();
         let pb = s.tracklet(&b.0, &b.1).unwrap();

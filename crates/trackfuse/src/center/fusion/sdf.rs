@@ -140,7 +140,12 @@ impl Sdf {
     /// The support-degree weights (eq. 17-21) of `members` against the reference state
     /// `reference` (the global's predicted state, or the members' mean), written to
     /// `weights` (same length as `members`).
-    pub fn support_weights(&self, members: &[&LocalTrack], reference: &StateVec, weights: &mut [f64]) {
+    pub fn support_weights(
+        &self,
+        members: &[&LocalTrack],
+        reference: &StateVec,
+        weights: &mut [f64],
+    ) {
         let n = members.len();
         let mut stack = [Point::Position(Vec2::zeros()); STACK_MEMBERS + 1];
         let mut heap = Vec::new();
@@ -202,7 +207,9 @@ impl FusionRule for Sdf {
     ) -> Result<(StateVec, StateCov), CenterError> {
         let n = members.len();
         if n == 0 {
-            return Err(CenterError::Input(format!("{NAME}: a group with no member")));
+            return Err(CenterError::Input(format!(
+                "{NAME}: a group with no member"
+            )));
         }
         if weights.len() != n {
             return Err(CenterError::Input(format!(
@@ -277,7 +284,10 @@ mod tests {
         let c = local(2, 1, 30.0, 10.0, 300.0, 0.0, 1.0);
         let rhos = [0.0, -0.1, 0.2, -0.3];
         // eq. 17: d_j = |p_j - p_g| (same theta, so |rho_j - rho_g|)
-        let d: Vec<f64> = rhos[1..].iter().map(|r: &f64| (r - rhos[0]).abs()).collect();
+        let d: Vec<f64> = rhos[1..]
+            .iter()
+            .map(|r: &f64| (r - rhos[0]).abs())
+            .collect();
         // eq. 20: D = largest distance between any two points = |0.2 - (-0.3)| = 0.5
         let mut big: f64 = 0.0;
         for i in 0..4 {
@@ -334,7 +344,11 @@ mod tests {
         assert_relative_eq!(w[0], re / (re + rn), epsilon = 1e-9);
         assert!(w[0] > 0.99);
         let _ = rule()
-            .fuse(&[&east, &north], &[0.5, 0.5], &ctx(Some((&prior_x, &prior_p))))
+            .fuse(
+                &[&east, &north],
+                &[0.5, 0.5],
+                &ctx(Some((&prior_x, &prior_p))),
+            )
             .unwrap();
     }
 
@@ -364,7 +378,11 @@ mod tests {
         assert_relative_eq!(w[1], 0.0, epsilon = 1e-12);
         assert_relative_eq!(w[2], 0.9 / 1.9, epsilon = 1e-12);
         let (x, _) = r
-            .fuse(&[&s1, &s2, &s3], &[1.0; 3], &ctx(Some((&prior_x, &prior_p))))
+            .fuse(
+                &[&s1, &s2, &s3],
+                &[1.0; 3],
+                &ctx(Some((&prior_x, &prior_p))),
+            )
             .unwrap();
         assert!(x.iter().all(|v| v.is_finite()));
         // errors, not panics
@@ -379,7 +397,7 @@ mod tests {
             .map(|i| local(i, 1, 0.0, 10.0, i as f64 * 10.0, 0.0, 1.0))
             .collect();
         let refs: Vec<&LocalTrack> = ms.iter().collect();
-        let (x, p) = r.fuse(&refs, &vec![1.0; 20], &ctx(None)).unwrap();
+        let (x, p) = r.fuse(&refs, &[1.0; 20], &ctx(None)).unwrap();
         assert!(x.iter().chain(p.iter()).all(|v| v.is_finite()));
         // symmetric about the middle: mean y = 95
         assert_relative_eq!(x[2], 95.0, epsilon = 1e-6);

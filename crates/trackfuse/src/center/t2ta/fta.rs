@@ -168,7 +168,13 @@ pub fn fuzzy_similarity(
         mu3,
     ];
     let a_sum: f64 = params.weights.iter().sum();
-    let f: f64 = params.weights.iter().zip(&mu).map(|(a, m)| a * m).sum::<f64>() / a_sum;
+    let f: f64 = params
+        .weights
+        .iter()
+        .zip(&mu)
+        .map(|(a, m)| a * m)
+        .sum::<f64>()
+        / a_sum;
     if f.is_finite() {
         f
     } else {
@@ -273,8 +279,7 @@ impl TrackAssociator for Fta {
         for block in sensor_blocks(tracks) {
             // fixed pairs: quality reached, similarity still above the threshold
             candidates.clear();
-            for i in block.0..block.1 {
-                let t = &tracks[i];
+            for (i, t) in tracks.iter().enumerate().take(block.1).skip(block.0) {
                 let q = self.quality_of((t.sensor_id, t.track_id));
                 if q < self.params.quality {
                     continue;
@@ -360,7 +365,7 @@ impl TrackAssociator for Fta {
                 self.next_quality.push(Quality { key, count });
             }
         }
-        self.next_quality.sort_unstable_by(|a, b| a.key.cmp(&b.key));
+        self.next_quality.sort_unstable_by_key(|q| q.key);
         self.next_quality.dedup_by(|a, b| a.key == b.key);
         std::mem::swap(&mut self.quality, &mut self.next_quality);
         Ok(groups)
@@ -416,7 +421,11 @@ mod tests {
         let mu3 = (-0.5 * u3 * u3 / s3).exp();
         let expected = 0.6 * mu1 + 0.2 * mu2 + 0.2 * mu3;
         let _ = u2;
-        assert_relative_eq!(fuzzy_similarity(&a, &pa, &b, &pb, &p), expected, epsilon = 1e-12);
+        assert_relative_eq!(
+            fuzzy_similarity(&a, &pa, &b, &pb, &p),
+            expected,
+            epsilon = 1e-12
+        );
         assert_relative_eq!(fuzzy_similarity(&a, &pa, &a, &pa, &p), 1.0);
         // coincident tracks with zero covariance: defined
         let z = StateCov::zeros();
@@ -457,8 +466,18 @@ mod tests {
         assert_relative_eq!(groups[0].weights[0], 1.0);
         // Scan 1: the center made globals 0 and 1 from those groups.
         let mut g = vec![
-            global(20, StateVec::new(0.0, 100.0, 0.0, 0.0), 0, vec![(0, 1), (1, 6)]),
-            global(21, StateVec::new(0.0, 100.0, 1000.0, 0.0), 0, vec![(0, 2), (1, 5)]),
+            global(
+                20,
+                StateVec::new(0.0, 100.0, 0.0, 0.0),
+                0,
+                vec![(0, 1), (1, 6)],
+            ),
+            global(
+                21,
+                StateVec::new(0.0, 100.0, 1000.0, 0.0),
+                0,
+                vec![(0, 2), (1, 5)],
+            ),
         ];
         let step = |g: &mut Vec<GlobalTrack>, scan: u32| {
             for gt in g.iter_mut() {
@@ -479,8 +498,14 @@ mod tests {
             .collect();
         let groups = a.associate(&ctx(1, &pred), &moved, &g).unwrap();
         check_groups(&moved, &groups, 2);
-        assert_eq!((groups[0].global, groups[0].members.clone()), (Some(0), vec![0, 3]));
-        assert_eq!((groups[1].global, groups[1].members.clone()), (Some(1), vec![1, 2]));
+        assert_eq!(
+            (groups[0].global, groups[0].members.clone()),
+            (Some(0), vec![0, 3])
+        );
+        assert_eq!(
+            (groups[1].global, groups[1].members.clone()),
+            (Some(1), vec![1, 2])
+        );
         // now every track has quality 2 = m: fixed pairs, kept while above the threshold,
         // with their similarities as weights.
         step(&mut g, 2);
@@ -560,6 +585,12 @@ mod tests {
         table.insert("threshold".into(), toml::Value::Float(2.0));
         t.insert(NAME.into(), table);
         assert!(Fta::from_params(&t).unwrap_err().key.contains("threshold"));
-        assert_eq!(Fta::from_params(&ParamTables::new()).unwrap().params.quality, 6);
+        assert_eq!(
+            Fta::from_params(&ParamTables::new())
+                .unwrap()
+                .params
+                .quality,
+            6
+        );
     }
 }

@@ -64,7 +64,11 @@ pub(crate) fn sort_best_first(candidates: &mut [Candidate]) {
         b.score
             .partial_cmp(&a.score)
             .unwrap_or(Ordering::Equal)
-            .then(a.tiebreak.partial_cmp(&b.tiebreak).unwrap_or(Ordering::Equal))
+            .then(
+                a.tiebreak
+                    .partial_cmp(&b.tiebreak)
+                    .unwrap_or(Ordering::Equal),
+            )
             .then(a.track.cmp(&b.track))
             .then(a.target.cmp(&b.target))
     });
@@ -79,7 +83,11 @@ pub(crate) fn sensor_blocks(tracks: &[LocalTrack]) -> impl Iterator<Item = (usiz
             return None;
         }
         let s = tracks[start].sensor_id;
-        let end = start + tracks[start..].iter().take_while(|t| t.sensor_id == s).count();
+        let end = start
+            + tracks[start..]
+                .iter()
+                .take_while(|t| t.sensor_id == s)
+                .count();
         let block = (start, end);
         start = end;
         Some(block)
@@ -151,7 +159,13 @@ impl GroupTable {
 
     /// Put `track` into `target` with `weight`. Returns `false` (and does nothing) when the
     /// track is already assigned or the target already holds a track of the same sensor.
-    pub fn assign(&mut self, tracks: &[LocalTrack], track: usize, target: usize, weight: f64) -> bool {
+    pub fn assign(
+        &mut self,
+        tracks: &[LocalTrack],
+        track: usize,
+        target: usize,
+        weight: f64,
+    ) -> bool {
         if self.is_assigned(track) || target >= self.n_targets() {
             return false;
         }
@@ -175,7 +189,11 @@ impl GroupTable {
             }
         };
         self.groups[g].members.push(track);
-        self.groups[g].weights.push(if weight.is_finite() { weight.max(0.0) } else { 0.0 });
+        self.groups[g].weights.push(if weight.is_finite() {
+            weight.max(0.0)
+        } else {
+            0.0
+        });
         self.sensors[g].push(sensor);
         self.group_of_track[track] = Some(g);
         true
@@ -357,6 +375,9 @@ mod tests {
         assert_eq!(groups[0].global, Some(0));
         assert_eq!(groups[0].members, vec![1, 2]);
         assert_eq!(groups[1].members, vec![0]);
-        assert_eq!(sensor_blocks(&tracks).collect::<Vec<_>>(), vec![(0, 2), (2, 3)]);
+        assert_eq!(
+            sensor_blocks(&tracks).collect::<Vec<_>>(),
+            vec![(0, 2), (2, 3)]
+        );
     }
 }

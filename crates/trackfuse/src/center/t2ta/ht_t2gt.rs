@@ -46,13 +46,18 @@
 //! - **First scan of a local track** (a candidate tracklet, or a tracklet whose two
 //!   positions coincide): position-gated association to the predicted global tracks,
 //!   within `position_gate` metres, with maximum-entropy memberships (eq. 13, 15) over
-//!   the squared position distances. Within a sensor, tracklets are assigned first (they
-//!   carry more information, the paper's premise), candidate tracklets take what is left.
+//!   the squared position distances. The candidate's *line* — through its position along
+//!   its velocity estimate, i.e. eq. 1 with `x_{k-1}` back-predicted from `x_k` — must also
+//!   be within the Hough `gate` of the global's centre (when both have one), so a track
+//!   going another way does not join a global it merely passes. Within a sensor,
+//!   tracklets are assigned first (they carry more information, the paper's premise),
+//!   candidate tracklets take what is left.
 //! - **New global tracks.** The tracks left unassigned are grouped with one another sensor
 //!   by sensor, in sensor order: each joins the nearest new group started by an earlier
 //!   sensor (distance between current positions, at most `position_gate`, one track per
-//!   sensor), else it starts one. Without this every sensor's track of a new target would
-//!   start its own global track. New-group members have weight 1.
+//!   sensor, and the two lines — tracklet or velocity line — within the Hough `gate`),
+//!   else it starts one. Without this every sensor's track of a new target would start
+//!   its own global track. New-group members have weight 1.
 //! - `position_gate_tracklets = true` also requires a tracklet's position to be within
 //!   `position_gate` of a global's predicted position (the Hough point ignores where a
 //!   target is along its line, so two targets on one line map to one point); default off,
@@ -262,6 +267,8 @@ pub struct HtT2gt {
     last: Vec<LastEstimate>,
     next_last: Vec<LastEstimate>,
     points: Vec<Option<HoughPoint>>,
+    /// Each track's line: its tracklet's point, else the line of its velocity estimate.
+    lines: Vec<Option<HoughPoint>>,
     centres: Vec<Option<HoughPoint>>,
     centre_sum: Vec<(f64, f64, f64)>,
     omega: Vec<f64>,
@@ -286,6 +293,7 @@ impl HtT2gt {
             last: Vec::new(),
             next_last: Vec::new(),
             points: Vec::new(),
+            lines: Vec::new(),
             centres: Vec::new(),
             centre_sum: Vec::new(),
             omega: Vec::new(),
@@ -321,11 +329,17 @@ impl HtT2gt {
     /// Step 1-2: tracklets and their Hough points.
     fn map_tracklets(&mut self, tracks: &[LocalTrack], scan: u32) {
         self.points.clear();
+        self.lines.clear();
         for t in tracks {
             let p = self
                 .previous_position(t, scan)
                 .and_then(|prev| self.space.tracklet(&prev, &track_position(t)));
             self.points.push(p);
+            let line = p.or_else(|| {
+                self.space
+                    .line(&track_position(t), &Vec2::new(t.state[1], t.state[3]))
+            });
+            self.lines.push(line);
         }
     }
 
@@ -337,8 +351,10 @@ impl HtT2gt {
             let vel = Vec2::new(pred[1], pred[3]);
             let c = self.space.line(&pos, &vel).or_else(|| {
                 g.previous.and_then(|(_, prev)| {
-                    self.space
-                        .tracklet(&Vec2::new(prev[0], prev[2]), &Vec2::new(g.state[0], g.state[2]))
+                    self.space.tracklet(
+                        &Vec2::new(prev[0], prev[2]),
+                        &Vec2::new(g.state[0], g.state[2]),
+                    )
                 })
             });
             self.centres.push(c);
@@ -386,7 +402,9 @@ impl HtT2gt {
                 };
                 for &k in window {
                     let l = theta_of_index[k as usize];
-                    let Some(c) = centres[l as usize] else { continue };
+                    let Some(c) = centres[l as usize] else {
+                        continue;
+                    };
                     let d2 = space.distance2(p, &c);
                     if d2 > gate2 {
                         continue;
@@ -420,7 +438,8 @@ impl HtT2gt {
         for i in 0..self.points.len() {
             let r = self.links_of(i);
             self.d2_buf.clear();
-            self.d2_buf.extend(self.links[r.clone()].iter().map(|k| k.d2));
+            self.d2_buf
+                .extend(self.links[r.clone()].iter().map(|k| k.d2));
             self.u_buf.clear();
             self.u_buf.resize(self.d2_buf.len(), 0.0);
             let w = max_entropy_memberships(&self.d2_buf, self.params.epsilon, &mut self.u_buf);
@@ -494,17 +513,22 @@ impl HtT2gt {
     ) {
         self.candidates.clear();
         let gate = self.params.position_gate;
-        for i in block.0..block.1 {
+        let hough_gate2 = self.params.gate * self.params.gate;
+        for (i, track) in tracks.iter().enumerate().take(block.1).skip(block.0) {
             if self.points[i].is_some() || self.table.is_assigned(i) {
                 continue;
             }
-            let pos = track_position(&tracks[i]);
+            let pos = track_position(track);
             let first = self.candidates.len();
             self.d2_buf.clear();
             for &l in self.position_index.range(pos[0] - gate, pos[0] + gate) {
                 let pred = &ctx.predicted[l as usize].0;
                 let d2 = (pos - Vec2::new(pred[0], pred[2])).norm_squared();
-                if d2 <= gate * gate {
+                let compatible = match (self.lines[i], self.centres[l as usize]) {
+                    (Some(a), Some(c)) => self.space.distance2(&a, &c) <= hough_gate2,
+                    _ => true,
+                };
+                if d2 <= gate * gate && compatible {
                     self.candidates.push(Candidate {
                         track: i,
                         target: l as usize,
@@ -613,10 +637,22 @@ impl TrackAssociator for HtT2gt {
             candidates = std::mem::take(&mut self.candidates);
             self.table.take_greedy(tracks, &mut candidates);
             // the rest start, or join, new global tracks
-            self.table
-                .group_leftovers(tracks, block, pos_gate, pos_gate, &mut candidates, |i, s| {
+            let (lines, space, hough_gate2) = (&self.lines, &self.space, self.params.gate.powi(2));
+            self.table.group_leftovers(
+                tracks,
+                block,
+                pos_gate,
+                pos_gate,
+                &mut candidates,
+                |i, s| {
+                    if let (Some(a), Some(b)) = (lines[i], lines[s]) {
+                        if space.distance2(&a, &b) > hough_gate2 {
+                            return None;
+                        }
+                    }
                     Some((track_position(&tracks[i]) - track_position(&tracks[s])).norm())
-                });
+                },
+            );
         }
         self.candidates = candidates;
         self.remember(tracks, ctx.scan);
@@ -726,7 +762,10 @@ mod tests {
             ..params()
         })
         .unwrap();
-        let prev = [local(0, 1, 0.0, 0.0, 0.0, 0.0, 1.0), local(0, 2, 0.0, 0.0, 0.0, 0.0, 1.0)];
+        let prev = [
+            local(0, 1, 0.0, 0.0, 0.0, 0.0, 1.0),
+            local(0, 2, 0.0, 0.0, 0.0, 0.0, 1.0),
+        ];
         a.associate(&ctx(0, &pred), &prev, &g).unwrap();
         let cur = [
             at(local(0, 1, 1000.0, 0.0, 100.0, 0.0, 1.0), 1),
@@ -766,9 +805,26 @@ mod tests {
             local(1, 1, 500.0, 0.0, 0.0, 100.0, 1.0),
         ];
         let groups = a.associate(&ctx(0, &pred), &prev, &g).unwrap();
-        // first scan: both within the position gate of the global -> position association
+        // first scan: both within the position gate of the global, but only the one
+        // moving east has a velocity line within the Hough gate of the global's centre
         check_groups(&prev, &groups, 1);
-        assert_eq!(groups.len(), 1);
+        assert_eq!(groups.len(), 2);
+        assert_eq!(
+            (groups[0].global, groups[0].members.clone()),
+            (Some(0), vec![0])
+        );
+        assert_eq!(
+            (groups[1].global, groups[1].members.clone()),
+            (None, vec![1])
+        );
+        // with the velocity line along the global, the first scan joins it by position
+        let mut b = HtT2gt::new(params()).unwrap();
+        let along = [local(1, 1, 500.0, 100.0, 30.0, 0.0, 1.0)];
+        let groups = b.associate(&ctx(0, &pred), &along, &g).unwrap();
+        assert_eq!(
+            (groups[0].global, groups[0].weights.clone()),
+            (Some(0), vec![1.0])
+        );
         let cur = [
             at(local(0, 1, 100.0, 100.0, 50.0, 0.0, 1.0), 1),
             at(local(1, 1, 500.0, 0.0, 100.0, 100.0, 1.0), 1),
@@ -815,7 +871,11 @@ mod tests {
         let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
         check_groups(&cur, &groups, 1);
         assert_eq!(groups[0].global, Some(0));
-        assert_eq!(groups[0].members, vec![1], "the tracklet on the centre wins");
+        assert_eq!(
+            groups[0].members,
+            vec![1],
+            "the tracklet on the centre wins"
+        );
         assert_eq!(groups[1].global, None);
     }
 
@@ -826,7 +886,9 @@ mod tests {
         let g = [global(3, StateVec::new(100.0, 0.0, 100.0, 0.0))];
         let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
         let mut a = HtT2gt::new(HtT2gtParams::default()).unwrap();
-        let t: Vec<_> = (0..3).map(|s| local(s, 1, 100.0, 0.0, 100.0, 0.0, 0.0)).collect();
+        let t: Vec<_> = (0..3)
+            .map(|s| local(s, 1, 100.0, 0.0, 100.0, 0.0, 0.0))
+            .collect();
         for scan in 0..3 {
             let tracks: Vec<_> = t.iter().map(|x| at(*x, scan)).collect();
             let groups = a.associate(&ctx(scan, &pred), &tracks, &g).unwrap();
@@ -884,8 +946,14 @@ mod tests {
         let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
         check_groups(&cur, &groups, 2);
         assert_eq!(groups.len(), 2);
-        assert_eq!((groups[0].global, groups[0].members.clone()), (Some(0), vec![0, 3]));
-        assert_eq!((groups[1].global, groups[1].members.clone()), (Some(1), vec![1, 2]));
+        assert_eq!(
+            (groups[0].global, groups[0].members.clone()),
+            (Some(0), vec![0, 3])
+        );
+        assert_eq!(
+            (groups[1].global, groups[1].members.clone()),
+            (Some(1), vec![1, 2])
+        );
     }
 
     #[test]
@@ -899,7 +967,10 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("gat".into(), toml::Value::Float(1.0));
         t.insert(NAME.into(), table);
-        assert!(HtT2gt::from_params(&t).unwrap_err().to_string().contains("gat"));
+        assert!(HtT2gt::from_params(&t)
+            .unwrap_err()
+            .to_string()
+            .contains("gat"));
         assert!(HtT2gt::from_params(&ParamTables::new()).is_ok());
     }
 }

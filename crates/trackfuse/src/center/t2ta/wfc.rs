@@ -224,7 +224,12 @@ impl Wfc {
     }
 
     /// Record this scan, the tracks' estimates and the global tracks' last fused states.
-    fn record(&mut self, ctx: &AssociationContext<'_>, tracks: &[LocalTrack], globals: &[GlobalTrack]) {
+    fn record(
+        &mut self,
+        ctx: &AssociationContext<'_>,
+        tracks: &[LocalTrack],
+        globals: &[GlobalTrack],
+    ) {
         let window = self.params.window as usize;
         if self.scans.front().is_some_and(|&(s, _)| ctx.scan < s) {
             // the scans went back: a new run
@@ -237,7 +242,10 @@ impl Wfc {
             self.scans.truncate(window);
         }
         for t in tracks {
-            let h = self.track_history.entry((t.sensor_id, t.track_id)).or_default();
+            let h = self
+                .track_history
+                .entry((t.sensor_id, t.track_id))
+                .or_default();
             h.retain(|e| e.scan != ctx.scan);
             h.push_back(Entry {
                 scan: ctx.scan,
@@ -255,7 +263,9 @@ impl Wfc {
         });
         for g in globals {
             let h = self.global_history.entry(g.id).or_default();
-            if h.back().is_none_or(|e| e.scan != g.scan || e.time != g.time) {
+            if h.back()
+                .is_none_or(|e| e.scan != g.scan || e.time != g.time)
+            {
                 h.push_back(Entry {
                     scan: g.scan,
                     time: g.time,
@@ -274,7 +284,12 @@ impl Wfc {
     }
 
     /// Step 1-2: the whole-track points of the tracks and of the global tracks.
-    fn build_points(&mut self, ctx: &AssociationContext<'_>, tracks: &[LocalTrack], globals: &[GlobalTrack]) {
+    fn build_points(
+        &mut self,
+        ctx: &AssociationContext<'_>,
+        tracks: &[LocalTrack],
+        globals: &[GlobalTrack],
+    ) {
         let nf = self.features();
         self.z.clear();
         self.z.resize(tracks.len() * nf, 0.0);
@@ -298,10 +313,11 @@ impl Wfc {
                 let (x, y) = if j == 0 {
                     (pred[0], pred[2])
                 } else {
-                    h.and_then(|h| position_at(h, scan, time)).unwrap_or_else(|| {
-                        let dt = time - ctx.time;
-                        (pred[0] + pred[1] * dt, pred[2] + pred[3] * dt)
-                    })
+                    h.and_then(|h| position_at(h, scan, time))
+                        .unwrap_or_else(|| {
+                            let dt = time - ctx.time;
+                            (pred[0] + pred[1] * dt, pred[2] + pred[3] * dt)
+                        })
                 };
                 row[2 * j] = x;
                 row[2 * j + 1] = y;
@@ -334,7 +350,10 @@ impl Wfc {
                     continue;
                 }
                 let l = l as usize;
-                let d = Self::rms(&self.z[i * nf..(i + 1) * nf], &self.v0[l * nf..(l + 1) * nf]);
+                let d = Self::rms(
+                    &self.z[i * nf..(i + 1) * nf],
+                    &self.v0[l * nf..(l + 1) * nf],
+                );
                 if d <= gate {
                     self.links.push(Link {
                         centre: l as u32,
@@ -452,7 +471,11 @@ impl Wfc {
                     .iter()
                     .map(|dg| (df / dg).powf(1.0 / (beta - 1.0)))
                     .sum();
-                self.w[f] = if s.is_finite() && s > 0.0 { 1.0 / s } else { 0.0 };
+                self.w[f] = if s.is_finite() && s > 0.0 {
+                    1.0 / s
+                } else {
+                    0.0
+                };
             }
         }
     }
@@ -509,7 +532,10 @@ impl TrackAssociator for Wfc {
             let z = &self.z;
             self.table
                 .group_leftovers(tracks, block, gate, radius, &mut candidates, |i, s| {
-                    Some(Self::rms(&z[i * nf..(i + 1) * nf], &z[s * nf..(s + 1) * nf]))
+                    Some(Self::rms(
+                        &z[i * nf..(i + 1) * nf],
+                        &z[s * nf..(s + 1) * nf],
+                    ))
                 });
         }
         self.candidates = candidates;
@@ -595,14 +621,23 @@ mod tests {
         })
         .unwrap();
         let state_a = |k: u32| StateVec::new(-400.0 + 100.0 * k as f64, 100.0, 0.0, 0.0);
-        let state_b =
-            |k: u32| StateVec::new(-400.0 + 100.0 * k as f64, 100.0, -400.0 + 100.0 * k as f64, 100.0);
+        let state_b = |k: u32| {
+            StateVec::new(
+                -400.0 + 100.0 * k as f64,
+                100.0,
+                -400.0 + 100.0 * k as f64,
+                100.0,
+            )
+        };
         let mut globals: Vec<GlobalTrack> = Vec::new();
         for k in 0..=4u32 {
             let pred: Vec<_> = if k == 0 {
                 Vec::new()
             } else {
-                vec![(state_a(k), StateCov::identity()), (state_b(k), StateCov::identity())]
+                vec![
+                    (state_a(k), StateCov::identity()),
+                    (state_b(k), StateCov::identity()),
+                ]
             };
             let sa = state_a(k);
             let sb = state_b(k);
@@ -627,7 +662,10 @@ mod tests {
             // the center's globals after this scan
             globals = vec![global(10, sa, k), global(11, sb, k)];
         }
-        assert!(a.feature_weights().iter().all(|w| w.is_finite() && *w >= 0.0));
+        assert!(a
+            .feature_weights()
+            .iter()
+            .all(|w| w.is_finite() && *w >= 0.0));
         assert_relative_eq!(a.feature_weights().iter().sum::<f64>(), 1.0, epsilon = 1e-9);
     }
 
@@ -655,6 +693,9 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("windo".into(), toml::Value::Integer(3));
         t.insert(NAME.into(), table);
-        assert!(Wfc::from_params(&t).unwrap_err().to_string().contains("windo"));
+        assert!(Wfc::from_params(&t)
+            .unwrap_err()
+            .to_string()
+            .contains("windo"));
     }
 }
