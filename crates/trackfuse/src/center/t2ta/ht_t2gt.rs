@@ -40,7 +40,8 @@
 //! # Choices where the paper is silent
 //! - **One track per sensor per group.** Conflicts are resolved sensor by sensor: all
 //!   `(tracklet, centre)` pairs of one sensor are taken greedily by decreasing membership
-//!   (ties by track, then global index); a tracklet whose best centre is already taken by
+//!   (ties by smaller Hough distance, then track, then global index; with one gated
+//!   centre every tracklet has membership 1, so the distance decides); a tracklet whose best centre is already taken by
 //!   a track of its own sensor takes its next gated centre, and with none left it starts
 //!   a new global track.
 //! - **First scan of a local track** (a candidate tracklet, or a tracklet whose two
