@@ -92,7 +92,9 @@ impl HoughSpace {
     /// [`MIN_DIRECTION`].
     pub fn line(&self, point: &Vec2, direction: &Vec2) -> Option<HoughPoint> {
         let (dx, dy) = (direction[0], direction[1]);
-        if !(dx.hypot(dy) >= MIN_DIRECTION) {
+        let length = dx.hypot(dy);
+        // also rejects a NaN direction
+        if length.is_nan() || length < MIN_DIRECTION {
             return None;
         }
         // tan(theta) = -dx / dy = -1 / eta (eq. 6)

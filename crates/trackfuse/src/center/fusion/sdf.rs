@@ -407,7 +407,7 @@ mod tests {
             .map(|i| local(i, 1, 0.0, 10.0, i as f64 * 10.0, 0.0, 1.0))
             .collect();
         let refs: Vec<&LocalTrack> = ms.iter().collect();
-        let (x, p) = r.fuse(&refs, &vec![1.0; 20], &ctx(None)).unwrap();
+        let (x, p) = r.fuse(&refs, &[1.0; 20], &ctx(None)).unwrap();
         assert!(x.iter().chain(p.iter()).all(|v| v.is_finite()));
         // symmetric about the middle: mean y = 95
         assert_relative_eq!(x[2], 95.0, epsilon = 1e-6);

@@ -279,8 +279,7 @@ impl TrackAssociator for Fta {
         for block in sensor_blocks(tracks) {
             // fixed pairs: quality reached, similarity still above the threshold
             candidates.clear();
-            for i in block.0..block.1 {
-                let t = &tracks[i];
+            for (i, t) in tracks.iter().enumerate().take(block.1).skip(block.0) {
                 let q = self.quality_of((t.sensor_id, t.track_id));
                 if q < self.params.quality {
                     continue;
@@ -366,7 +365,7 @@ impl TrackAssociator for Fta {
                 self.next_quality.push(Quality { key, count });
             }
         }
-        self.next_quality.sort_unstable_by(|a, b| a.key.cmp(&b.key));
+        self.next_quality.sort_unstable_by_key(|q| q.key);
         self.next_quality.dedup_by(|a, b| a.key == b.key);
         std::mem::swap(&mut self.quality, &mut self.next_quality);
         Ok(groups)

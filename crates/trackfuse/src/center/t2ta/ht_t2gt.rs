@@ -40,19 +40,25 @@
 //! # Choices where the paper is silent
 //! - **One track per sensor per group.** Conflicts are resolved sensor by sensor: all
 //!   `(tracklet, centre)` pairs of one sensor are taken greedily by decreasing membership
-//!   (ties by track, then global index); a tracklet whose best centre is already taken by
+//!   (ties by smaller Hough distance, then track, then global index; with one gated
+//!   centre every tracklet has membership 1, so the distance decides); a tracklet whose best centre is already taken by
 //!   a track of its own sensor takes its next gated centre, and with none left it starts
 //!   a new global track.
 //! - **First scan of a local track** (a candidate tracklet, or a tracklet whose two
 //!   positions coincide): position-gated association to the predicted global tracks,
 //!   within `position_gate` metres, with maximum-entropy memberships (eq. 13, 15) over
-//!   the squared position distances. Within a sensor, tracklets are assigned first (they
-//!   carry more information, the paper's premise), candidate tracklets take what is left.
+//!   the squared position distances. The candidate's *line* — through its position along
+//!   its velocity estimate, i.e. eq. 1 with `x_{k-1}` back-predicted from `x_k` — must also
+//!   be within the Hough `gate` of the global's centre (when both have one), so a track
+//!   going another way does not join a global it merely passes. Within a sensor,
+//!   tracklets are assigned first (they carry more information, the paper's premise),
+//!   candidate tracklets take what is left.
 //! - **New global tracks.** The tracks left unassigned are grouped with one another sensor
 //!   by sensor, in sensor order: each joins the nearest new group started by an earlier
 //!   sensor (distance between current positions, at most `position_gate`, one track per
-//!   sensor), else it starts one. Without this every sensor's track of a new target would
-//!   start its own global track. New-group members have weight 1.
+//!   sensor, and the two lines — tracklet or velocity line — within the Hough `gate`),
+//!   else it starts one. Without this every sensor's track of a new target would start
+//!   its own global track. New-group members have weight 1.
 //! - `position_gate_tracklets = true` also requires a tracklet's position to be within
 //!   `position_gate` of a global's predicted position (the Hough point ignores where a
 //!   target is along its line, so two targets on one line map to one point); default off,
@@ -262,6 +268,8 @@ pub struct HtT2gt {
     last: Vec<LastEstimate>,
     next_last: Vec<LastEstimate>,
     points: Vec<Option<HoughPoint>>,
+    /// Each track's line: its tracklet's point, else the line of its velocity estimate.
+    lines: Vec<Option<HoughPoint>>,
     centres: Vec<Option<HoughPoint>>,
     centre_sum: Vec<(f64, f64, f64)>,
     omega: Vec<f64>,
@@ -286,6 +294,7 @@ impl HtT2gt {
             last: Vec::new(),
             next_last: Vec::new(),
             points: Vec::new(),
+            lines: Vec::new(),
             centres: Vec::new(),
             centre_sum: Vec::new(),
             omega: Vec::new(),
@@ -321,11 +330,17 @@ impl HtT2gt {
     /// Step 1-2: tracklets and their Hough points.
     fn map_tracklets(&mut self, tracks: &[LocalTrack], scan: u32) {
         self.points.clear();
+        self.lines.clear();
         for t in tracks {
             let p = self
                 .previous_position(t, scan)
                 .and_then(|prev| self.space.tracklet(&prev, &track_position(t)));
             self.points.push(p);
+            let line = p.or_else(|| {
+                self.space
+                    .line(&track_position(t), &Vec2::new(t.state[1], t.state[3]))
+            });
+            self.lines.push(line);
         }
     }
 
@@ -499,17 +514,22 @@ impl HtT2gt {
     ) {
         self.candidates.clear();
         let gate = self.params.position_gate;
-        for i in block.0..block.1 {
+        let hough_gate2 = self.params.gate * self.params.gate;
+        for (i, track) in tracks.iter().enumerate().take(block.1).skip(block.0) {
             if self.points[i].is_some() || self.table.is_assigned(i) {
                 continue;
             }
-            let pos = track_position(&tracks[i]);
+            let pos = track_position(track);
             let first = self.candidates.len();
             self.d2_buf.clear();
             for &l in self.position_index.range(pos[0] - gate, pos[0] + gate) {
                 let pred = &ctx.predicted[l as usize].0;
                 let d2 = (pos - Vec2::new(pred[0], pred[2])).norm_squared();
-                if d2 <= gate * gate {
+                let compatible = match (self.lines[i], self.centres[l as usize]) {
+                    (Some(a), Some(c)) => self.space.distance2(&a, &c) <= hough_gate2,
+                    _ => true,
+                };
+                if d2 <= gate * gate && compatible {
                     self.candidates.push(Candidate {
                         track: i,
                         target: l as usize,
@@ -618,13 +638,21 @@ impl TrackAssociator for HtT2gt {
             candidates = std::mem::take(&mut self.candidates);
             self.table.take_greedy(tracks, &mut candidates);
             // the rest start, or join, new global tracks
+            let (lines, space, hough_gate2) = (&self.lines, &self.space, self.params.gate.powi(2));
             self.table.group_leftovers(
                 tracks,
                 block,
                 pos_gate,
                 pos_gate,
                 &mut candidates,
-                |i, s| Some((track_position(&tracks[i]) - track_position(&tracks[s])).norm()),
+                |i, s| {
+                    if let (Some(a), Some(b)) = (lines[i], lines[s]) {
+                        if space.distance2(&a, &b) > hough_gate2 {
+                            return None;
+                        }
+                    }
+                    Some((track_position(&tracks[i]) - track_position(&tracks[s])).norm())
+                },
             );
         }
         self.candidates = candidates;
@@ -778,9 +806,26 @@ mod tests {
             local(1, 1, 500.0, 0.0, 0.0, 100.0, 1.0),
         ];
         let groups = a.associate(&ctx(0, &pred), &prev, &g).unwrap();
-        // first scan: both within the position gate of the global -> position association
+        // first scan: both within the position gate of the global, but only the one
+        // moving east has a velocity line within the Hough gate of the global's centre
         check_groups(&prev, &groups, 1);
-        assert_eq!(groups.len(), 1);
+        assert_eq!(groups.len(), 2);
+        assert_eq!(
+            (groups[0].global, groups[0].members.clone()),
+            (Some(0), vec![0])
+        );
+        assert_eq!(
+            (groups[1].global, groups[1].members.clone()),
+            (None, vec![1])
+        );
+        // with the velocity line along the global, the first scan joins it by position
+        let mut b = HtT2gt::new(params()).unwrap();
+        let along = [local(1, 1, 500.0, 100.0, 30.0, 0.0, 1.0)];
+        let groups = b.associate(&ctx(0, &pred), &along, &g).unwrap();
+        assert_eq!(
+            (groups[0].global, groups[0].weights.clone()),
+            (Some(0), vec![1.0])
+        );
         let cur = [
             at(local(0, 1, 100.0, 100.0, 50.0, 0.0, 1.0), 1),
             at(local(1, 1, 500.0, 0.0, 100.0, 100.0, 1.0), 1),

@@ -180,6 +180,8 @@ pub struct Wfc {
     v: Vec<f64>,
     v0: Vec<f64>,
     w: Vec<f64>,
+    /// `w_f^beta`, recomputed when the weights change.
+    w_beta: Vec<f64>,
     dispersion: Vec<f64>,
     centre_mass: Vec<f64>,
     link_start: Vec<u32>,
@@ -203,6 +205,7 @@ impl Wfc {
             v: Vec::new(),
             v0: Vec::new(),
             w: Vec::new(),
+            w_beta: Vec::new(),
             dispersion: Vec::new(),
             centre_mass: Vec::new(),
             link_start: Vec::new(),
@@ -381,6 +384,8 @@ impl Wfc {
         self.w.clear();
         self.w.resize(nf, 1.0 / nf.max(1) as f64);
         for it in 0..self.params.max_iterations.max(1) {
+            self.w_beta.clear();
+            self.w_beta.extend(self.w.iter().map(|w| w.powf(beta)));
             // memberships from the current centres and weights
             let mut change: f64 = 0.0;
             self.u_old.clear();
@@ -397,8 +402,8 @@ impl Wfc {
                     self.links[k].d = zi
                         .iter()
                         .zip(vl)
-                        .zip(&self.w)
-                        .map(|((z, v), w)| w.powf(beta) * (z - v) * (z - v))
+                        .zip(&self.w_beta)
+                        .map(|((z, v), wb)| wb * (z - v) * (z - v))
                         .sum();
                 }
                 let zeros = self.links[r.clone()].iter().filter(|k| k.d <= 0.0).count();
