@@ -156,7 +156,7 @@ impl FuzzyGaParams {
 /// The tracks are the clusters and the measurements their gates validate the data. A
 /// centre `c_t = z_hat_t + delta_t` starts at the predicted measurement; for centres `c`
 /// the fuzzy c-means memberships (over the tracks validating `z_j`, plus the noise
-/// cluster) are `u_tj = 1 / sum_s (d2_tj / d2_sj)^(1/(m-1))`, `d2_tj` the squared
+/// cluster with `weighting = "membership"`) are `u_tj = 1 / sum_s (d2_tj / d2_sj)^(1/(m-1))`, `d2_tj` the squared
 /// Mahalanobis distance of `z_j` from `c_t` under `S_t`. Fuzzy c-means can stall in a
 /// local minimum of its objective; following Satapathi & Srihari, a genetic algorithm
 /// searches the centres instead, minimising the reformulated c-means objective (Hathaway
