@@ -210,6 +210,16 @@ pub enum ScenarioError {
 /// The scenarios compiled into the library, by name. The first is the default.
 pub const BUILTIN_SCENARIOS: &[(&str, &str)] = &[
     ("000-s2", include_str!("../../../scenarios/000-s2.toml")),
+    ("001-s1", include_str!("../../../scenarios/001-s1.toml")),
+    (
+        "001-s1-l2",
+        include_str!("../../../scenarios/001-s1-l2.toml"),
+    ),
+    ("001-s2", include_str!("../../../scenarios/001-s2.toml")),
+    (
+        "001-s2-l2",
+        include_str!("../../../scenarios/001-s2-l2.toml"),
+    ),
     ("002-s1", include_str!("../../../scenarios/002-s1.toml")),
     (
         "003-case1",
@@ -675,6 +685,33 @@ sigma_theta = 0.001
     fn builtins_are_valid() {
         for (name, _) in BUILTIN_SCENARIOS {
             assert!(Scenario::builtin(name).is_some());
+        }
+    }
+    #[test]
+    fn paper_001_scenarios_parse() {
+        for (name, density) in [("001-s1", 1.0), ("001-s1-l2", 2.0)] {
+            let text = Scenario::builtin_text(name).expect(name);
+            let s = Scenario::from_toml(text, name).expect(name);
+            assert_eq!(s.name, name);
+            assert_eq!(s.targets.len(), 3);
+            assert_eq!(s.targets[1].initial, [1000.0, 250.0, 4300.0, 100.0]);
+            let sensor = &s.sensor_table()[0];
+            assert_eq!(sensor.kind, SensorKind::Position);
+            assert_eq!((sensor.sigma_a, sensor.sigma_b), (150.0, 150.0));
+            assert_eq!(sensor.clutter_density, Some(density));
+            assert!(s.clutter.region.is_some());
+        }
+        for (name, density) in [("001-s2", 1.0), ("001-s2-l2", 2.0)] {
+            let s = Scenario::builtin(name).expect(name);
+            assert_eq!(s.targets.len(), 2);
+            assert_eq!(s.scans, 118);
+            assert_eq!(s.process_noise, [1.0, 1.0]);
+            let starts: Vec<f64> = s.targets[0].acceleration.iter().map(|a| a.start).collect();
+            assert_eq!(starts, [0.0, 21.0, 41.0, 74.0, 86.0]);
+            assert_eq!(s.targets[0].acceleration[2].accel, [3.0, 19.0]);
+            assert_eq!(s.targets[1].acceleration[4].accel, [10.0, 19.0]);
+            assert_eq!(s.sensor_table()[0].sigma_a, 60.0);
+            assert_eq!(s.sensor_table()[0].clutter_density, Some(density));
         }
     }
 }

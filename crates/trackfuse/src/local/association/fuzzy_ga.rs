@@ -4,7 +4,7 @@
 //! Syst. Appl. 77; a baseline of paper 001, Tables 1 and 4).
 
 use super::fnn::pairs_from_gates;
-use super::membership::{push_normalised, NoMeasurement, PairTable};
+use super::membership::{push_normalised, push_revised_pda, NoMeasurement, PairTable, Weighting};
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
 use crate::local::filter::PredictedMeasurement;
 use crate::local::registry::AssociatorSettings;
@@ -17,13 +17,18 @@ use serde::{Deserialize, Serialize};
 
 /// Parameters of `fuzzy-ga`, table `[tracker.params.fuzzy-ga]`.
 ///
-/// Defaults: `population = 20`, `generations = 30`, `fuzzifier = 2.0`,
-/// `crossover_rate = 0.8`, `mutation_rate = 0.2`, `mutation_scale = 0.5`,
-/// `init_scale = 1.0`, `noise_cluster = true`, `no_measurement = "pd"`
-/// (`beta_0 = 1 - P_D P_G`), `beta0 = 0.0`.
+/// Defaults: `weighting = "revised-pda"`, `population = 20`, `generations = 30`,
+/// `fuzzifier = 2.0`, `crossover_rate = 0.8`, `mutation_rate = 0.2`,
+/// `mutation_scale = 0.5`, `init_scale = 1.0`, `noise_cluster = true` and
+/// `no_measurement = "pd"` (`beta_0 = 1 - P_D P_G`) for `weighting = "membership"`,
+/// `beta0 = 0.0`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FuzzyGaParams {
+    /// `"revised-pda"` (memberships scale the PDA likelihoods) or `"membership"`
+    /// (memberships are the weights).
+    #[serde(default)]
+    pub weighting: Weighting,
     /// Chromosomes per generation, 2 to 1000.
     #[serde(default = "default_population")]
     pub population: u32,
@@ -47,11 +52,13 @@ pub struct FuzzyGaParams {
     /// innovation standard deviations.
     #[serde(default = "default_init_scale")]
     pub init_scale: f64,
-    /// Add a noise cluster at squared distance `gamma` (the gate) from every measurement
-    /// (Dave 1991), so that clutter far from every centre has low membership everywhere.
+    /// With `weighting = "membership"`: add a noise cluster at squared distance `gamma`
+    /// (the gate) from every measurement (Dave 1991), so that clutter far from every
+    /// centre has low membership everywhere. (`"revised-pda"` has PDA's clutter
+    /// hypothesis instead and uses no noise cluster.)
     #[serde(default = "default_true")]
     pub noise_cluster: bool,
-    /// No-measurement share: `"pd"` (`1 - P_D P_G`), `"none"` or `"fixed"` (`beta0`).
+    /// No-measurement share for `weighting = "membership"`: `"pd"` (`1 - P_D P_G`), `"none"` or `"fixed"` (`beta0`).
     #[serde(default = "default_no_measurement")]
     pub no_measurement: NoMeasurement,
     /// `beta_0` when `no_measurement = "fixed"`, in `[0, 1)`.
@@ -90,6 +97,7 @@ fn default_no_measurement() -> NoMeasurement {
 impl Default for FuzzyGaParams {
     fn default() -> Self {
         FuzzyGaParams {
+            weighting: Weighting::RevisedPda,
             population: default_population(),
             generations: default_generations(),
             fuzzifier: default_fuzzifier(),
@@ -148,14 +156,20 @@ impl FuzzyGaParams {
 /// The tracks are the clusters and the measurements their gates validate the data. A
 /// centre `c_t = z_hat_t + delta_t` starts at the predicted measurement; for centres `c`
 /// the fuzzy c-means memberships (over the tracks validating `z_j`, plus the noise
-/// cluster) are `u_tj = 1 / sum_s (d2_tj / d2_sj)^(1/(m-1))`, `d2_tj` the squared
+/// cluster with `weighting = "membership"`) are `u_tj = 1 / sum_s (d2_tj / d2_sj)^(1/(m-1))`, `d2_tj` the squared
 /// Mahalanobis distance of `z_j` from `c_t` under `S_t`. Fuzzy c-means can stall in a
 /// local minimum of its objective; following Satapathi & Srihari, a genetic algorithm
 /// searches the centres instead, minimising the reformulated c-means objective (Hathaway
 /// & Bezdek 1995) `R(c) = sum_j (sum_t d2_tj^(1/(1-m)))^(1-m)`, which is the c-means
-/// objective `J_m` at the optimal memberships for `c`. The memberships at the best
-/// centres found, normalised per track to `1 - beta_0` (as 001 eq. 16), are the weights
-/// of the tracker's PDA-type update.
+/// objective `J_m` at the optimal memberships for `c`. The memberships `u_tj` at the best
+/// centres found then weigh the measurements for the tracker's PDA-type update:
+/// - `weighting = "revised-pda"` (default): PDA association probabilities with each
+///   likelihood scaled by the membership, `beta_jt = u_jt e_jt / (b_t + sum_i u_it e_it)`,
+///   `e_jt = P_D N(nu_jt; 0, S_t)` at the prediction, `b_t = lambda (1 - P_D P_G)`
+///   ([`push_revised_pda`], as `mef-jpda`): the c-means memberships share measurements
+///   among competing tracks, PDA weighs clutter. A lone track is plain PDA.
+/// - `weighting = "membership"`: the memberships themselves (with the noise cluster),
+///   normalised per track to `1 - beta_0` (as 001 eq. 16).
 ///
 /// # The genetic algorithm
 /// A chromosome holds the centre offsets `delta_t` of one group of tracks (tracks linked
@@ -168,9 +182,10 @@ impl FuzzyGaParams {
 /// `crossover_rate` (else `p1`), then a Gaussian mutation `N(0, mutation_scale^2 S_t)`
 /// with probability `mutation_rate`. Centres are kept inside the track's gate
 /// (`delta^T S^-1 delta <= gamma`, pulled back radially). The run is bounded:
-/// exactly `population x (generations + 1)` objective evaluations per group, and the
-/// result is never worse than the predictions (elitism over an initial population that
-/// contains them).
+/// exactly `population x (generations + 1)` objective evaluations per group searched,
+/// and the result is never worse than the predictions (elitism over an initial
+/// population that contains them). A group of one track is not searched when there is no
+/// noise cluster (its memberships are 1 wherever its centre is).
 ///
 /// Randomness comes from the stream `(seed, run, "fuzzy-ga", sensor index)`
 /// ([`crate::rng::stream`]) held by the associator, so a run is reproducible and
@@ -180,12 +195,15 @@ impl FuzzyGaParams {
 /// - The GA variant (real-coded, blend crossover, tournament, elitism), its default
 ///   sizes, and the gate constraint on centres are ours; the paper's point — an
 ///   evolutionary search over c-means centres, costly per scan — is kept.
-/// - The noise cluster (Dave 1991) at `d2 = gamma`: without it, the memberships of an
-///   isolated track are all 1 and its weights uniform over the gate whatever the
-///   distances; with it, `u = gamma / (gamma + d2)` for `m = 2`. `noise_cluster = false`
-///   gives plain c-means.
-/// - `beta_0 = 1 - P_D P_G` by default (the prior probability that the target's
-///   measurement is not among the validated ones).
+/// - How memberships become weights is not known from the paper; `"revised-pda"` is the
+///   default because the literal `"membership"` weights fall off only as
+///   `gamma / (gamma + d2)` (`m = 2`, noise cluster) and let clutter drag a track away
+///   in dense clutter (a toy run on 001-s1 at lambda = 2 diverged).
+/// - The noise cluster (Dave 1991) at `d2 = gamma`, `"membership"` only: without it an
+///   isolated track's memberships are all 1 and its weights uniform over the gate.
+///   `noise_cluster = false` gives plain c-means.
+/// - `beta_0 = 1 - P_D P_G` by default for `"membership"` (the prior probability that
+///   the target's measurement is not among the validated ones).
 /// - `d2 = 0` (a measurement on a centre) takes the whole membership (shared among
 ///   coincident centres) and contributes 0 to the objective: no NaN. No validated
 ///   measurement: no weights.
@@ -195,6 +213,8 @@ pub struct FuzzyGa {
     rng: StreamRng,
     pairs: PairTable,
     innovations: Vec<Vec2>,
+    prediction_d2: Vec<f64>,
+    entries: Vec<(u32, f64, f64)>,
     parent: Vec<u32>,
     group_of: Vec<u32>,
     local_of: Vec<u32>,
@@ -223,6 +243,8 @@ impl FuzzyGa {
             rng,
             pairs: PairTable::default(),
             innovations: Vec::new(),
+            prediction_d2: Vec::new(),
+            entries: Vec::new(),
             parent: Vec::new(),
             group_of: Vec::new(),
             local_of: Vec::new(),
@@ -524,14 +546,20 @@ impl DataAssociator for FuzzyGa {
         self.evaluations = 0;
         let preds = problem.predictions;
         pairs_from_gates(&mut self.pairs, problem);
-        let noise = (self.params.noise_cluster && problem.gate.is_finite() && problem.gate > 0.0)
+        let membership = self.params.weighting == Weighting::Membership;
+        let noise = (membership
+            && self.params.noise_cluster
+            && problem.gate.is_finite()
+            && problem.gate > 0.0)
             .then_some(problem.gate);
         let m = self.params.fuzzifier;
         // innovations per pair, memberships at the predictions (for the c-means step)
         self.innovations.clear();
+        self.prediction_d2.clear();
         for p in self.pairs.pairs() {
             let z = &problem.measurements[p.measurement as usize];
             self.innovations.push(preds[p.track as usize].innovation(z));
+            self.prediction_d2.push(p.d2);
         }
         self.pairs.fcm_memberships(m, noise);
         self.chol.clear();
@@ -550,7 +578,12 @@ impl DataAssociator for FuzzyGa {
         self.best.resize(preds.len(), Vec2::zeros());
         self.build_groups(preds.len());
         for g in 0..self.group_bounds.len() {
-            self.evolve(g, preds, problem.gate, noise);
+            // Without a noise cluster a lone track's memberships are 1 wherever its centre
+            // is: nothing to search.
+            let (a, b) = self.group_bounds[g];
+            if b - a >= 2 || noise.is_some() {
+                self.evolve(g, preds, problem.gate, noise);
+            }
         }
         // memberships at the best centres
         for i in 0..self.pairs.pairs().len() {
@@ -563,21 +596,39 @@ impl DataAssociator for FuzzyGa {
             .params
             .no_measurement
             .beta0(problem.pd * problem.gate_probability, self.params.beta0);
-        for t in 0..preds.len() {
+        for (t, pred) in preds.iter().enumerate() {
             out.begin_track();
-            self.scratch.clear();
-            self.scratch.extend(
-                self.pairs
-                    .of_track(t)
-                    .iter()
-                    .map(|p| (p.measurement, p.value)),
-            );
-            push_normalised(out, &self.scratch, beta0);
+            let range = self.pairs.track_range(t);
+            if membership {
+                self.scratch.clear();
+                self.scratch.extend(
+                    self.pairs.pairs()[range]
+                        .iter()
+                        .map(|p| (p.measurement, p.value)),
+                );
+                push_normalised(out, &self.scratch, beta0);
+            } else {
+                self.entries.clear();
+                for i in range {
+                    let p = &self.pairs.pairs()[i];
+                    self.entries
+                        .push((p.measurement, p.value, self.prediction_d2[i]));
+                }
+                push_revised_pda(
+                    out,
+                    &self.entries,
+                    pred,
+                    problem.gate,
+                    problem.pd,
+                    problem.gate_probability,
+                );
+            }
         }
     }
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::super::testing::{check_weights, close, weight, Fixture};
     use super::*;
@@ -616,57 +667,82 @@ mod tests {
     #[test]
     fn reproducible_with_one_seed_different_with_another() {
         let f = crossing();
-        let w1 = weights(&mut ga(7, |_| {}), &f);
-        let w1b = weights(&mut ga(7, |_| {}), &f);
-        let w2 = weights(&mut ga(8, |_| {}), &f);
-        assert_eq!(w1, w1b);
-        assert_ne!(w1, w2);
-        // same support, sums 1 - (1 - Pd Pg) per track
         let pdpg = 0.9 * (1.0 - (-9.21f64 / 2.0).exp());
-        for t in 0..3 {
-            let s: f64 = w1[t].iter().map(|e| e.1).sum();
-            assert!(close(s, pdpg, 1e-12), "{s}");
-            let ids1: Vec<u32> = w1[t].iter().map(|e| e.0).collect();
-            let ids2: Vec<u32> = w2[t].iter().map(|e| e.0).collect();
-            assert_eq!(ids1, ids2);
+        for weighting in [Weighting::RevisedPda, Weighting::Membership] {
+            let w1 = weights(&mut ga(7, |p| p.weighting = weighting), &f);
+            let w1b = weights(&mut ga(7, |p| p.weighting = weighting), &f);
+            let w2 = weights(&mut ga(8, |p| p.weighting = weighting), &f);
+            assert_eq!(w1, w1b, "{weighting:?}");
+            assert_ne!(w1, w2, "{weighting:?}");
+            for t in 0..3 {
+                let ids1: Vec<u32> = w1[t].iter().map(|e| e.0).collect();
+                let ids2: Vec<u32> = w2[t].iter().map(|e| e.0).collect();
+                assert_eq!(ids1, ids2);
+                if weighting == Weighting::Membership {
+                    // sums 1 - beta_0 = P_D P_G per track
+                    let s: f64 = w1[t].iter().map(|e| e.1).sum();
+                    assert!(close(s, pdpg, 1e-12), "{s}");
+                }
+            }
+            // the lone track 2 does not depend on the seed in revised-pda mode
+            if weighting == Weighting::RevisedPda {
+                assert_eq!(w1[2], w2[2]);
+            }
         }
     }
 
     #[test]
     fn runtime_is_bounded_and_result_no_worse_than_predictions() {
         let f = crossing();
-        let mut a = ga(3, |p| {
-            p.population = 10;
-            p.generations = 7;
-        });
-        let out = f.run(&mut a);
-        check_weights(&out);
-        assert_eq!(a.groups(), 2); // {0, 1} share measurements; {2} alone
-        assert_eq!(a.evaluations(), 2 * 10 * 8);
-        // objective at the best centres <= objective at the predictions
-        let preds = &f.predictions;
-        for g in 0..a.groups() {
-            let (ta, tb) = a.group_bounds[g];
-            let (ra, rb) = a.run_bounds[g];
+        for (weighting, searched) in [(Weighting::RevisedPda, 1), (Weighting::Membership, 2)] {
+            let mut a = ga(3, |p| {
+                p.weighting = weighting;
+                p.population = 10;
+                p.generations = 7;
+            });
+            let out = f.run(&mut a);
+            check_weights(&out);
+            assert_eq!(a.groups(), 2); // {0, 1} share measurements; {2} alone
+            assert_eq!(a.evaluations(), searched * 10 * 8, "{weighting:?}");
+            // objective at the best centres <= objective at the predictions
+            let noise = (weighting == Weighting::Membership).then_some(9.21);
+            let (ta, tb) = a.group_bounds[0];
+            let (ra, rb) = a.run_bounds[0];
             let genes: Vec<Vec2> = (ta..tb)
                 .map(|i| a.centre_offset(a.group_tracks[i as usize] as usize))
                 .collect();
             let zero = vec![Vec2::zeros(); genes.len()];
-            let noise = Some(9.21);
-            let best = a.objective(&genes, ra, rb, preds, noise);
-            let at_pred = a.objective(&zero, ra, rb, preds, noise);
-            assert!(best <= at_pred, "{best} > {at_pred}");
-            assert!(best < at_pred, "the GA should improve on the predictions");
-        }
-        // centres stay in their gates
-        for t in 0..3 {
-            let d = a.centre_offset(t);
-            assert!(d.dot(&d) <= 9.21 + 1e-9);
+            let best = a.objective(&genes, ra, rb, &f.predictions, noise);
+            let at_pred = a.objective(&zero, ra, rb, &f.predictions, noise);
+            assert!(best < at_pred, "{best} >= {at_pred}: the GA should improve");
+            // centres stay in their gates
+            for t in 0..3 {
+                let d = a.centre_offset(t);
+                assert!(d.dot(&d) <= 9.21 + 1e-9);
+            }
         }
         // generations = 0: the best of generation 0, still bounded
         let mut a0 = ga(3, |p| p.generations = 0);
         f.run(&mut a0);
-        assert_eq!(a0.evaluations(), 2 * 20);
+        assert_eq!(a0.evaluations(), 20);
+    }
+
+    #[test]
+    fn lone_track_in_revised_pda_mode_is_pda() {
+        let (pd, lambda) = (0.9, 0.02);
+        let z = [[0.5, 0.0], [0.0, 2.0], [-1.0, -1.0]];
+        let mut f = Fixture::new(&[[0.0, 0.0]], Mat2::identity(), &z, 9.21, pd);
+        f.predictions[0].clutter_density = lambda;
+        let out = f.run(&mut ga(2, |_| {}));
+        let pg = 1.0 - (-9.21f64 / 2.0).exp();
+        let e: Vec<f64> = z
+            .iter()
+            .map(|p| pd * (-0.5 * (p[0] * p[0] + p[1] * p[1])).exp() / (2.0 * std::f64::consts::PI))
+            .collect();
+        let den = lambda * (1.0 - pd * pg) + e.iter().sum::<f64>();
+        for j in 0..3 {
+            assert!(close(weight(&out, 0, j as u32), e[j] / den, 1e-12));
+        }
     }
 
     #[test]
@@ -682,6 +758,7 @@ mod tests {
             1.0,
         );
         let mut a = ga(1, |p| {
+            p.weighting = Weighting::Membership;
             p.population = 2;
             p.generations = 0;
             p.no_measurement = NoMeasurement::None;

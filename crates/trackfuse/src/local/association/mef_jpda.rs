@@ -3,25 +3,11 @@
 //! target tracking", Signal Processing 86(11); a baseline of paper 001, Tables 1 and 4).
 
 use super::fnn::pairs_from_gates;
-use super::membership::{push_normalised, NoMeasurement, PairTable};
+use super::membership::{push_normalised, push_revised_pda, NoMeasurement, PairTable, Weighting};
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
 use crate::local::registry::AssociatorSettings;
 use crate::params::{in_range, parse_params, ParamError};
 use serde::{Deserialize, Serialize};
-
-/// How the memberships become association probabilities.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum MefWeighting {
-    /// The memberships resolve the competition between tracks that JPDA's joint events
-    /// resolve, and each track keeps its PDA likelihoods and clutter hypothesis:
-    /// `beta_jt = u_jt e_jt / (b_t + sum_i u_it e_it)`.
-    #[default]
-    RevisedPda,
-    /// The memberships are the association probabilities:
-    /// `beta_jt = (1 - beta_0) u_jt / sum_i u_it`.
-    Membership,
-}
 
 /// Parameters of `mef-jpda`, table `[tracker.params.mef-jpda]`.
 ///
@@ -32,7 +18,7 @@ pub enum MefWeighting {
 pub struct MefJpdaParams {
     /// `"revised-pda"` or `"membership"`.
     #[serde(default)]
-    pub weighting: MefWeighting,
+    pub weighting: Weighting,
     /// No-measurement share for `weighting = "membership"`: `"pd"` (`1 - P_D P_G`),
     /// `"none"` or `"fixed"` (`beta0`).
     #[serde(default = "default_no_measurement")]
@@ -49,7 +35,7 @@ fn default_no_measurement() -> NoMeasurement {
 impl Default for MefJpdaParams {
     fn default() -> Self {
         MefJpdaParams {
-            weighting: MefWeighting::RevisedPda,
+            weighting: Weighting::RevisedPda,
             no_measurement: default_no_measurement(),
             beta0: 0.0,
         }
@@ -102,6 +88,7 @@ pub struct MefJpda {
     params: MefJpdaParams,
     pairs: PairTable,
     scratch: Vec<(u32, f64)>,
+    entries: Vec<(u32, f64, f64)>,
 }
 
 impl MefJpda {
@@ -112,6 +99,7 @@ impl MefJpda {
             params,
             pairs: PairTable::default(),
             scratch: Vec::new(),
+            entries: Vec::new(),
         })
     }
 
@@ -157,37 +145,23 @@ impl DataAssociator for MefJpda {
             }
             self.scratch.clear();
             match self.params.weighting {
-                MefWeighting::Membership => {
+                Weighting::Membership => {
                     self.scratch
                         .extend(pairs.iter().map(|p| (p.measurement, p.value)));
                     push_normalised(out, &self.scratch, beta0);
                 }
-                MefWeighting::RevisedPda => {
-                    let lambda = if pred.clutter_density > 0.0 {
-                        pred.clutter_density
-                    } else {
-                        let v = pred.gate_volume(problem.gate);
-                        if v > 0.0 {
-                            pairs.len() as f64 / v
-                        } else {
-                            0.0
-                        }
-                    };
-                    let b = lambda * (1.0 - pdpg).max(0.0);
-                    let mut total = b;
-                    for p in pairs {
-                        let e = p.value * pd * (-0.5 * p.d2 - pred.log_norm).exp();
-                        self.scratch.push((p.measurement, e));
-                        total += e;
-                    }
-                    if !(total > 0.0 && total.is_finite()) {
-                        continue;
-                    }
-                    for &(m, e) in &self.scratch {
-                        if e > 0.0 {
-                            out.push(m, e / total);
-                        }
-                    }
+                Weighting::RevisedPda => {
+                    self.entries.clear();
+                    self.entries
+                        .extend(pairs.iter().map(|p| (p.measurement, p.value, p.d2)));
+                    push_revised_pda(
+                        out,
+                        &self.entries,
+                        pred,
+                        problem.gate,
+                        pd,
+                        problem.gate_probability,
+                    );
                 }
             }
         }
@@ -273,7 +247,7 @@ mod tests {
         let pg = 1.0 - (-9.21f64 / 2.0).exp();
         let f = fixture(0.0, pd);
         let mut a = MefJpda::new(MefJpdaParams {
-            weighting: MefWeighting::Membership,
+            weighting: Weighting::Membership,
             ..MefJpdaParams::default()
         })
         .unwrap();

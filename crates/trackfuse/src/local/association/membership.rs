@@ -97,6 +97,21 @@ impl NoMeasurement {
     }
 }
 
+/// How fuzzy memberships become association probabilities (`mef-jpda`, `fuzzy-ga`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Weighting {
+    /// The memberships resolve the competition between tracks for shared measurements
+    /// (what JPDA's joint events resolve), and each track keeps its PDA likelihoods and
+    /// clutter hypothesis: `beta_jt = u_jt e_jt / (b_t + sum_i u_it e_it)`, see
+    /// [`push_revised_pda`].
+    #[default]
+    RevisedPda,
+    /// The memberships are the association probabilities:
+    /// `beta_jt = (1 - beta_0) u_jt / sum_i u_it`.
+    Membership,
+}
+
 /// One candidate (track, measurement) pair.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pair {
@@ -299,6 +314,49 @@ pub fn push_normalised(out: &mut super::AssociationWeights, weights: &[(u32, f64
     for &(m, w) in weights {
         if w > 0.0 {
             out.push(m, w / total * keep);
+        }
+    }
+}
+
+/// PDA association probabilities (Bar-Shalom & Fortmann 1988) with each likelihood
+/// scaled by a membership, written to `out`: for `entries = (measurement, u, d2)`, `d2`
+/// the squared Mahalanobis distance from the prediction,
+/// `e_j = u_j P_D N(nu_j; 0, S)`, `b = lambda (1 - P_D P_G)`,
+/// `beta_j = e_j / (b + sum_i e_i)` (the rest, `b / (b + sum e)`, is "no measurement").
+/// With all `u = 1` this is PDA. `lambda` is the prediction's `clutter_density`, or when
+/// that is 0 (unknown) the nonparametric estimate `m / V` (validated count over gate
+/// volume). Nothing is written when the denominator is not positive and finite.
+pub fn push_revised_pda(
+    out: &mut super::AssociationWeights,
+    entries: &[(u32, f64, f64)],
+    pred: &PredictedMeasurement,
+    gate: f64,
+    pd: f64,
+    pg: f64,
+) {
+    if entries.is_empty() {
+        return;
+    }
+    let lambda = if pred.clutter_density > 0.0 {
+        pred.clutter_density
+    } else {
+        let v = pred.gate_volume(gate);
+        if v > 0.0 {
+            entries.len() as f64 / v
+        } else {
+            0.0
+        }
+    };
+    let b = lambda * (1.0 - pd * pg).max(0.0);
+    let e = |u: f64, d2: f64| u * pd * (-0.5 * d2 - pred.log_norm).exp();
+    let total = b + entries.iter().map(|&(_, u, d2)| e(u, d2)).sum::<f64>();
+    if !(total > 0.0 && total.is_finite()) {
+        return;
+    }
+    for &(m, u, d2) in entries {
+        let w = e(u, d2);
+        if w > 0.0 {
+            out.push(m, w / total);
         }
     }
 }
