@@ -7,6 +7,7 @@ mod evaluate;
 mod fuse;
 mod mc;
 mod plot;
+mod reproduce;
 mod run;
 mod simulate;
 mod track;
@@ -42,6 +43,8 @@ enum Command {
     Plot(plot::PlotArgs),
     /// Monte Carlo: N seeded runs of the whole chain, aggregated.
     Mc(mc::McArgs),
+    /// Reproduce a paper's tables (docs/reproduction/).
+    Reproduce(reproduce::ReproduceArgs),
     /// Throughput benchmarks.
     Bench(bench::BenchArgs),
     /// List the built-in scenarios.
@@ -70,6 +73,7 @@ fn real_main() -> Result<()> {
         Command::Track(a) => track::run(a),
         Command::Fuse(a) => fuse::run(a),
         Command::Mc(a) => mc::run(a),
+        Command::Reproduce(a) => reproduce::run(a),
         Command::Methods => {
             print!("{}", config::methods_text());
             Ok(())
