@@ -7,7 +7,7 @@
 //!    predicted to it with the nearly-constant-velocity model;
 //! 2. every global track is predicted from its last update to the scan time (CV model,
 //!    white acceleration `process_noise`);
-//! 3. the bias estimator, if any, corrects the local tracks;
+//! 3. the bias estimator, if any, observes the raw local tracks and corrects them;
 //! 4. the association method groups the local tracks and says which global track each
 //!    group continues (or, for the `mmse` reference, the truth labels do);
 //! 5. the fusion rule fuses each group; groups that continue a global track update it,
@@ -214,8 +214,9 @@ impl FusionCenter {
         }
         // 3. bias correction
         // the uncorrected tracks, kept only when a bias estimator will learn from them
-        let raw = match (&self.bias, &self.sensors) {
+        let raw = match (&mut self.bias, &self.sensors) {
             (Some(b), Some(s)) => {
+                b.observe(&sorted, s);
                 let raw = sorted.clone();
                 b.correct(&mut sorted, s);
                 raw
