@@ -17,6 +17,8 @@ use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::{run_with, RunOutput};
 use trackfuse::Scenario;
 
+mod p001;
+
 #[derive(Args, Debug)]
 pub struct ReproduceArgs {
     /// Which reproduction (see `trackfuse reproduce --list`).
@@ -81,7 +83,11 @@ pub struct Reproduction {
 }
 
 /// Every reproduction.
-pub const REPRODUCTIONS: &[Reproduction] = &[];
+pub const REPRODUCTIONS: &[Reproduction] = &[Reproduction {
+    name: "001",
+    summary: "FDB-DAF (001): Tables 1, 2, 4, 5 (local RMSE per target), Table 6 (time), NEES check",
+    run: p001::run,
+}];
 
 /// The result of `runs` Monte Carlo runs of one configuration.
 pub struct McResult {
