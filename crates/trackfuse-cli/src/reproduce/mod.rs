@@ -17,6 +17,9 @@ use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::{run_with, RunOutput};
 use trackfuse::Scenario;
 
+mod p003;
+mod p004;
+
 #[derive(Args, Debug)]
 pub struct ReproduceArgs {
     /// Which reproduction (see `trackfuse reproduce --list`).
@@ -81,7 +84,18 @@ pub struct Reproduction {
 }
 
 /// Every reproduction.
-pub const REPRODUCTIONS: &[Reproduction] = &[];
+pub const REPRODUCTIONS: &[Reproduction] = &[
+    Reproduction {
+        name: "003",
+        summary: "Anwar & Aljahdali: FTTA correlation matrix (Table 4), fusion-rule RMSE (Table 5)",
+        run: p003::run,
+    },
+    Reproduction {
+        name: "004",
+        summary: "Du et al.: FT- vs AT-FDTTA correct / false / missed association rates (cases 1-2)",
+        run: p004::run,
+    },
+];
 
 /// The result of `runs` Monte Carlo runs of one configuration.
 pub struct McResult {
