@@ -92,7 +92,8 @@ pub const REPRODUCTIONS: &[Reproduction] = &[
     },
     Reproduction {
         name: "004",
-        summary: "Du et al.: FT- vs AT-FDTTA correct / false / missed association rates (cases 1-2)",
+        summary:
+            "Du et al.: FT- vs AT-FDTTA correct / false / missed association rates (cases 1-2)",
         run: p004::run,
     },
 ];

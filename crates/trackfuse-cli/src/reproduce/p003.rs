@@ -43,10 +43,22 @@ const TABLE4: [[u8; 6]; 6] = [
 
 /// 003 Table 5: rule, row label, `[case 1 T2, case 1 T3, case 2 T2, case 2 T3]` (m).
 const TABLE5: [(&str, &str, [f64; 4]); 4] = [
-    ("superior", "superior track (`superior`)", [43.05, 69.14, 23.09, 39.92]),
-    ("fuzzy", "fuzzy fusion, eq. 5.4 (`fuzzy`)", [31.17, 54.34, 25.02, 48.55]),
+    (
+        "superior",
+        "superior track (`superior`)",
+        [43.05, 69.14, 23.09, 39.92],
+    ),
+    (
+        "fuzzy",
+        "fuzzy fusion, eq. 5.4 (`fuzzy`)",
+        [31.17, 54.34, 25.02, 48.55],
+    ),
     ("sf", "simple fusion (`sf`)", [31.17, 56.75, 32.24, 67.15]),
-    ("cc", "convex combination (`cc`)", [46.27, 111.32, 42.64, 105.76]),
+    (
+        "cc",
+        "convex combination (`cc`)",
+        [46.27, 111.32, 42.64, 105.76],
+    ),
 ];
 
 /// The project's extra rules (no paper numbers).
@@ -330,10 +342,7 @@ fn max_acceleration(sc: &Scenario) -> f64 {
 }
 
 fn matrix_table(m: &[[String; 6]; 6]) -> String {
-    let names: Vec<String> = REPORTS
-        .iter()
-        .map(|(i, j)| format!("T{i}{j}"))
-        .collect();
+    let names: Vec<String> = REPORTS.iter().map(|(i, j)| format!("T{i}{j}")).collect();
     let mut header = vec![""];
     header.extend(names.iter().map(|s| s.as_str()));
     let rows: Vec<Vec<String>> = (0..6)
@@ -386,7 +395,14 @@ fn sensitivity_rows(
         let mut v = [f64::NAN; 4];
         for (c, sc) in scs.iter().enumerate() {
             let (t, f) = with_q(&sc.tracker, &with_rule(&sc.fusion, rule), q);
-            let r = run_case(ctx, &format!("003 case {} q {q:.1}", c + 1), sc, &t, &f, false)?;
+            let r = run_case(
+                ctx,
+                &format!("003 case {} q {q:.1}", c + 1),
+                sc,
+                &t,
+                &f,
+                false,
+            )?;
             for (k, per) in r.fused.iter().enumerate() {
                 v[2 * c + k] = per.mean_rmse().unwrap_or(f64::NAN);
                 row.push(num(per.mean_rmse(), 2));
@@ -601,11 +617,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
                 let o = ours_t5[k][col];
                 if let Some(p) = p {
                     if ((o - p) / p).abs() > 0.3 {
-                        far.push(format!(
-                            "{rule} case {} target {}",
-                            c + 1,
-                            TARGETS[t]
-                        ));
+                        far.push(format!("{rule} case {} target {}", c + 1, TARGETS[t]));
                     }
                 }
                 row.push(num(p, 2));
@@ -632,13 +644,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         }
         md.push_str(&md_table(
             &[
-                "",
-                "T2 paper",
-                "T2 ours",
-                "rel",
-                "T3 paper",
-                "T3 ours",
-                "rel",
+                "", "T2 paper", "T2 ours", "rel", "T3 paper", "T3 ours", "rel",
             ],
             &rows,
         ));
@@ -726,7 +732,10 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     // the file's setting, from the main runs
     for (k, rule) in ["superior", "fuzzy"].iter().enumerate() {
         let mut row = vec![
-            format!("10g = 98.1 m/s^2, q = a_M = {} (the files)", num(Some(q), 2)),
+            format!(
+                "10g = 98.1 m/s^2, q = a_M = {} (the files)",
+                num(Some(q), 2)
+            ),
             format!("`{rule}`"),
         ];
         for res in &results {
@@ -741,7 +750,10 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     }
     let (rows, _) = sensitivity_rows(
         ctx,
-        &format!("10g = 98.1 m/s^2, q = a_M / 2 = {}", num(Some(a_m / 2.0), 2)),
+        &format!(
+            "10g = 98.1 m/s^2, q = a_M / 2 = {}",
+            num(Some(a_m / 2.0), 2)
+        ),
         &cases,
         a_m / 2.0,
     )?;
