@@ -17,7 +17,7 @@
 
 use super::{md_table, monte_carlo_with, num, rel, scenario, Ctx};
 use anyhow::Result;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use trackfuse::center::t2ta::ftta::{correlation_matrix, FttaParams, Report};
 use trackfuse::center::FusionConfig;
 use trackfuse::local::TrackerConfig;
@@ -165,6 +165,8 @@ struct RunExtract {
     /// `(report index in REPORTS, scan, squared error)` of the local tracks.
     local: Vec<(usize, u32, f64)>,
     corr: Option<CorrStats>,
+    /// `(target index, sensor)` of the adopted track, for the `superior` rule.
+    picks: Vec<(usize, Id)>,
 }
 
 /// The result of one configuration.
@@ -173,6 +175,9 @@ struct CaseResult {
     /// Per report of [`REPORTS`] (only when asked for).
     local: Option<Vec<PerScan>>,
     corr: Option<CorrStats>,
+    /// For the `superior` rule: per target of [`TARGETS`], how often each sensor's track
+    /// was adopted.
+    picks: [BTreeMap<Id, u64>; 2],
     runs: u32,
 }
 
@@ -185,11 +190,26 @@ fn by_scan<T, F: Fn(&T) -> u32>(items: &[T], scan: F) -> BTreeMap<u32, Vec<&T>> 
 }
 
 /// The fused squared errors of targets 2 and 3, by the same gated assignment the
-/// project's evaluation uses (fused tracks to truth within `gospa_c`).
-fn fused_errors(out: &RunOutput, gate: f64) -> Vec<(usize, u32, f64)> {
+/// project's evaluation uses (fused tracks to truth within `gospa_c`), and, with
+/// `picks`, which sensor's local track each of those fused estimates is (the member whose
+/// state it equals: the track the `superior` rule adopted), as `(target index, sensor)`.
+fn fused_errors(
+    out: &RunOutput,
+    gate: f64,
+    picks: bool,
+) -> (Vec<(usize, u32, f64)>, Vec<(usize, Id)>) {
     let truth = by_scan(&out.sim.truth, |t| t.scan);
     let fused = by_scan(&out.fused.fused, |f| f.scan);
+    let local: HashMap<(u32, Id, Id), &LocalTrack> = if picks {
+        out.local
+            .iter()
+            .map(|t| ((t.scan, t.sensor_id, t.track_id), t))
+            .collect()
+    } else {
+        HashMap::new()
+    };
     let mut errors = Vec::new();
+    let mut chosen = Vec::new();
     let empty: Vec<&TruthState> = Vec::new();
     for (scan, fs) in &fused {
         let ts = truth.get(scan).unwrap_or(&empty);
@@ -197,12 +217,23 @@ fn fused_errors(out: &RunOutput, gate: f64) -> Vec<(usize, u32, f64)> {
         let fpos: Vec<Vec2> = fs.iter().map(|f| position_of(&f.state)).collect();
         for (fi, ti) in gated_assignment(&fpos, &tpos, gate).into_iter().enumerate() {
             let Some(ti) = ti else { continue };
-            if let Some(k) = TARGETS.iter().position(|&t| t == ts[ti].target_id) {
-                errors.push((k, *scan, (fpos[fi] - tpos[ti]).norm_squared()));
+            let Some(k) = TARGETS.iter().position(|&t| t == ts[ti].target_id) else {
+                continue;
+            };
+            errors.push((k, *scan, (fpos[fi] - tpos[ti]).norm_squared()));
+            if picks {
+                let f = fs[fi];
+                if let Some(&(sensor, _)) = f.sources.iter().find(|&&(s, t)| {
+                    local
+                        .get(&(*scan, s, t))
+                        .is_some_and(|l| l.state == f.state)
+                }) {
+                    chosen.push((k, sensor));
+                }
             }
         }
     }
-    errors
+    (errors, chosen)
 }
 
 /// Table 4 statistics and the local tracks' squared errors of one run.
@@ -279,6 +310,7 @@ fn run_case(
     let runs = ctx.runs_or(PAPER_RUNS);
     let gate = sc.evaluation.gospa_c;
     let label_gate = sc.evaluation.label_gate;
+    let picks = fusion.rule == "superior";
     let (_, extracts) = monte_carlo_with(ctx, label, sc, tracker, fusion, runs, |out| {
         let (corr, local) = if with_reports {
             let (c, l) = reports_of_run(out, label_gate);
@@ -286,17 +318,23 @@ fn run_case(
         } else {
             (None, Vec::new())
         };
+        let (fused, picks) = fused_errors(out, gate, picks);
         RunExtract {
-            fused: fused_errors(out, gate),
+            fused,
             local,
             corr,
+            picks,
         }
     })?;
     let scans = sc.scans as usize;
     let mut fused = [PerScan::new(scans), PerScan::new(scans)];
     let mut local = with_reports.then(|| vec![PerScan::new(scans); REPORTS.len()]);
     let mut corr: Option<CorrStats> = None;
+    let mut picks: [BTreeMap<Id, u64>; 2] = Default::default();
     for x in &extracts {
+        for &(k, sensor) in &x.picks {
+            *picks[k].entry(sensor).or_default() += 1;
+        }
         for &(k, scan, e2) in &x.fused {
             fused[k].add(scan, e2);
         }
@@ -313,6 +351,7 @@ fn run_case(
         fused,
         local,
         corr,
+        picks,
         runs,
     })
 }
@@ -379,6 +418,10 @@ fn ranking(values: &[(&str, f64)]) -> String {
         .join(" < ")
 }
 
+/// Markdown rows and the mean RMSE values `[case 1 T2, case 1 T3, case 2 T2, case 2 T3]`
+/// of `superior` and `fuzzy`.
+type SensitivityRows = (Vec<Vec<String>>, Vec<[f64; 4]>);
+
 /// Rows of the sensitivity table: `superior` and `fuzzy` on both cases with process
 /// noise `q` (tracker and center).
 fn sensitivity_rows(
@@ -386,7 +429,7 @@ fn sensitivity_rows(
     label: &str,
     scs: &[Scenario; 2],
     q: f64,
-) -> Result<(Vec<Vec<String>>, Vec<[f64; 4]>)> {
+) -> Result<SensitivityRows> {
     let mut rows = Vec::new();
     let mut values = Vec::new();
     for rule in ["superior", "fuzzy"] {
@@ -590,7 +633,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         }
     }
     let mut far: Vec<String> = Vec::new();
-    for c in 0..2 {
+    for (c, case_results) in results.iter().enumerate() {
         md.push_str(&format!(
             "### Case {} ({} sensors)\n\n",
             c + 1,
@@ -611,13 +654,13 @@ pub fn run(ctx: &Ctx) -> Result<String> {
                 ),
             };
             let mut row = vec![label];
-            for t in 0..2 {
+            for (t, target) in TARGETS.iter().enumerate() {
                 let col = 2 * c + t;
                 let p = paper.map(|p| p[col]);
                 let o = ours_t5[k][col];
                 if let Some(p) = p {
                     if ((o - p) / p).abs() > 0.3 {
-                        far.push(format!("{rule} case {} target {}", c + 1, TARGETS[t]));
+                        far.push(format!("{rule} case {} target {target}", c + 1));
                     }
                 }
                 row.push(num(p, 2));
@@ -627,7 +670,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             rows.push(row);
         }
         // local tracks of targets 2 and 3, for context
-        if let Some(local) = &results[c][0].local {
+        if let Some(local) = &case_results[0].local {
             for sensor in [2, 3, 4] {
                 let mut row = vec![format!("local track of sensor {sensor} (context)")];
                 for &target in &TARGETS {
@@ -691,6 +734,30 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         ],
         &rank_rows,
     ));
+    md.push('\n');
+
+    // which track the superior rule adopted
+    md.push_str(
+        "Which sensor's track the `superior` rule adopted (eq. 5.3), % of the scans at \
+         which the target had a fused estimate:\n\n",
+    );
+    let mut rows = Vec::new();
+    for (c, res) in results.iter().enumerate() {
+        for (k, target) in TARGETS.iter().enumerate() {
+            let counts = &res[0].picks[k];
+            let total: u64 = counts.values().sum();
+            let mut row = vec![format!("case {} target {target}", c + 1)];
+            for sensor in [2, 3, 4] {
+                row.push(match counts.get(&sensor) {
+                    Some(&n) if total > 0 => num(Some(100.0 * n as f64 / total as f64), 1),
+                    _ if REPORTS.contains(&(*target, sensor)) => "0.0".into(),
+                    _ => "-".into(),
+                });
+            }
+            rows.push(row);
+        }
+    }
+    md.push_str(&md_table(&["", "sensor 2", "sensor 3", "sensor 4"], &rows));
     md.push('\n');
 
     // overall RMS and coverage
@@ -809,7 +876,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     md.push_str("## Where we differ, and why\n\n");
     md.push_str(&format!(
         "Cells more than 30 % from the paper: {}. Rankings of superior, fuzzy and SF that \
-         differ from the paper's: {}.\n\n",
+         differ from the paper's: {} (each explained below).\n\n",
         if far.is_empty() {
             "none".to_string()
         } else {
@@ -850,6 +917,11 @@ pub fn run(ctx: &Ctx) -> Result<String> {
                 .and_then(|r| l[r].mean_rmse())
         })
     };
+    let pick_share = |c: usize, k: usize, sensor: Id| {
+        let counts = &results[c][0].picks[k];
+        let total: u64 = counts.values().sum();
+        (total > 0).then(|| 100.0 * *counts.get(&sensor).unwrap_or(&0) as f64 / total as f64)
+    };
     md.push_str(&format!(
         "**The superior track.** Eq. 5.3 takes the member of largest diagonal membership \
          `mu_kk = (1/|Delta_k|^2) / (1/|Delta_k|^2 + sum_(i != k) 1/d_ik^2)`. With equal \
@@ -858,14 +930,15 @@ pub fn run(ctx: &Ctx) -> Result<String> {
          local track's ({} m for sensor 2); for two equal reports `mu_11 = mu_22` and the tie goes \
          to the first member (sensor 2). The fuzzy fusion of eq. 5.4 weights by the same \
          `mu_kk`, so for target 3 it favours the outlier too and does not beat simple \
-         fusion here ({} against {} m). In case 2 the accurate sensor mostly wins, but when \
-         its track and a second one lie close together the distant, least accurate one \
-         takes over: target 3's superior track ({} m) is worse than sensor 2's own track \
-         ({} m).\n\n",
+         fusion here ({} against {} m). In case 2 the accurate sensor mostly wins (sensor 2's \
+         track of target 3 in {} % of the scans), but when its track and a second one lie \
+         close together the distant, less accurate one takes over, so target 3's superior \
+         track ({} m) is worse than sensor 2's own track ({} m).\n\n",
         num(Some(ours_t5[0][1]), 2),
         num(local_mean(0, 3, 2), 2),
         num(Some(ours_t5[1][1]), 2),
         num(Some(ours_t5[2][1]), 2),
+        num(pick_share(1, 1, 2), 1),
         num(Some(ours_t5[0][3]), 2),
         num(local_mean(1, 3, 2), 2),
     ));
