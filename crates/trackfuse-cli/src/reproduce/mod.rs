@@ -17,6 +17,8 @@ use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::{run_with, RunOutput};
 use trackfuse::Scenario;
 
+mod p002;
+
 #[derive(Args, Debug)]
 pub struct ReproduceArgs {
     /// Which reproduction (see `trackfuse reproduce --list`).
@@ -81,7 +83,11 @@ pub struct Reproduction {
 }
 
 /// Every reproduction.
-pub const REPRODUCTIONS: &[Reproduction] = &[];
+pub const REPRODUCTIONS: &[Reproduction] = &[Reproduction {
+    name: "002",
+    summary: "HT-T2GT + SDF-T2GT against wFC and FTA: time per global-track update (Table 1), association correctness, fusion rules",
+    run: p002::run,
+}];
 
 /// The result of `runs` Monte Carlo runs of one configuration.
 pub struct McResult {
