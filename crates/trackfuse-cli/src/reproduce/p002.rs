@@ -592,7 +592,10 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             &rules_node,
         ),
         (
-            &format!("HT-T2GT with position-gated tracklets ({FIX_POSITION_GATE} m), origin at the global node"),
+            &format!(
+                "HT-T2GT with position-gated tracklets ({FIX_POSITION_GATE} m), origin at the \
+                 global node"
+            ),
             &node_gated,
             &rules_gated,
         ),
@@ -672,15 +675,15 @@ fn table1_discussion(node: &Outcome, wfc: &Outcome, fta: &Outcome) -> String {
              its cost is that FTA judges two estimates at a time and \"it is necessary to \
              make several times of judgments for satisfying the processing requirement of \
              associated quality\" (m = 6). Our `fta` counts the association quality over \
-             consecutive scans (as He et al. define it: a pair is fixed after m consecutive \
-             judgments into the same global track), so each scan makes one judgment per \
-             pair, three Gaussian memberships each, and fixed pairs skip the competition; \
-             with 16 local tracks and 4 global tracks that is cheaper than HT-T2GT's Hough \
-             mapping, memberships and fuzzy c-means iterations. If the paper's FTA re-judged \
-             m scans of history at every update, it would cost about m times as much per \
-             update, which would account for its ranking; 002 does not say, and we keep the \
-             reading in which m is counted over scans. The ranking of FTA is not \
-             reproduced.\n\n",
+             consecutive scans (the reading documented in `fta.rs`: a pair is fixed after m \
+             consecutive judgments into the same global track), so each scan makes one \
+             judgment per pair, three Gaussian memberships each, and fixed pairs skip the \
+             competition; with 16 local tracks and 4 global tracks that is cheaper than \
+             HT-T2GT's Hough mapping, memberships and fuzzy c-means iterations. If the \
+             paper's FTA re-judged m scans of history at every update, it would cost about m \
+             times as much per update, which would account for its ranking; 002 does not \
+             say, and we keep the reading in which m is counted over scans. The ranking of \
+             FTA is not reproduced.\n\n",
         );
     } else if r_fta.is_some_and(|r| r < r_wfc.unwrap_or(f64::INFINITY)) {
         s.push_str(
@@ -728,7 +731,9 @@ fn accuracy_discussion(
          hundreds of metres into rho. With the origin at the global node (3-19 km from the \
          tracks; the scenario file's reading) P_c is {} % ({} % after scan {last}) and the \
          fused RMSE {} m instead of {} m. Eq. 5's abs(rho) gives P_c {} %, against {} % \
-         with the signed rho: the global node lies on the same side of every path.\n\n",
+         with the signed rho: from the global node every true rho is positive, and the two \
+         differ only where noise flips a tracklet's sign (target 3's first tracklets: true \
+         rho 2 km, 18 km along the line from the node's foot point).\n\n",
         p(literal),
         pct(early(literal)),
         pct(late(literal)),
@@ -745,8 +750,8 @@ fn accuracy_discussion(
          the distance between targets 1 and 4; ours, not the paper's) also requires a \
          tracklet to lie within that distance of the global track's predicted position. It \
          lifts P_c to {} % from the frame's origin and to {} % from the global node, with \
-         fused RMSE {} m and {} m. What remains is mostly in the first scans (P_c {} % in \
-         scans 0-{last} with the fix and the node origin, {} % later): a first tracklet is \
+         fused RMSE {} m and {} m. With the node origin, what remains is concentrated in \
+         the first scans (P_c {} % in scans 0-{last}, {} % later): a first tracklet is \
          two estimates 600 m apart, each with the unconverged local filter's error, so its \
          direction is off by degrees while targets 1-3 are still within a few hundred \
          metres of one another. When a global track has taken a wrong local track, the \
@@ -764,9 +769,10 @@ fn accuracy_discussion(
         pct(node_gated.surplus_fraction()),
     ));
     s.push_str(&format!(
-        "**wFC** reaches P_c {} % ({} % in scans 0-{last}, {} % later). At scan 0 a \
-         whole-track point is a single position extrapolated along the local velocity (no \
-         history yet), its gate is 1 km of RMS distance, and targets 1-3 start 100-200 m \
+        "**wFC** reaches P_c {} % ({} % in scans 0-{last}, {} % later). At scan 0 the \
+         center has processed one scan, so a whole-track point is the current position \
+         alone (the window holds the scans processed so far), its gate is 1 km of RMS \
+         distance, and targets 1-3 start 100-200 m \
          apart, so some of their tracks are clustered together; most such mixtures come \
          apart within a few scans as the track histories fill, but the early errors weigh \
          in the fused RMSE ({} m, against FTA's {} m).\n\n",
@@ -785,8 +791,8 @@ fn accuracy_discussion(
     ));
     if fta.surplus_scans > 0 {
         s.push_str(&format!(
-            "The weakness noted before this reproduction shows: once the local covariances \
-             have converged the spreads are tight, a track's similarity to its own global \
+            "A weakness of `fta` shows here: once the local covariances have \
+             converged the spreads are tight, a track's similarity to its own global \
              track can fall below the threshold for a scan, and the track then starts a \
              duplicate global track, which it may keep for a few scans until it rejoins and \
              the duplicate is deleted. FTA starts {} global tracks per run for 4 targets, \
@@ -801,20 +807,21 @@ fn accuracy_discussion(
              spreads tight (nothing at the center merges them) do not occur in these runs.\n\n",
         );
     }
-    let best_baseline = wfc.pc().unwrap_or(0.0).max(fta.pc().unwrap_or(0.0));
-    let as_printed = if node.pc().unwrap_or(0.0) >= best_baseline {
-        "HT-T2GT as the scenario file sets it associates at least as correctly as both \
-         baselines"
+    let pc_of = |o: &Outcome| o.pc().unwrap_or(0.0);
+    let as_printed = if pc_of(node) >= pc_of(wfc).max(pc_of(fta)) {
+        "associates at least as correctly as both baselines"
+    } else if pc_of(node) < pc_of(wfc).min(pc_of(fta)) {
+        "associates less correctly than both baselines"
     } else {
-        "HT-T2GT as the scenario file sets it (the paper's method, with the Hough origin at \
-         the global node and our defaults where 002 gives no value) associates less \
-         correctly than the better baseline"
+        "associates less correctly than the better baseline"
     };
     s.push_str(&format!(
         "**Against the paper.** 002 puts no number on association correctness; it says \
          the method \"can realize T2GT association correctly\" from Figs. 3-4 (one run). \
-         {as_printed} (P_c {} % against wFC {} % and FTA {} %); with the position gate, \
-         which the paper does not have, it reaches {} %.\n\n",
+         HT-T2GT as the scenario file sets it (the paper's method, with the Hough origin at \
+         the global node and our defaults where 002 gives no value) {as_printed} (P_c {} % \
+         against wFC {} % and FTA {} %); with the position gate, which the paper does not \
+         have, it reaches {} %.\n\n",
         p(node),
         p(wfc),
         p(fta),
@@ -845,7 +852,8 @@ fn rules_discussion(
          `sdf` weighs each member by its support in Hough space (eq. 20-21: how close its \
          line is to the global track's), not by its covariance, so it comes close to an \
          equal-weight mean (local RMSE / 2 for four sensors) and leaves unused that a radar \
-         is far better across its line of sight (0.1 deg, 9-35 m at 5-20 km) than along it \
+         is far better across its line of sight (0.1 deg: 5-47 m at the 3-27 km ranges \
+         here) than along it \
          (100 m); `cc` and `bc` weigh by the covariances, `ci` by a conservative bound of \
          them, `fuzzy` by the association memberships. Lowest fused RMSE with the fix: \
          `{}` ({} m, against `sdf`'s {} m). {}\n",
