@@ -150,7 +150,7 @@ use crate::types::{
     position_cov_of, position_of, symmetrize, Id, LocalTrack, Mat2, Sensor, SensorKind, StateCov,
     StateVec, Vec2,
 };
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use serde::Deserialize;
 
 /// The registry name (`[fusion] bias = "fdbsc"`; parameters `[fusion.params.fdbsc]`).
@@ -379,6 +379,20 @@ pub fn chi2_quantile(p: f64, dof: usize) -> f64 {
         }
     }
     0.5 * (lo + hi)
+}
+
+/// The position part of [`polar_shift`]: `q -> s + R(dtheta) (q - s) (1 + dr / |q - s|)`,
+/// with the same guards.
+pub fn polar_shift_position(q: &Vec2, sensor: &Vec2, dr: f64, dtheta: f64) -> Vec2 {
+    let d = q - sensor;
+    let rho = d.norm();
+    if rho.is_nan() || rho < MIN_RANGE {
+        return *q;
+    }
+    let a = if rho + dr > 0.0 { dr } else { 0.0 };
+    let (sin, cos) = dtheta.sin_cos();
+    let k = 1.0 + a / rho;
+    sensor + Vec2::new(cos * d[0] - sin * d[1], sin * d[0] + cos * d[1]) * k
 }
 
 /// Move a track in polar coordinates about `sensor`: range by `dr` (m), bearing by
@@ -713,16 +727,12 @@ impl FdbscBias {
         let s = &self.lookup[k];
         match s.bias {
             None => q,
-            Some(i) => {
-                let (x, _) = polar_shift(
-                    &track.state,
-                    &StateCov::zeros(),
-                    &s.position,
-                    -self.estimate[2 * i],
-                    -self.estimate[2 * i + 1],
-                );
-                position_of(&x)
-            }
+            Some(i) => polar_shift_position(
+                &q,
+                &s.position,
+                -self.estimate[2 * i],
+                -self.estimate[2 * i + 1],
+            ),
         }
     }
 
@@ -988,21 +998,72 @@ impl FdbscBias {
     /// `nu^T S^-1 nu - (H^T S^-1 nu)^T (H^T S^-1 H)^-1 (H^T S^-1 nu)`, is chi-square with
     /// `2 m - 2` degrees of freedom.
     fn consistent(&self) -> bool {
+        let n2 = 2 * self.residuals.len();
+        match self.gate_chi2(false) {
+            Some(chi2) => chi2 <= chi2_quantile(self.params.gate_probability, n2 - 2),
+            None => true,
+        }
+    }
+
+    /// The gate statistic of [`Self::consistent`] (none if `S` or `H^T S^-1 H` is
+    /// singular); on the stack for groups of up to four members unless `dynamic`.
+    fn gate_chi2(&self, dynamic: bool) -> Option<f64> {
+        let n2 = 2 * self.residuals.len();
+        let chi2 = if n2 <= 8 && !dynamic {
+            // stack matrices, the unused part the identity (it adds nothing to chi2)
+            let mut s = SMatrix::<f64, 8, 8>::identity();
+            let mut nu = SVector::<f64, 8>::zeros();
+            let mut h = SMatrix::<f64, 8, 2>::zeros();
+            for k in 0..n2 {
+                s[(k, k)] = 0.0;
+            }
+            self.fill_gate(
+                &mut |r, c, v| s[(r, c)] += v,
+                &mut |r, v| nu[r] = v,
+                &mut |r, c, v| h[(r, c)] = v,
+            );
+            let ch = symmetrize(&s).cholesky()?;
+            let (si_nu, si_h) = (ch.solve(&nu), ch.solve(&h));
+            let g_inv = (h.transpose() * si_h).try_inverse()?;
+            let hv = h.transpose() * si_nu;
+            nu.dot(&si_nu) - hv.dot(&(g_inv * hv))
+        } else {
+            let mut s = DMatrix::<f64>::zeros(n2, n2);
+            let mut nu = DVector::<f64>::zeros(n2);
+            let mut h = DMatrix::<f64>::zeros(n2, 2);
+            self.fill_gate(
+                &mut |r, c, v| s[(r, c)] += v,
+                &mut |r, v| nu[r] = v,
+                &mut |r, c, v| h[(r, c)] = v,
+            );
+            let s = (&s + s.transpose()) * 0.5;
+            let ch = s.cholesky()?;
+            let (si_nu, si_h) = (ch.solve(&nu), ch.solve(&h));
+            let g_inv = (h.transpose() * &si_h).try_inverse()?;
+            let hv = h.transpose() * &si_nu;
+            nu.dot(&si_nu) - hv.dot(&(g_inv * &hv))
+        };
+        Some(chi2)
+    }
+
+    /// The entries of the gate's `S = R + E C E^T`, `nu = y - b_hat` and stacked `H`.
+    fn fill_gate(
+        &self,
+        s: &mut dyn FnMut(usize, usize, f64),
+        nu: &mut dyn FnMut(usize, f64),
+        h: &mut dyn FnMut(usize, usize, f64),
+    ) {
         let rs = &self.residuals;
-        let n2 = 2 * rs.len();
-        let mut s = DMatrix::<f64>::zeros(n2, n2);
-        let mut nu = DVector::<f64>::zeros(n2);
-        let mut h = DMatrix::<f64>::zeros(n2, 2);
         for (k, a) in rs.iter().enumerate() {
             let mut v = a.y;
             if let Some(i) = a.bias {
                 v -= Vec2::new(self.estimate[2 * i], self.estimate[2 * i + 1]);
             }
             for r in 0..2 {
-                nu[2 * k + r] = v[r];
+                nu(2 * k + r, v[r]);
                 for c in 0..2 {
-                    s[(2 * k + r, 2 * k + c)] += a.r[(r, c)];
-                    h[(2 * k + r, c)] = a.h[(r, c)];
+                    s(2 * k + r, 2 * k + c, a.r[(r, c)]);
+                    h(2 * k + r, c, a.h[(r, c)]);
                 }
             }
             let Some(i) = a.bias else { continue };
@@ -1010,24 +1071,15 @@ impl FdbscBias {
                 let Some(j) = b.bias else { continue };
                 for r in 0..2 {
                     for c in 0..2 {
-                        s[(2 * k + r, 2 * l + c)] += self.covariance[(2 * i + r, 2 * j + c)];
+                        s(
+                            2 * k + r,
+                            2 * l + c,
+                            self.covariance[(2 * i + r, 2 * j + c)],
+                        );
                     }
                 }
             }
         }
-        let s = (&s + s.transpose()) * 0.5;
-        let Some(ch) = s.cholesky() else {
-            return true;
-        };
-        let si_nu = ch.solve(&nu);
-        let si_h = ch.solve(&h);
-        let g = h.transpose() * &si_h;
-        let hv = h.transpose() * &si_nu;
-        let Some(g_inv) = g.try_inverse() else {
-            return true;
-        };
-        let chi2 = nu.dot(&si_nu) - hv.dot(&(g_inv * &hv));
-        chi2 <= chi2_quantile(self.params.gate_probability, n2 - 2)
     }
 
     /// Add one group's normal equations, the group's position error eliminated, each
@@ -2049,5 +2101,40 @@ mod tests {
             (r - 300.0).abs() < 30.0 && (t - 5e-3).abs() < 1e-3,
             "{r} {t}"
         );
+    }
+
+    #[test]
+    fn position_shift_agrees_with_the_state_shift() {
+        let sp = Vec2::new(-500.0, 300.0);
+        for (x, dr, dt) in [
+            (StateVec::new(4000.0, 1.0, -2500.0, 2.0), -300.0, -6e-3),
+            (StateVec::new(50.0, 1.0, 300.0, 2.0), -100.0, 0.01),
+            (StateVec::new(-500.0, 1.0, 300.0, 2.0), 10.0, 0.01),
+        ] {
+            let full = position_of(&polar_shift(&x, &StateCov::identity(), &sp, dr, dt).0);
+            let pos = polar_shift_position(&position_of(&x), &sp, dr, dt);
+            assert_relative_eq!(full, pos, epsilon = 1e-9);
+        }
+    }
+
+    /// The gate statistic on the stack and on the heap agree.
+    #[test]
+    fn gate_statistic_paths_agree() {
+        let sensors = [
+            radar(0, 0.0, 0.0, 150.0, 4e-3, 0.0),
+            radar(1, 40e3, 0.0, 250.0, -3e-3, 0.0),
+            radar(2, 20e3, 40e3, 300.0, 5e-3, 0.0),
+        ];
+        let target = StateVec::new(20e3, 100.0, 15e3, 50.0);
+        let (mut raw, mut est) = one_target_scan(&sensors, &target);
+        raw[2].state[0] += 40.0;
+        est.sync_sensors(&sensors);
+        let p_hat = position_of(&target) + Vec2::new(5.0, -3.0);
+        let residuals: Vec<Residual> = raw.iter().filter_map(|t| est.residual(t, &p_hat)).collect();
+        est.residuals = residuals;
+        let a = est.gate_chi2(false).unwrap();
+        let b = est.gate_chi2(true).unwrap();
+        assert!(a > 0.1, "{a}");
+        assert_relative_eq!(a, b, max_relative = 1e-9);
     }
 }

@@ -56,7 +56,7 @@
 //!   pair leads to, whichever assigns the most tracks within Eps, then has the smallest
 //!   sum of squared distances plus `0.01 |offset|^2` (so a zero offset wins unless a
 //!   shifted match is clearly better); searched only for blocks of two or more tracks
-//!   with at most 64 candidate pairs;
+//!   with at most 32 candidate pairs;
 //! - a track left unassigned opens a new sub-group with its own position as centre (for
 //!   the sensors that come after);
 //! - sub-groups that got no member are dropped.
@@ -133,7 +133,7 @@ const NONE: u32 = u32::MAX;
 
 /// At most this many candidate pairs in a sensor's block for the common-offset search
 /// (each candidate costs a greedy assignment); above it the offset is zero.
-const MAX_OFFSET_PAIRS: usize = 64;
+const MAX_OFFSET_PAIRS: usize = 32;
 /// Weight of the squared offset against the squared residuals in the offset search.
 const OFFSET_PENALTY: f64 = 0.01;
 
