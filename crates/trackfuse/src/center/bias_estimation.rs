@@ -28,7 +28,7 @@
 //! apart: in a test geometry (four radars at the corners of an 80 km square) it needs
 //! some 40 scans where the joint estimate below needs one, and where each bias acts as a
 //! translation (targets far from all sensors) a common error never leaves. (The
-//! reference eq. 15 follows, Guo et al. [37], is not among the seeds; the residual is
+//! reference eq. 15 follows, Guo et al. (ref. 37 of 000), is not among the seeds; the residual is
 //! taken from eq. 15 as printed, the rest is chosen here.)
 //!
 //! This estimator keeps eq. 15's residuals and models the fused estimate's own error:
