@@ -17,6 +17,7 @@ use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::{run_with, RunOutput};
 use trackfuse::Scenario;
 
+mod p002;
 mod p003;
 mod p004;
 
@@ -85,6 +86,11 @@ pub struct Reproduction {
 
 /// Every reproduction.
 pub const REPRODUCTIONS: &[Reproduction] = &[
+    Reproduction {
+        name: "002",
+        summary: "HT-T2GT + SDF-T2GT against wFC and FTA: time per global-track update (Table 1), association correctness, fusion rules",
+        run: p002::run,
+    },
     Reproduction {
         name: "003",
         summary: "Anwar & Aljahdali: FTTA correlation matrix (Table 4), fusion-rule RMSE (Table 5)",
