@@ -189,15 +189,15 @@ fn by_scan<T, F: Fn(&T) -> u32>(items: &[T], scan: F) -> BTreeMap<u32, Vec<&T>> 
     m
 }
 
+/// `(target index, scan, squared error)` of the fused estimates and `(target index,
+/// sensor)` of the adopted tracks.
+type FusedErrors = (Vec<(usize, u32, f64)>, Vec<(usize, Id)>);
+
 /// The fused squared errors of targets 2 and 3, by the same gated assignment the
 /// project's evaluation uses (fused tracks to truth within `gospa_c`), and, with
 /// `picks`, which sensor's local track each of those fused estimates is (the member whose
 /// state it equals: the track the `superior` rule adopted), as `(target index, sensor)`.
-fn fused_errors(
-    out: &RunOutput,
-    gate: f64,
-    picks: bool,
-) -> (Vec<(usize, u32, f64)>, Vec<(usize, Id)>) {
+fn fused_errors(out: &RunOutput, gate: f64, picks: bool) -> FusedErrors {
     let truth = by_scan(&out.sim.truth, |t| t.scan);
     let fused = by_scan(&out.fused.fused, |f| f.scan);
     let local: HashMap<(u32, Id, Id), &LocalTrack> = if picks {
