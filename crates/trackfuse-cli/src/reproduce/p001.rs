@@ -1364,12 +1364,12 @@ pub fn run(ctx: &Ctx) -> Result<String> {
          neighbourhood queries. Fuzzy-GA (note): our `fuzzy-ga` (default weighting \
          `revised-pda`) runs its genetic search only for groups of tracks that share validated \
          measurements (a lone track's c-means memberships do not depend on its centre), i.e. at \
-         the crossings: {:.1} x FDB-DAF in scenario 1, {:.1} x in scenario 2, far from the \
-         paper's \"slowest\". The last row forces the search every scan (`weighting = \
+         the crossings: {:.1} x FDB-DAF in scenario 1, {:.1} x in scenario 2, far below the \
+         paper's 7.6 x and 9.2 x. The last row forces the search every scan (`weighting = \
          \"membership\"`, whose noise cluster makes a lone track's memberships depend on its \
          centre; 20 chromosomes x 31 generations of objective evaluations per group and scan, \
          timed once, on {} runs): {:.0} x in scenario 1 and {:.0} x in scenario 2, where the 6-sigma \
-         gates hold more measurements. The paper's 7.6 x and 9.2 x lie between the two.\n",
+         gates hold more measurements; the paper's ratios lie between the two modes.\n",
         ga[0] / f_lin,
         ga[1] / f_man,
         runs.div_ceil(TIMING_SLOW_EVERY),
