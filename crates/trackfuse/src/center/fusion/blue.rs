@@ -26,11 +26,17 @@
 //! [`Inconsistent`], never turned into a wrong covariance.
 //!
 //! Cost: two members use fixed-size 4x4 algebra (no allocation); three or more use one
-//! `4(n-1)`-square Cholesky factorisation.
+//! `4(n-1)`-square Cholesky factorisation, in flat buffers the caller keeps from group to
+//! group ([`BlueScratch`]; the same algorithm as nalgebra's `DMatrix` Cholesky, the
+//! results equal to rounding — a test compares it with the `DMatrix` implementation it
+//! replaced on random groups).
 
+use crate::center::linalg::{chol_solve4, chol_solve_flat, cholesky4, cholesky_flat};
 use crate::center::CenterError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
-use nalgebra::{DMatrix, DVector, SymmetricEigen};
+#[cfg(test)]
+use nalgebra::DVector;
+use nalgebra::{DMatrix, SymmetricEigen};
 use std::cmp::Ordering;
 
 /// A negative eigenvalue down to `-PSD_TOLERANCE * (largest |eigenvalue|)` counts as
@@ -90,16 +96,47 @@ fn canonical_cmp(a: &LocalTrack, b: &LocalTrack) -> Ordering {
         })
 }
 
-/// The members in canonical order (see [`canonical_cmp`]).
-pub(crate) fn canonical<'a>(members: &[&'a LocalTrack]) -> Vec<&'a LocalTrack> {
-    let mut sorted = members.to_vec();
-    sorted.sort_by(|a, b| canonical_cmp(a, b));
-    sorted
+/// Groups up to this size are put in canonical order without allocating.
+const CANONICAL_INLINE: usize = 16;
+
+/// The members of a group in canonical order ([`canonical`]); derefs to the slice.
+pub(crate) enum Canonical<'a> {
+    Inline([&'a LocalTrack; CANONICAL_INLINE], usize),
+    Heap(Vec<&'a LocalTrack>),
+}
+
+impl<'a> std::ops::Deref for Canonical<'a> {
+    type Target = [&'a LocalTrack];
+
+    fn deref(&self) -> &Self::Target {
+        match self {
+            Canonical::Inline(buf, n) => &buf[..*n],
+            Canonical::Heap(v) => v,
+        }
+    }
+}
+
+/// The members in canonical order (see [`canonical_cmp`]); no allocation for groups of
+/// up to 16 members.
+pub(crate) fn canonical<'a>(members: &[&'a LocalTrack]) -> Canonical<'a> {
+    match members.first() {
+        Some(&first) if members.len() <= CANONICAL_INLINE => {
+            let mut buf = [first; CANONICAL_INLINE];
+            buf[..members.len()].copy_from_slice(members);
+            buf[..members.len()].sort_by(|a, b| canonical_cmp(a, b));
+            Canonical::Inline(buf, members.len())
+        }
+        _ => {
+            let mut sorted = members.to_vec();
+            sorted.sort_by(|a, b| canonical_cmp(a, b));
+            Canonical::Heap(sorted)
+        }
+    }
 }
 
 /// Whether `p` is positive semidefinite up to rounding ([`PSD_TOLERANCE`]).
 pub(crate) fn is_psd(p: &StateCov) -> bool {
-    if p.cholesky().is_some() {
+    if cholesky4(p).is_some() {
         return true;
     }
     let eig = p.symmetric_eigenvalues();
@@ -137,11 +174,37 @@ pub(crate) fn blue<F>(
 where
     F: Fn(usize, usize) -> StateCov,
 {
+    blue_in(members, cross, &mut BlueScratch::default())
+}
+
+/// Buffers of [`blue_in`] for three or more members, reused from group to group.
+#[derive(Debug, Default)]
+pub(crate) struct BlueScratch {
+    /// `D` (column-major), then its Cholesky factor.
+    d: Vec<f64>,
+    /// `C^T` (column-major, `4(n-1) x 4`).
+    ct: Vec<f64>,
+    /// `D^-1 C^T`.
+    gain_t: Vec<f64>,
+    /// The stacked differences `d_j`.
+    diff: Vec<f64>,
+}
+
+/// [`blue`] with caller-owned buffers (no allocation once they have grown to the group
+/// size, except on the pseudo-inverse path).
+pub(crate) fn blue_in<F>(
+    members: &[&LocalTrack],
+    cross: F,
+    scratch: &mut BlueScratch,
+) -> Result<(StateVec, StateCov), Inconsistent>
+where
+    F: Fn(usize, usize) -> StateCov,
+{
     match members.len() {
         0 => Err(Inconsistent),
         1 => Ok((members[0].state, members[0].cov)),
         2 => blue_two(members[0], members[1], &cross(0, 1)),
-        _ => blue_general(members, &cross),
+        _ => blue_general(members, &cross, scratch),
     }
 }
 
@@ -154,8 +217,8 @@ fn blue_two(
     let c = a.cov - p_ab;
     let d = symmetrize(&(a.cov + b.cov - p_ab - p_ab.transpose()));
     // gain^T = D^-1 C^T
-    let gain_t: StateCov = match d.cholesky() {
-        Some(ch) => ch.solve(&c.transpose()),
+    let gain_t: StateCov = match cholesky4(&d) {
+        Some(l) => chol_solve4(&l, &c.transpose()),
         None => {
             let pinv = psd_pseudo_inverse(DMatrix::from_column_slice(4, 4, d.as_slice()))?;
             StateCov::from_column_slice(pinv.as_slice()) * c.transpose()
@@ -166,8 +229,121 @@ fn blue_two(
     finish(x, p)
 }
 
-/// Three or more members: the difference form with one `4(n-1)`-square factorisation.
-fn blue_general<F>(members: &[&LocalTrack], cross: &F) -> Result<(StateVec, StateCov), Inconsistent>
+/// Three or more members: the difference form with one `4(n-1)`-square factorisation, in
+/// the caller's flat buffers.
+fn blue_general<F>(
+    members: &[&LocalTrack],
+    cross: &F,
+    scratch: &mut BlueScratch,
+) -> Result<(StateVec, StateCov), Inconsistent>
+where
+    F: Fn(usize, usize) -> StateCov,
+{
+    let n = members.len();
+    let m = 4 * (n - 1);
+    let p0 = &members[0].cov;
+    let x0 = &members[0].state;
+    let BlueScratch {
+        d,
+        ct,
+        gain_t,
+        diff,
+    } = scratch;
+    fill_difference_form(members, cross, d, ct, diff);
+    // symmetrise (the factorisation reads the lower triangle)
+    for c in 0..m {
+        for r in c + 1..m {
+            d[r + c * m] = (d[r + c * m] + d[c + r * m]) * 0.5;
+        }
+    }
+    gain_t.clear();
+    gain_t.extend_from_slice(ct);
+    if cholesky_flat(d, m) {
+        chol_solve_flat(d, m, gain_t, 4);
+    } else {
+        // D singular (or indefinite): the pseudo-inverse, on a fresh copy of D
+        fill_difference_form(members, cross, d, ct, diff);
+        let dm = DMatrix::from_column_slice(m, m, d);
+        let dm = (&dm + dm.transpose()) * 0.5;
+        let g = psd_pseudo_inverse(dm)? * DMatrix::from_column_slice(m, 4, ct);
+        gain_t.copy_from_slice(g.as_slice());
+    }
+    let mut correction = StateVec::zeros();
+    let mut reduction = StateCov::zeros();
+    for a in 0..4 {
+        let g = &gain_t[a * m..(a + 1) * m];
+        correction[a] = g.iter().zip(diff.iter()).map(|(u, v)| u * v).sum::<f64>();
+        for b in 0..4 {
+            let c = &ct[b * m..(b + 1) * m];
+            reduction[(b, a)] = c.iter().zip(g).map(|(u, v)| u * v).sum::<f64>();
+        }
+    }
+    let x = x0 - correction;
+    let p = symmetrize(&(p0 - reduction));
+    finish(x, p)
+}
+
+/// Fill `D` (`4(n-1)` square, column-major, both triangles), `C^T` and the differences of
+/// the difference form (module docs).
+fn fill_difference_form<F>(
+    members: &[&LocalTrack],
+    cross: &F,
+    d: &mut Vec<f64>,
+    ct: &mut Vec<f64>,
+    diff: &mut Vec<f64>,
+) where
+    F: Fn(usize, usize) -> StateCov,
+{
+    let n = members.len();
+    let m = 4 * (n - 1);
+    let p0 = &members[0].cov;
+    let x0 = &members[0].state;
+    // Cov(e_i, e_j) for any i, j.
+    let cov_of = |i: usize, j: usize| -> StateCov {
+        match i.cmp(&j) {
+            Ordering::Equal => members[i].cov,
+            Ordering::Less => cross(i, j),
+            Ordering::Greater => cross(j, i).transpose(),
+        }
+    };
+    d.clear();
+    d.resize(m * m, 0.0);
+    ct.clear();
+    ct.resize(m * 4, 0.0);
+    diff.clear();
+    diff.resize(m, 0.0);
+    for (j, member) in members.iter().enumerate().skip(1) {
+        let o = 4 * (j - 1);
+        let c = p0 - cov_of(0, j);
+        let dx = x0 - member.state;
+        for r in 0..4 {
+            diff[o + r] = dx[r];
+            for col in 0..4 {
+                ct[o + r + col * m] = c[(col, r)];
+            }
+        }
+        for k in j..n {
+            let ok = 4 * (k - 1);
+            let block = p0 - cov_of(0, k) - cov_of(j, 0) + cov_of(j, k);
+            for col in 0..4 {
+                for r in 0..4 {
+                    d[o + r + (ok + col) * m] = block[(r, col)];
+                    if k != j {
+                        d[ok + col + (o + r) * m] = block[(r, col)];
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The difference form with nalgebra's dynamic matrices: the implementation before the
+/// flat-buffer one, kept as the reference the tests compare it with.
+#[cfg(test)]
+pub(crate) fn blue_general_dense<F>(
+    members: &[&LocalTrack],
+    cross: &F,
+) -> Result<(StateVec, StateCov), Inconsistent>
 where
     F: Fn(usize, usize) -> StateCov,
 {
@@ -289,10 +465,55 @@ mod tests {
         // the two-member fast path equals the general path
         let two = [&a, &b];
         let (x2, p2) = blue(&two, cross).unwrap();
-        let (xg, pg) = blue_general(&two, &cross).unwrap();
+        let (xg, pg) = blue_general(&two, &cross, &mut BlueScratch::default()).unwrap();
         assert!((x2 - xg).norm() < 1e-10 && (p2 - pg).norm() < 1e-10);
         let (xs2, ps2) = stacked(&two, &cross);
         assert!((x2 - xs2).norm() < 1e-9 && (p2 - ps2).norm() < 1e-9);
+    }
+
+    #[test]
+    fn flat_buffers_equal_the_dense_implementation() {
+        use crate::rng::stream;
+        use rand::RngExt;
+        let mut rng = stream(5, 0, "blue-test", 0);
+        let mut scratch = BlueScratch::default();
+        for round in 0..60 {
+            let n = 3 + round % 4;
+            let tracks: Vec<LocalTrack> = (0..n)
+                .map(|k| {
+                    let mut t = local(k as i64 + 1, 1, 0.0, 0.0, 0.0, 0.0, 1.0);
+                    t.state = StateVec::from_fn(|_, _| rng.random_range(-10.0..10.0));
+                    t.cov = spd(rng.random_range(0.0..10.0)) * rng.random_range(0.5..4.0);
+                    t
+                })
+                .collect();
+            let members: Vec<&LocalTrack> = tracks.iter().collect();
+            let rho = rng.random_range(0.0..0.6);
+            let factors: Vec<StateCov> = members
+                .iter()
+                .map(|m| m.cov.cholesky().unwrap().l())
+                .collect();
+            // a valid joint covariance: rho L_i L_j^T
+            let cross = |i: usize, j: usize| factors[i] * factors[j].transpose() * rho;
+            let fast = blue_general(&members, &cross, &mut scratch).unwrap();
+            let dense = blue_general_dense(&members, &cross).unwrap();
+            assert!((fast.0 - dense.0).norm() <= 1e-10 * (1.0 + dense.0.norm()));
+            assert!((fast.1 - dense.1).norm() <= 1e-10 * dense.1.norm());
+        }
+        // singular D (identical, fully correlated copies): the pseudo-inverse path
+        let a = local(1, 1, 5.0, 1.0, 6.0, 2.0, 3.0);
+        let b = local(2, 1, 5.0, 1.0, 6.0, 2.0, 3.0);
+        let c = local(3, 1, 5.0, 1.0, 6.0, 2.0, 3.0);
+        let members = [&a, &b, &c];
+        let fast = blue_general(&members, &|_, _| a.cov, &mut scratch).unwrap();
+        let dense = blue_general_dense(&members, &|_, _| a.cov).unwrap();
+        assert!((fast.0 - dense.0).norm() < 1e-12 && (fast.1 - dense.1).norm() < 1e-12);
+        let bad = StateCov::identity() * 9.0;
+        assert_eq!(blue_general_dense(&members, &|_, _| bad), Err(Inconsistent));
+        assert_eq!(
+            blue_general(&members, &|_, _| bad, &mut scratch),
+            Err(Inconsistent)
+        );
     }
 
     #[test]

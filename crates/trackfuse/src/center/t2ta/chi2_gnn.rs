@@ -56,6 +56,7 @@
 //! Automatica 7, 1971 (1970 report). Y. Bar-Shalom, "On the track-to-track correlation
 //! problem", IEEE Trans. AC 26(2), 1981.
 
+use crate::center::linalg::{chol_inverse4, cholesky4, solve_lower_vec4};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::params::{parse_params, ParamError, ParamTables};
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
@@ -168,13 +169,13 @@ impl Reference {
     /// Add a member: the reference becomes the convex combination of the members.
     fn add(&mut self, track: &LocalTrack) {
         self.members += 1;
-        if let Some(ch) = symmetrize(&track.cov).cholesky() {
-            let inv = ch.inverse();
+        if let Some(l) = cholesky4(&symmetrize(&track.cov)) {
+            let inv = chol_inverse4(&l);
             self.info += inv;
             self.info_state += inv * track.state;
             self.informed = true;
-            if let Some(c) = symmetrize(&self.info).cholesky() {
-                self.cov = symmetrize(&c.inverse());
+            if let Some(c) = cholesky4(&symmetrize(&self.info)) {
+                self.cov = symmetrize(&chol_inverse4(&c));
                 self.state = self.cov * self.info_state;
             }
         } else if !self.informed && self.members == 1 {
@@ -290,8 +291,8 @@ impl Chi2Gnn {
                 (syy * dx * dx - 2.0 * sxy * dx * dy + sxx * dy * dy) / det
             }
             GateOn::State => {
-                let ch = symmetrize(&s).cholesky()?;
-                let w = ch.l_dirty().solve_lower_triangular(&d)?;
+                let l = cholesky4(&symmetrize(&s))?;
+                let w = solve_lower_vec4(&l, &d)?;
                 w.norm_squared()
             }
         };
