@@ -9,11 +9,13 @@
 //! division), so they return the same numbers to the last bit — each is checked against
 //! nalgebra with `assert_eq!` in the tests below. Nothing here allocates.
 //!
+//! - [`axes_decouple`]: whether a 4x4 matrix has no x-y coupling.
 //! - [`cholesky4`]: `Cholesky::new` (reads the lower triangle; fails, like nalgebra, when a
 //!   pivot is zero, negative or NaN).
 //! - [`solve_lower4`], [`solve_lower_vec4`]: `solve_lower_triangular` (matrix, vector).
 //! - [`chol_solve4`], [`chol_inverse4`]: `Cholesky::solve`, `Cholesky::inverse`.
-//! - [`lu_solve`]: `LU::new(..).solve(..)` for any fixed `N` (partial pivoting).
+//! - [`lu_solve`], [`lu_nonsingular`]: `LU::new(..).solve(..)` for any fixed `N` (partial
+//!   pivoting), and whether it succeeds.
 //! - [`cholesky_flat`], [`chol_solve_flat`]: the Cholesky factorisation and solve of an
 //!   `n x n` matrix in a caller's column-major buffer (for group-sized matrices whose
 //!   dimension is only known at run time); the same algorithm as nalgebra's, though the
@@ -26,33 +28,61 @@ use crate::types::{StateCov, StateVec};
 /// Cholesky factor `L` (lower triangular, zeros above the diagonal) of the symmetric
 /// matrix whose lower triangle is that of `a`; `None` when `a` is not positive definite
 /// (a pivot that is zero, negative or NaN), exactly as `a.cholesky()`.
+///
+/// Written out: column `j` is `(a_rj - l_j0 l_r0 - l_j1 l_r1 - ...) / l_jj`, the products
+/// subtracted in `k` order and the pivot `a_jj - ...` square-rooted, as nalgebra does.
 #[inline]
 pub(crate) fn cholesky4(a: &StateCov) -> Option<StateCov> {
-    let mut l = StateCov::zeros();
-    for j in 0..4 {
-        // column j, rows j..4: a[r][j] - sum_k l[j][k] l[r][k], in k order
-        let mut col = [0.0; 4];
-        for (r, v) in col.iter_mut().enumerate().skip(j) {
-            *v = a[(r, j)];
-        }
-        for k in 0..j {
-            let factor = -l[(j, k)];
-            for (r, v) in col.iter_mut().enumerate().skip(j) {
-                *v += factor * l[(r, k)];
-            }
-        }
-        let diag = col[j];
-        // nalgebra: zero fails, then `try_sqrt` fails for negative and NaN
-        if diag == 0.0 || diag.is_nan() || diag < 0.0 {
-            return None;
-        }
-        let denom = diag.sqrt();
-        l[(j, j)] = denom;
-        for (r, v) in col.iter().enumerate().skip(j + 1) {
-            l[(r, j)] = v / denom;
-        }
+    // nalgebra rejects a zero pivot, then `try_sqrt` rejects negative and NaN ones
+    let ok = |d: f64| d > 0.0;
+    let a = &a.data.0; // a[column][row]
+    let d0 = a[0][0];
+    if !ok(d0) {
+        return None;
     }
-    Some(l)
+    let l00 = d0.sqrt();
+    let l10 = a[0][1] / l00;
+    let l20 = a[0][2] / l00;
+    let l30 = a[0][3] / l00;
+    let d1 = a[1][1] + -l10 * l10;
+    if !ok(d1) {
+        return None;
+    }
+    let l11 = d1.sqrt();
+    let l21 = (a[1][2] + -l10 * l20) / l11;
+    let l31 = (a[1][3] + -l10 * l30) / l11;
+    let d2 = (a[2][2] + -l20 * l20) + -l21 * l21;
+    if !ok(d2) {
+        return None;
+    }
+    let l22 = d2.sqrt();
+    let l32 = ((a[2][3] + -l20 * l30) + -l21 * l31) / l22;
+    let d3 = ((a[3][3] + -l30 * l30) + -l31 * l31) + -l32 * l32;
+    if !ok(d3) {
+        return None;
+    }
+    let l33 = d3.sqrt();
+    Some(StateCov::from_data(nalgebra::ArrayStorage([
+        [l00, l10, l20, l30],
+        [0.0, l11, l21, l31],
+        [0.0, 0.0, l22, l32],
+        [0.0, 0.0, 0.0, l33],
+    ])))
+}
+
+/// Whether the off-diagonal 2x2 blocks of `m` (x rows and y columns, y rows and x
+/// columns, for the state `[x, vx, y, vy]`) are exactly zero: the x and y axes decouple.
+#[inline]
+pub(crate) fn axes_decouple(m: &StateCov) -> bool {
+    let a = &m.data.0; // a[column][row]
+    a[2][0] == 0.0
+        && a[2][1] == 0.0
+        && a[3][0] == 0.0
+        && a[3][1] == 0.0
+        && a[0][2] == 0.0
+        && a[0][3] == 0.0
+        && a[1][2] == 0.0
+        && a[1][3] == 0.0
 }
 
 /// Forward substitution of one column in place (`L y = b`), nalgebra's order.
@@ -135,55 +165,16 @@ pub(crate) fn chol_inverse4(l: &StateCov) -> StateCov {
     chol_solve4(l, &StateCov::identity())
 }
 
-/// Solve `A x = b` in place by LU factorisation with partial pivoting, `a` column-major
-/// (`a[column][row]`, overwritten by the factors) — `LU::new(A).solve(b)` step for step
-/// (the first largest `|a|` of a column is the pivot; the multipliers are scaled by the
-/// reciprocal of the pivot). `false` (and `b` unspecified) when a pivot is exactly zero,
-/// where nalgebra's solve fails too.
+/// Solve `A x = b` in place by LU factorisation with partial pivoting, `a` row-major
+/// (`a[row][column]`, overwritten by the factors) — `LU::new(A).solve(b)` step for step
+/// (the first largest `|a|` of a column is the pivot; the multipliers are the column
+/// times the reciprocal of the pivot; each entry is updated as nalgebra does; the forward
+/// substitution of `b` is done alongside the elimination, which applies the same updates
+/// in the same order). `false` (and `b` unspecified) when a pivot is exactly zero, where
+/// nalgebra's solve fails too.
 pub(crate) fn lu_solve<const N: usize>(a: &mut [[f64; N]; N], b: &mut [f64; N]) -> bool {
-    let mut swaps = [0usize; N];
-    for i in 0..N {
-        let mut piv = i;
-        let mut best = a[i][i].abs();
-        for (r, v) in a[i].iter().enumerate().skip(i + 1) {
-            if v.abs() > best {
-                best = v.abs();
-                piv = r;
-            }
-        }
-        let diag = a[i][piv];
-        if diag == 0.0 {
-            // nalgebra skips the column; U then has a zero diagonal and the solve fails
-            return false;
-        }
-        swaps[i] = piv;
-        if piv != i {
-            for col in a.iter_mut() {
-                col.swap(i, piv);
-            }
-        }
-        let inv_diag = 1.0 / diag;
-        for v in a[i].iter_mut().skip(i + 1) {
-            *v *= inv_diag;
-        }
-        let (left, right) = a.split_at_mut(i + 1);
-        let coeffs = &left[i];
-        for col in right.iter_mut() {
-            let u = -col[i];
-            for r in i + 1..N {
-                col[r] += u * coeffs[r];
-            }
-        }
-    }
-    for (i, &piv) in swaps.iter().enumerate() {
-        b.swap(i, piv);
-    }
-    // unit lower triangle (nalgebra divides by the unit diagonal: exact)
-    for i in 0..N.saturating_sub(1) {
-        let coeff = b[i];
-        for r in i + 1..N {
-            b[r] += -coeff * a[i][r];
-        }
+    if !lu_eliminate(a, Some(b)) {
+        return false;
     }
     for i in (0..N).rev() {
         let diag = a[i][i];
@@ -193,7 +184,54 @@ pub(crate) fn lu_solve<const N: usize>(a: &mut [[f64; N]; N], b: &mut [f64; N]) 
         let coeff = b[i] / diag;
         b[i] = coeff;
         for r in 0..i {
-            b[r] += -coeff * a[i][r];
+            b[r] += -coeff * a[r][i];
+        }
+    }
+    true
+}
+
+/// Whether the LU factorisation with partial pivoting of `a` (row-major, overwritten)
+/// finds no zero pivot, i.e. whether [`lu_solve`] with `a` succeeds for every `b`.
+pub(crate) fn lu_nonsingular<const N: usize>(a: &mut [[f64; N]; N]) -> bool {
+    lu_eliminate(a, None) && (0..N).all(|i| a[i][i] != 0.0)
+}
+
+/// The elimination of [`lu_solve`]; `false` at an exactly zero pivot column.
+#[inline(always)]
+fn lu_eliminate<const N: usize>(a: &mut [[f64; N]; N], mut b: Option<&mut [f64; N]>) -> bool {
+    for i in 0..N {
+        let mut piv = i;
+        let mut best = a[i][i].abs();
+        for (r, row) in a.iter().enumerate().skip(i + 1) {
+            let v = row[i].abs();
+            if v > best {
+                best = v;
+                piv = r;
+            }
+        }
+        let diag = a[piv][i];
+        if diag == 0.0 {
+            // nalgebra skips the column; U then has a zero diagonal and the solve fails
+            return false;
+        }
+        if piv != i {
+            a.swap(i, piv);
+            if let Some(b) = b.as_deref_mut() {
+                b.swap(i, piv);
+            }
+        }
+        let inv_diag = 1.0 / diag;
+        let pivot_row = a[i];
+        let b_i = b.as_deref().map_or(0.0, |b| b[i]);
+        for r in i + 1..N {
+            let l = a[r][i] * inv_diag;
+            a[r][i] = l;
+            for c in i + 1..N {
+                a[r][c] += -pivot_row[c] * l;
+            }
+            if let Some(b) = b.as_deref_mut() {
+                b[r] += -b_i * l;
+            }
         }
     }
     true
@@ -301,16 +339,18 @@ mod tests {
         let m = DMatrix::<f64>::from_fn(N, N, |_, _| rng.random_range(-2.0..2.0));
         let rhs = DVector::<f64>::from_fn(N, |_, _| rng.random_range(-2.0..2.0));
         let mut a = [[0.0; N]; N];
-        for (c, col) in a.iter_mut().enumerate() {
-            for (r, v) in col.iter_mut().enumerate() {
+        for (r, row) in a.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate() {
                 *v = m[(r, c)];
             }
         }
+        let mut f = a;
         let mut b = [0.0; N];
         b.copy_from_slice(rhs.as_slice());
         let ours = lu_solve(&mut a, &mut b);
         let theirs = m.lu().solve(&rhs);
         assert_eq!(ours, theirs.is_some());
+        assert_eq!(lu_nonsingular(&mut f), ours);
         if let Some(x) = theirs {
             assert_eq!(&b[..], x.as_slice());
         }
@@ -327,8 +367,8 @@ mod tests {
         let m = SMatrix::<f64, 16, 16>::from_fn(|r, c| ((r * 16 + c) as f64 * 0.37).sin());
         let rhs = SVector::<f64, 16>::from_fn(|r, _| r as f64 - 4.0);
         let mut a = [[0.0; 16]; 16];
-        for (c, col) in a.iter_mut().enumerate() {
-            for (r, v) in col.iter_mut().enumerate() {
+        for (r, row) in a.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate() {
                 *v = m[(r, c)];
             }
         }
@@ -345,8 +385,8 @@ mod tests {
         );
         let rhs = SVector::<f64, 4>::new(1.0, 2.0, 3.0, 4.0);
         let mut a = [[0.0; 4]; 4];
-        for (c, col) in a.iter_mut().enumerate() {
-            for (r, v) in col.iter_mut().enumerate() {
+        for (r, row) in a.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate() {
                 *v = m[(r, c)];
             }
         }
@@ -356,6 +396,7 @@ mod tests {
         // singular: both fail
         let mut s = [[1.0, 2.0], [2.0, 4.0]];
         let mut b = [1.0, 1.0];
+        assert!(!lu_nonsingular(&mut s.clone()));
         assert!(!lu_solve(&mut s, &mut b));
         assert!(nalgebra::Matrix2::new(1.0, 2.0, 2.0, 4.0)
             .lu()

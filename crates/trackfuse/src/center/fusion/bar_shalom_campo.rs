@@ -73,7 +73,9 @@
 
 use super::blue::{blue_in, canonical, validate, BlueScratch};
 use super::convex_combination::convex_combination;
-use crate::center::linalg::{chol_solve4, cholesky4, cholesky_flat, lu_solve, solve_lower4};
+use crate::center::linalg::{
+    axes_decouple, chol_solve4, cholesky4, cholesky_flat, lu_nonsingular, lu_solve, solve_lower4,
+};
 use crate::center::{CenterError, FusionContext, FusionRule};
 use crate::models::{cv_transition, process_noise};
 use crate::params::{parse_params, ParamError, ParamTables};
@@ -181,8 +183,8 @@ struct Scratch {
     gains: Vec<Option<Gain>>,
     roots: Vec<StateCov>,
     pairs: Vec<StateCov>,
-    /// The coherence matrix `W` of [`joint_scale`] and its test matrix.
-    w: Vec<f64>,
+    /// The coherences of [`joint_scale`] (one per pair) and its test matrix.
+    coherences: Vec<StateCov>,
     test: Vec<f64>,
     blue: BlueScratch,
 }
@@ -240,21 +242,13 @@ fn solve_stein(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<StateCov>
     }
 }
 
-/// Whether the off-diagonal 2x2 blocks (x rows, y columns and y rows, x columns) of `m`
-/// are exactly zero.
-fn axes_decouple(m: &StateCov) -> bool {
-    [(0, 2), (0, 3), (1, 2), (1, 3)]
-        .iter()
-        .all(|&(r, c)| m[(r, c)] == 0.0 && m[(c, r)] == 0.0)
-}
-
 /// The 16x16 system `(I - B_j kron B_i) vec(X) = vec(C)` (`vec` stacks the columns:
 /// entry `(p, q)` of `X` is unknown `p + 4 q`).
 fn solve_stein_full(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<StateCov> {
-    // column-major: k[column][row]
+    // row-major: k[row][column]
     let mut k = [[0.0; 16]; 16];
-    for (d, col) in k.iter_mut().enumerate() {
-        col[d] = 1.0;
+    for (d, row) in k.iter_mut().enumerate() {
+        row[d] = 1.0;
     }
     for s in 0..4 {
         for q in 0..4 {
@@ -264,7 +258,7 @@ fn solve_stein_full(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<Stat
             }
             for r in 0..4 {
                 for p in 0..4 {
-                    k[r + 4 * s][p + 4 * q] -= bj * b_i[(p, r)];
+                    k[p + 4 * q][r + 4 * s] -= bj * b_i[(p, r)];
                 }
             }
         }
@@ -278,43 +272,43 @@ fn solve_stein_full(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<Stat
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
-/// [`solve_stein`] when the axes decouple: one 4x4 system per 2x2 block of `X`.
+/// [`solve_stein`] when the axes decouple: one 4x4 system per 2x2 block of `X` (the
+/// off-diagonal blocks, whose right-hand side is zero, only factorised).
 fn solve_stein_by_axis(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<StateCov> {
-    let mut x = StateCov::zeros();
-    for a in [0, 2] {
-        for b in [0, 2] {
-            // (I - B_j,bb kron B_i,aa), unknown (p, q) of the block at p + 2 q
-            let mut k = [[0.0; 4]; 4];
-            for (d, col) in k.iter_mut().enumerate() {
-                col[d] = 1.0;
-            }
-            for s in 0..2 {
-                for q in 0..2 {
-                    let bj = b_j[(b + q, b + s)];
-                    if bj == 0.0 {
-                        continue;
-                    }
-                    for r in 0..2 {
-                        for p in 0..2 {
-                            k[r + 2 * s][p + 2 * q] -= bj * b_i[(a + p, a + r)];
-                        }
+    // (I - B_j,bb kron B_i,aa), row-major, unknown (p, q) of the block at p + 2 q
+    let system = |a: usize, b: usize| {
+        let mut k = [[0.0; 4]; 4];
+        for (d, row) in k.iter_mut().enumerate() {
+            row[d] = 1.0;
+        }
+        for s in 0..2 {
+            for q in 0..2 {
+                let bj = b_j[(b + q, b + s)];
+                if bj == 0.0 {
+                    continue;
+                }
+                for r in 0..2 {
+                    for p in 0..2 {
+                        k[p + 2 * q][r + 2 * s] -= bj * b_i[(a + p, a + r)];
                     }
                 }
             }
-            let mut v = [
-                c[(a, b)],
-                c[(a + 1, b)],
-                c[(a, b + 1)],
-                c[(a + 1, b + 1)],
-            ];
-            if !lu_solve(&mut k, &mut v) {
-                return None;
-            }
-            x[(a, b)] = v[0];
-            x[(a + 1, b)] = v[1];
-            x[(a, b + 1)] = v[2];
-            x[(a + 1, b + 1)] = v[3];
         }
+        k
+    };
+    if !(lu_nonsingular(&mut system(0, 2)) && lu_nonsingular(&mut system(2, 0))) {
+        return None;
+    }
+    let mut x = StateCov::zeros();
+    for a in [0, 2] {
+        let mut v = [c[(a, a)], c[(a + 1, a)], c[(a, a + 1)], c[(a + 1, a + 1)]];
+        if !lu_solve(&mut system(a, a), &mut v) {
+            return None;
+        }
+        x[(a, a)] = v[0];
+        x[(a + 1, a)] = v[1];
+        x[(a, a + 1)] = v[2];
+        x[(a + 1, a + 1)] = v[3];
     }
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
@@ -350,52 +344,82 @@ fn solve_stein_nalgebra(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<
 /// for members without a Cholesky factor). For two members the eigenvalues of `W` are
 /// `+-` the singular values of `W_12` (the canonical correlations), so this bounds the
 /// largest canonical correlation by `max`. 1 when no scaling is needed (checked by one
-/// Cholesky factorisation); `None` when the coherences cannot be formed. `w` and `test`
-/// are buffers (column-major `4n x 4n`); only when the check fails is a `DMatrix`
-/// allocated, for the eigenvalues.
+/// Cholesky factorisation); `None` when the coherences cannot be formed.
+///
+/// The check runs in the buffer `test` (column-major); when every coherence decouples the
+/// x and y axes (as block-diagonal covariances give), so does `I + W / max`, and it is checked as
+/// its two halves (the `[x, vx]` and the `[y, vy]` components of every member, each in the
+/// full matrix's order: the same pivots bit for bit, as in [`super::blue`]). Only when
+/// the check fails is a `DMatrix` allocated, for the eigenvalues of the full `W`.
 fn joint_scale(
     pairs: &[StateCov],
     gains: &[Option<Gain>],
     max: f64,
-    w: &mut Vec<f64>,
+    coherences: &mut Vec<StateCov>,
     test: &mut Vec<f64>,
 ) -> Option<f64> {
     let n = gains.len();
-    let dim = 4 * n;
-    w.clear();
-    w.resize(dim * dim, 0.0);
+    coherences.clear();
+    coherences.resize(pairs.len(), StateCov::zeros());
     for i in 0..n {
         let Some(g_i) = &gains[i] else { continue };
         for j in i + 1..n {
             let Some(g_j) = &gains[j] else { continue };
-            let x = &pairs[pair_index(n, i, j)];
-            let t = solve_lower4(&g_i.l, x)?;
-            let coherence = solve_lower4(&g_j.l, &t.transpose())?.transpose();
-            for c in 0..4 {
-                for r in 0..4 {
-                    let v = coherence[(r, c)];
-                    w[(4 * i + r) + (4 * j + c) * dim] = v;
-                    w[(4 * j + c) + (4 * i + r) * dim] = v;
+            let k = pair_index(n, i, j);
+            let t = solve_lower4(&g_i.l, &pairs[k])?;
+            coherences[k] = solve_lower4(&g_j.l, &t.transpose())?.transpose();
+        }
+    }
+    let decoupled = coherences.iter().all(axes_decouple);
+    let passes = if decoupled {
+        bounded(coherences, n, max, &[0, 1], test) && bounded(coherences, n, max, &[2, 3], test)
+    } else {
+        bounded(coherences, n, max, &[0, 1, 2, 3], test)
+    };
+    if passes {
+        return Some(1.0);
+    }
+    let mut w = DMatrix::<f64>::zeros(4 * n, 4 * n);
+    for i in 0..n {
+        for j in i + 1..n {
+            let coherence = &coherences[pair_index(n, i, j)];
+            w.fixed_view_mut::<4, 4>(4 * i, 4 * j).copy_from(coherence);
+            w.fixed_view_mut::<4, 4>(4 * j, 4 * i)
+                .copy_from(&coherence.transpose());
+        }
+    }
+    let lowest = w.symmetric_eigenvalues().min();
+    (lowest < -max).then(|| max / -lowest).or(Some(1.0))
+}
+
+/// Whether `I + W / max` restricted to the state components `comps` of every member is
+/// positive definite (one Cholesky factorisation of its lower triangle, in `test`).
+fn bounded(
+    coherences: &[StateCov],
+    n: usize,
+    max: f64,
+    comps: &[usize],
+    test: &mut Vec<f64>,
+) -> bool {
+    let k = comps.len();
+    let dim = k * n;
+    test.clear();
+    test.resize(dim * dim, 0.0);
+    for i in 0..n {
+        for j in i + 1..n {
+            // block (j, i) of the lower triangle: W_ji = W_ij^T
+            let coherence = &coherences[pair_index(n, i, j)];
+            for (c, &cc) in comps.iter().enumerate() {
+                for (r, &cr) in comps.iter().enumerate() {
+                    test[(k * j + c) + (k * i + r) * dim] = coherence[(cr, cc)] / max;
                 }
             }
         }
     }
-    // I + W / max, lower triangle
-    test.clear();
-    test.resize(dim * dim, 0.0);
-    for c in 0..dim {
-        for r in c..dim {
-            test[r + c * dim] = w[r + c * dim] / max;
-        }
-        test[c + c * dim] += 1.0;
+    for d in 0..dim {
+        test[d + d * dim] = 1.0;
     }
-    if cholesky_flat(test, dim) {
-        return Some(1.0);
-    }
-    let lowest = DMatrix::from_column_slice(dim, dim, w)
-        .symmetric_eigenvalues()
-        .min();
-    (lowest < -max).then(|| max / -lowest).or(Some(1.0))
+    cholesky_flat(test, dim)
 }
 
 /// [`joint_scale`] with nalgebra's dynamic matrices: the implementation before the
@@ -495,7 +519,7 @@ impl BarShalomCampo {
             gains,
             roots,
             pairs,
-            w,
+            coherences,
             test,
             ..
         } = scratch;
@@ -548,7 +572,7 @@ impl BarShalomCampo {
                         }
                     }
                 }
-                match joint_scale(pairs, gains, self.params.max_correlation, w, test) {
+                match joint_scale(pairs, gains, self.params.max_correlation, coherences, test) {
                     Some(scale) if scale < 1.0 => pairs.iter_mut().for_each(|p| *p *= scale),
                     Some(_) => {}
                     None => {
@@ -771,7 +795,7 @@ mod tests {
     #[test]
     fn joint_scale_equals_the_dense_implementation() {
         let mut rng = crate::rng::stream(9, 0, "bc-test", 1);
-        let (mut w, mut test) = (Vec::new(), Vec::new());
+        let (mut coherences, mut test) = (Vec::new(), Vec::new());
         let mut scaled = 0;
         for round in 0..60 {
             let n = 2 + round % 4;
@@ -784,7 +808,7 @@ mod tests {
                     if k == 1 && round % 5 == 0 {
                         return None;
                     }
-                    gain_of(&(random_block_cov(&mut rng, true) * size), &f, &q)
+                    gain_of(&(random_block_cov(&mut rng, round % 3 != 0) * size), &f, &q)
                 })
                 .collect();
             let mut pairs = vec![StateCov::zeros(); n * (n - 1) / 2];
@@ -798,7 +822,7 @@ mod tests {
             }
             let factors: Vec<Option<StateCov>> =
                 gains.iter().map(|g| g.as_ref().map(|g| g.l)).collect();
-            let fast = joint_scale(&pairs, &gains, 0.95, &mut w, &mut test);
+            let fast = joint_scale(&pairs, &gains, 0.95, &mut coherences, &mut test);
             assert_eq!(fast, joint_scale_dense(&pairs, &factors, 0.95));
             if fast.is_some_and(|s| s < 1.0) {
                 scaled += 1;

@@ -31,7 +31,7 @@
 //! results equal to rounding — a test compares it with the `DMatrix` implementation it
 //! replaced on random groups).
 
-use crate::center::linalg::{chol_solve4, chol_solve_flat, cholesky4, cholesky_flat};
+use crate::center::linalg::{axes_decouple, chol_solve4, chol_solve_flat, cholesky4, cholesky_flat};
 use crate::center::CenterError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
 #[cfg(test)]
@@ -231,6 +231,16 @@ fn blue_two(
 
 /// Three or more members: the difference form with one `4(n-1)`-square factorisation, in
 /// the caller's flat buffers.
+///
+/// **The x and y axes decouple** when every member covariance and cross-covariance has
+/// exactly zero off-diagonal 2x2 blocks (state `[x, vx, y, vy]`): `D` and `C` then have
+/// zero entries between x and y components, and the problem is two independent ones of
+/// half the size, the `[x, vx]` and the `[y, vy]` components (two `2(n-1)`-square
+/// factorisations, 1/4 of the arithmetic). Each takes the rows and columns of the full
+/// problem in their order, and the Cholesky factorisation and triangular solves only
+/// ever add exact zeros for the entries left out, so the split gives the full problem's
+/// numbers bit for bit (a test checks it). When a half's `D` is singular the full problem
+/// is solved instead, so the pseudo-inverse and its tolerances are those of the full `D`.
 fn blue_general<F>(
     members: &[&LocalTrack],
     cross: &F,
@@ -240,16 +250,46 @@ where
     F: Fn(usize, usize) -> StateCov,
 {
     let n = members.len();
-    let m = 4 * (n - 1);
-    let p0 = &members[0].cov;
-    let x0 = &members[0].state;
+    let decoupled = members.iter().all(|m| axes_decouple(&m.cov))
+        && (0..n).all(|i| (i + 1..n).all(|j| axes_decouple(&cross(i, j))));
+    let mut correction = StateVec::zeros();
+    let mut reduction = StateCov::zeros();
+    let split = decoupled
+        && blue_part(members, cross, &[0, 1], false, scratch, &mut correction, &mut reduction)?
+        && blue_part(members, cross, &[2, 3], false, scratch, &mut correction, &mut reduction)?;
+    if !split {
+        blue_part(members, cross, &[0, 1, 2, 3], true, scratch, &mut correction, &mut reduction)?;
+    }
+    let x = members[0].state - correction;
+    let p = symmetrize(&(members[0].cov - reduction));
+    finish(x, p)
+}
+
+/// The difference form restricted to the state components `comps` (all four, or one
+/// axis): adds `C D^-1 d` to `correction` and `C D^-1 C^T` to `reduction` at those
+/// components. `Ok(false)` when `D` is not positive definite and `pseudo_inverse` is off.
+#[allow(clippy::too_many_arguments)]
+fn blue_part<F>(
+    members: &[&LocalTrack],
+    cross: &F,
+    comps: &[usize],
+    pseudo_inverse: bool,
+    scratch: &mut BlueScratch,
+    correction: &mut StateVec,
+    reduction: &mut StateCov,
+) -> Result<bool, Inconsistent>
+where
+    F: Fn(usize, usize) -> StateCov,
+{
+    let k = comps.len();
+    let m = k * (members.len() - 1);
     let BlueScratch {
         d,
         ct,
         gain_t,
         diff,
     } = scratch;
-    fill_difference_form(members, cross, d, ct, diff);
+    fill_difference_form(members, cross, comps, d, ct, diff);
     // symmetrise (the factorisation reads the lower triangle)
     for c in 0..m {
         for r in c + 1..m {
@@ -259,35 +299,35 @@ where
     gain_t.clear();
     gain_t.extend_from_slice(ct);
     if cholesky_flat(d, m) {
-        chol_solve_flat(d, m, gain_t, 4);
-    } else {
+        chol_solve_flat(d, m, gain_t, k);
+    } else if pseudo_inverse {
         // D singular (or indefinite): the pseudo-inverse, on a fresh copy of D
-        fill_difference_form(members, cross, d, ct, diff);
+        fill_difference_form(members, cross, comps, d, ct, diff);
         let dm = DMatrix::from_column_slice(m, m, d);
         let dm = (&dm + dm.transpose()) * 0.5;
-        let g = psd_pseudo_inverse(dm)? * DMatrix::from_column_slice(m, 4, ct);
+        let g = psd_pseudo_inverse(dm)? * DMatrix::from_column_slice(m, k, ct);
         gain_t.copy_from_slice(g.as_slice());
+    } else {
+        return Ok(false);
     }
-    let mut correction = StateVec::zeros();
-    let mut reduction = StateCov::zeros();
-    for a in 0..4 {
+    for (a, &ca) in comps.iter().enumerate() {
         let g = &gain_t[a * m..(a + 1) * m];
-        correction[a] = g.iter().zip(diff.iter()).map(|(u, v)| u * v).sum::<f64>();
-        for b in 0..4 {
+        correction[ca] = g.iter().zip(diff.iter()).map(|(u, v)| u * v).sum::<f64>();
+        for (b, &cb) in comps.iter().enumerate() {
             let c = &ct[b * m..(b + 1) * m];
-            reduction[(b, a)] = c.iter().zip(g).map(|(u, v)| u * v).sum::<f64>();
+            reduction[(cb, ca)] = c.iter().zip(g).map(|(u, v)| u * v).sum::<f64>();
         }
     }
-    let x = x0 - correction;
-    let p = symmetrize(&(p0 - reduction));
-    finish(x, p)
+    Ok(true)
 }
 
-/// Fill `D` (`4(n-1)` square, column-major, both triangles), `C^T` and the differences of
-/// the difference form (module docs).
+/// Fill `D` (`k(n-1)` square for the `k` components `comps`, column-major, both
+/// triangles), `C^T` (`k(n-1) x k`) and the differences of the difference form (module
+/// docs).
 fn fill_difference_form<F>(
     members: &[&LocalTrack],
     cross: &F,
+    comps: &[usize],
     d: &mut Vec<f64>,
     ct: &mut Vec<f64>,
     diff: &mut Vec<f64>,
@@ -295,7 +335,8 @@ fn fill_difference_form<F>(
     F: Fn(usize, usize) -> StateCov,
 {
     let n = members.len();
-    let m = 4 * (n - 1);
+    let k = comps.len();
+    let m = k * (n - 1);
     let p0 = &members[0].cov;
     let x0 = &members[0].state;
     // Cov(e_i, e_j) for any i, j.
@@ -309,27 +350,27 @@ fn fill_difference_form<F>(
     d.clear();
     d.resize(m * m, 0.0);
     ct.clear();
-    ct.resize(m * 4, 0.0);
+    ct.resize(m * k, 0.0);
     diff.clear();
     diff.resize(m, 0.0);
     for (j, member) in members.iter().enumerate().skip(1) {
-        let o = 4 * (j - 1);
+        let o = k * (j - 1);
         let c = p0 - cov_of(0, j);
         let dx = x0 - member.state;
-        for r in 0..4 {
-            diff[o + r] = dx[r];
-            for col in 0..4 {
-                ct[o + r + col * m] = c[(col, r)];
+        for (r, &cr) in comps.iter().enumerate() {
+            diff[o + r] = dx[cr];
+            for (col, &cc) in comps.iter().enumerate() {
+                ct[o + r + col * m] = c[(cc, cr)];
             }
         }
-        for k in j..n {
-            let ok = 4 * (k - 1);
-            let block = p0 - cov_of(0, k) - cov_of(j, 0) + cov_of(j, k);
-            for col in 0..4 {
-                for r in 0..4 {
-                    d[o + r + (ok + col) * m] = block[(r, col)];
-                    if k != j {
-                        d[ok + col + (o + r) * m] = block[(r, col)];
+        for kk in j..n {
+            let ok = k * (kk - 1);
+            let block = p0 - cov_of(0, kk) - cov_of(j, 0) + cov_of(j, kk);
+            for (col, &cc) in comps.iter().enumerate() {
+                for (r, &cr) in comps.iter().enumerate() {
+                    d[o + r + (ok + col) * m] = block[(cr, cc)];
+                    if kk != j {
+                        d[ok + col + (o + r) * m] = block[(cr, cc)];
                     }
                 }
             }
@@ -499,6 +540,53 @@ mod tests {
             let dense = blue_general_dense(&members, &cross).unwrap();
             assert!((fast.0 - dense.0).norm() <= 1e-10 * (1.0 + dense.0.norm()));
             assert!((fast.1 - dense.1).norm() <= 1e-10 * dense.1.norm());
+        }
+        // block-diagonal covariances: the split by axis gives the full problem's numbers
+        for round in 0..40 {
+            let n = 3 + round % 4;
+            let block = |rng: &mut crate::rng::StreamRng| {
+                let mut p = spd(rng.random_range(0.0..10.0));
+                for (r, c) in [(0, 2), (0, 3), (1, 2), (1, 3)] {
+                    p[(r, c)] = 0.0;
+                    p[(c, r)] = 0.0;
+                }
+                p + StateCov::identity() * 2.0
+            };
+            let tracks: Vec<LocalTrack> = (0..n)
+                .map(|k| {
+                    let mut t = local(k as i64 + 1, 1, 0.0, 0.0, 0.0, 0.0, 1.0);
+                    t.state = StateVec::from_fn(|_, _| rng.random_range(-10.0..10.0));
+                    t.cov = block(&mut rng);
+                    t
+                })
+                .collect();
+            let members: Vec<&LocalTrack> = tracks.iter().collect();
+            let factors: Vec<StateCov> = members
+                .iter()
+                .map(|m| m.cov.cholesky().unwrap().l())
+                .collect();
+            let rho = rng.random_range(0.0..0.6);
+            let cross = |i: usize, j: usize| factors[i] * factors[j].transpose() * rho;
+            assert!(axes_decouple(&cross(0, 1)));
+            let split = blue_general(&members, &cross, &mut scratch).unwrap();
+            let (mut correction, mut reduction) = (StateVec::zeros(), StateCov::zeros());
+            assert!(blue_part(
+                &members,
+                &cross,
+                &[0, 1, 2, 3],
+                true,
+                &mut scratch,
+                &mut correction,
+                &mut reduction
+            )
+            .unwrap());
+            let full = (
+                members[0].state - correction,
+                symmetrize(&(members[0].cov - reduction)),
+            );
+            assert_eq!(split, full);
+            let dense = blue_general_dense(&members, &cross).unwrap();
+            assert!((split.1 - dense.1).norm() <= 1e-10 * dense.1.norm());
         }
         // singular D (identical, fully correlated copies): the pseudo-inverse path
         let a = local(1, 1, 5.0, 1.0, 6.0, 2.0, 3.0);
