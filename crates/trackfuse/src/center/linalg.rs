@@ -14,8 +14,8 @@
 //!   pivot is zero, negative or NaN).
 //! - [`solve_lower4`], [`solve_lower_vec4`]: `solve_lower_triangular` (matrix, vector).
 //! - [`chol_solve4`], [`chol_inverse4`]: `Cholesky::solve`, `Cholesky::inverse`.
-//! - [`lu_solve`], [`lu_nonsingular`]: `LU::new(..).solve(..)` for any fixed `N` (partial
-//!   pivoting), and whether it succeeds.
+//! - [`lu_solve`], [`lu_solve_many`], [`lu_nonsingular`]: `LU::new(..).solve(..)` for any
+//!   fixed `N` (partial pivoting), for several right-hand sides, and whether it succeeds.
 //! - [`cholesky_flat`], [`chol_solve_flat`]: the Cholesky factorisation and solve of an
 //!   `n x n` matrix in a caller's column-major buffer (for group-sized matrices whose
 //!   dimension is only known at run time); the same algorithm as nalgebra's, though the
@@ -173,18 +173,25 @@ pub(crate) fn chol_inverse4(l: &StateCov) -> StateCov {
 /// in the same order). `false` (and `b` unspecified) when a pivot is exactly zero, where
 /// nalgebra's solve fails too.
 pub(crate) fn lu_solve<const N: usize>(a: &mut [[f64; N]; N], b: &mut [f64; N]) -> bool {
-    if !lu_eliminate(a, Some(b)) {
+    lu_solve_many(a, std::slice::from_mut(b))
+}
+
+/// [`lu_solve`] for several right-hand sides at once (each solved exactly as alone).
+pub(crate) fn lu_solve_many<const N: usize>(a: &mut [[f64; N]; N], rhs: &mut [[f64; N]]) -> bool {
+    if !lu_eliminate(a, rhs) {
         return false;
     }
-    for i in (0..N).rev() {
-        let diag = a[i][i];
-        if diag == 0.0 {
-            return false;
-        }
-        let coeff = b[i] / diag;
-        b[i] = coeff;
-        for r in 0..i {
-            b[r] += -coeff * a[r][i];
+    for b in rhs.iter_mut() {
+        for i in (0..N).rev() {
+            let diag = a[i][i];
+            if diag == 0.0 {
+                return false;
+            }
+            let coeff = b[i] / diag;
+            b[i] = coeff;
+            for r in 0..i {
+                b[r] += -coeff * a[r][i];
+            }
         }
     }
     true
@@ -193,12 +200,13 @@ pub(crate) fn lu_solve<const N: usize>(a: &mut [[f64; N]; N], b: &mut [f64; N]) 
 /// Whether the LU factorisation with partial pivoting of `a` (row-major, overwritten)
 /// finds no zero pivot, i.e. whether [`lu_solve`] with `a` succeeds for every `b`.
 pub(crate) fn lu_nonsingular<const N: usize>(a: &mut [[f64; N]; N]) -> bool {
-    lu_eliminate(a, None) && (0..N).all(|i| a[i][i] != 0.0)
+    lu_eliminate(a, &mut []) && (0..N).all(|i| a[i][i] != 0.0)
 }
 
-/// The elimination of [`lu_solve`]; `false` at an exactly zero pivot column.
+/// The elimination of [`lu_solve`], with the forward substitution of each of `rhs`;
+/// `false` at an exactly zero pivot column.
 #[inline(always)]
-fn lu_eliminate<const N: usize>(a: &mut [[f64; N]; N], mut b: Option<&mut [f64; N]>) -> bool {
+fn lu_eliminate<const N: usize>(a: &mut [[f64; N]; N], rhs: &mut [[f64; N]]) -> bool {
     for i in 0..N {
         let mut piv = i;
         let mut best = a[i][i].abs();
@@ -216,21 +224,20 @@ fn lu_eliminate<const N: usize>(a: &mut [[f64; N]; N], mut b: Option<&mut [f64; 
         }
         if piv != i {
             a.swap(i, piv);
-            if let Some(b) = b.as_deref_mut() {
+            for b in rhs.iter_mut() {
                 b.swap(i, piv);
             }
         }
         let inv_diag = 1.0 / diag;
         let pivot_row = a[i];
-        let b_i = b.as_deref().map_or(0.0, |b| b[i]);
         for r in i + 1..N {
             let l = a[r][i] * inv_diag;
             a[r][i] = l;
             for c in i + 1..N {
                 a[r][c] += -pivot_row[c] * l;
             }
-            if let Some(b) = b.as_deref_mut() {
-                b[r] += -b_i * l;
+            for b in rhs.iter_mut() {
+                b[r] += -b[i] * l;
             }
         }
     }
@@ -322,7 +329,10 @@ mod tests {
             assert_eq!(cholesky4(&junk), Some(l));
             // indefinite, singular, NaN: fail like nalgebra
             let indefinite = b + b.transpose();
-            assert_eq!(cholesky4(&indefinite).is_some(), indefinite.cholesky().is_some());
+            assert_eq!(
+                cholesky4(&indefinite).is_some(),
+                indefinite.cholesky().is_some()
+            );
         }
         assert!(cholesky4(&StateCov::zeros()).is_none());
         let mut nan = StateCov::identity();
@@ -350,7 +360,18 @@ mod tests {
         let ours = lu_solve(&mut a, &mut b);
         let theirs = m.lu().solve(&rhs);
         assert_eq!(ours, theirs.is_some());
-        assert_eq!(lu_nonsingular(&mut f), ours);
+        assert_eq!(lu_nonsingular(&mut f.clone()), ours);
+        // two right-hand sides at once: each as alone
+        let mut two = [[0.0; N]; 2];
+        two[0].copy_from_slice(rhs.as_slice());
+        two[1] = [1.5; N];
+        let mut one = [1.5; N];
+        let ok = lu_solve_many(&mut f.clone(), &mut two);
+        assert_eq!(ok, lu_solve(&mut f, &mut one));
+        if ok {
+            assert_eq!(two[0], b);
+            assert_eq!(two[1], one);
+        }
         if let Some(x) = theirs {
             assert_eq!(&b[..], x.as_slice());
         }

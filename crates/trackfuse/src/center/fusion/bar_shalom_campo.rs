@@ -74,7 +74,8 @@
 use super::blue::{blue_in, canonical, validate, BlueScratch};
 use super::convex_combination::convex_combination;
 use crate::center::linalg::{
-    axes_decouple, chol_solve4, cholesky4, cholesky_flat, lu_nonsingular, lu_solve, solve_lower4,
+    axes_decouple, chol_solve4, cholesky4, cholesky_flat, lu_nonsingular, lu_solve, lu_solve_many,
+    solve_lower4,
 };
 use crate::center::{CenterError, FusionContext, FusionRule};
 use crate::models::{cv_transition, process_noise};
@@ -273,7 +274,12 @@ fn solve_stein_full(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<Stat
 }
 
 /// [`solve_stein`] when the axes decouple: one 4x4 system per 2x2 block of `X` (the
-/// off-diagonal blocks, whose right-hand side is zero, only factorised).
+/// off-diagonal blocks, whose right-hand side is zero, only factorised). The system of
+/// block `(a, b)` is built from `B_i,aa` and `B_j,bb` alone, so when a matrix's x and y
+/// blocks are the same numbers (an isotropic local tracker), systems coincide and are
+/// factorised once: `B_j,xx = B_j,yy` makes the `(x, y)` system the `(x, x)` one and
+/// `(y, x)` the `(y, y)` one; `B_i,xx = B_i,yy` makes `(x, y)` the `(y, y)` one and `(y, x)`
+/// the `(x, x)` one; both make `(x, x)` and `(y, y)` one system with two right-hand sides.
 fn solve_stein_by_axis(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<StateCov> {
     // (I - B_j,bb kron B_i,aa), row-major, unknown (p, q) of the block at p + 2 q
     let system = |a: usize, b: usize| {
@@ -296,15 +302,31 @@ fn solve_stein_by_axis(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<S
         }
         k
     };
-    if !(lu_nonsingular(&mut system(0, 2)) && lu_nonsingular(&mut system(2, 0))) {
+    let same_axes = |m: &StateCov| {
+        [(0, 0), (1, 0), (0, 1), (1, 1)]
+            .iter()
+            .all(|&(r, c)| m[(r, c)].to_bits() == m[(r + 2, c + 2)].to_bits())
+    };
+    let (same_i, same_j) = (same_axes(b_i), same_axes(b_j));
+    // the off-diagonal blocks' systems, unless they are diagonal blocks' ones
+    if !(same_i || same_j)
+        && !(lu_nonsingular(&mut system(0, 2)) && lu_nonsingular(&mut system(2, 0)))
+    {
+        return None;
+    }
+    let rhs = |a: usize| [c[(a, a)], c[(a + 1, a)], c[(a, a + 1)], c[(a + 1, a + 1)]];
+    let mut v = [rhs(0), rhs(2)];
+    let solved = if same_i && same_j {
+        lu_solve_many(&mut system(0, 0), &mut v)
+    } else {
+        let [vx, vy] = &mut v;
+        lu_solve(&mut system(0, 0), vx) && lu_solve(&mut system(2, 2), vy)
+    };
+    if !solved {
         return None;
     }
     let mut x = StateCov::zeros();
-    for a in [0, 2] {
-        let mut v = [c[(a, a)], c[(a + 1, a)], c[(a, a + 1)], c[(a + 1, a + 1)]];
-        if !lu_solve(&mut system(a, a), &mut v) {
-            return None;
-        }
+    for (a, v) in [0, 2].into_iter().zip(v) {
         x[(a, a)] = v[0];
         x[(a + 1, a)] = v[1];
         x[(a, a + 1)] = v[2];
@@ -757,9 +779,39 @@ mod tests {
             let dt = rng.random_range(0.2..5.0);
             let q = process_noise(dt, rng.random_range(0.1..3.0), rng.random_range(0.1..3.0));
             let f = cv_transition(dt);
-            let coupled = round % 3 == 0;
-            let gi = gain_of(&random_block_cov(&mut rng, coupled), &f, &q).unwrap();
-            let gj = gain_of(&random_block_cov(&mut rng, coupled), &f, &q).unwrap();
+            // coupled axes; independent axes; an isotropic member (its x and y blocks the
+            // same numbers, with Q isotropic); both isotropic
+            let kind = round % 4;
+            let coupled = kind == 0;
+            let q = if kind >= 2 {
+                let qs = rng.random_range(0.1..3.0);
+                process_noise(dt, qs, qs)
+            } else {
+                q
+            };
+            let isotropic = |mut p: StateCov| {
+                for (r, c) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    p[(r + 2, c + 2)] = p[(r, c)];
+                }
+                p
+            };
+            let mut pi = random_block_cov(&mut rng, coupled);
+            let mut pj = random_block_cov(&mut rng, coupled);
+            if kind >= 2 {
+                pi = isotropic(pi);
+            }
+            if kind == 3 {
+                pj = isotropic(pj);
+            }
+            let gi = gain_of(&pi, &f, &q).unwrap();
+            let gj = gain_of(&pj, &f, &q).unwrap();
+            if kind >= 2 {
+                // the shortcut's condition holds
+                let af = &gi.af;
+                assert!([(0, 0), (1, 0), (0, 1), (1, 1)]
+                    .iter()
+                    .all(|&(r, c)| af[(r, c)].to_bits() == af[(r + 2, c + 2)].to_bits()));
+            }
             let c = gi.a * q * gj.a.transpose();
             let reference = solve_stein_nalgebra(&gi.af, &gj.af, &c).unwrap();
             // the hand-written 16x16 LU is nalgebra's, bit for bit
@@ -782,7 +834,7 @@ mod tests {
             let residual = x - gi.af * x * gj.af.transpose() - c;
             assert!(residual.norm() <= 1e-10 * x.norm());
         }
-        assert_eq!(by_axis, 200);
+        assert_eq!(by_axis, 225);
         // singular: an x-y cross system alone (1 - 2 * 0.5 = 0) fails both ways
         let b_i = StateCov::from_diagonal(&StateVec::new(2.0, 0.1, 0.3, 0.2));
         let b_j = StateCov::from_diagonal(&StateVec::new(0.2, 0.2, 0.5, 0.3));
@@ -790,6 +842,10 @@ mod tests {
         assert!(solve_stein_nalgebra(&b_i, &b_j, &c).is_none());
         assert!(solve_stein(&b_i, &b_j, &c).is_none());
         assert!(solve_stein_full(&b_i, &b_j, &c).is_none());
+        // ... also when one member is isotropic (the cross system is then a diagonal one)
+        let b_j = StateCov::from_diagonal(&StateVec::new(0.5, 0.3, 0.5, 0.3));
+        assert!(solve_stein_nalgebra(&b_i, &b_j, &c).is_none());
+        assert!(solve_stein(&b_i, &b_j, &c).is_none());
     }
 
     #[test]

@@ -31,7 +31,9 @@
 //! results equal to rounding — a test compares it with the `DMatrix` implementation it
 //! replaced on random groups).
 
-use crate::center::linalg::{axes_decouple, chol_solve4, chol_solve_flat, cholesky4, cholesky_flat};
+use crate::center::linalg::{
+    axes_decouple, chol_solve4, chol_solve_flat, cholesky4, cholesky_flat,
+};
 use crate::center::CenterError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
 #[cfg(test)]
@@ -255,10 +257,34 @@ where
     let mut correction = StateVec::zeros();
     let mut reduction = StateCov::zeros();
     let split = decoupled
-        && blue_part(members, cross, &[0, 1], false, scratch, &mut correction, &mut reduction)?
-        && blue_part(members, cross, &[2, 3], false, scratch, &mut correction, &mut reduction)?;
+        && blue_part(
+            members,
+            cross,
+            &[0, 1],
+            false,
+            scratch,
+            &mut correction,
+            &mut reduction,
+        )?
+        && blue_part(
+            members,
+            cross,
+            &[2, 3],
+            false,
+            scratch,
+            &mut correction,
+            &mut reduction,
+        )?;
     if !split {
-        blue_part(members, cross, &[0, 1, 2, 3], true, scratch, &mut correction, &mut reduction)?;
+        blue_part(
+            members,
+            cross,
+            &[0, 1, 2, 3],
+            true,
+            scratch,
+            &mut correction,
+            &mut reduction,
+        )?;
     }
     let x = members[0].state - correction;
     let p = symmetrize(&(members[0].cov - reduction));

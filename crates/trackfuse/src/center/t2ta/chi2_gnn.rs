@@ -41,8 +41,10 @@
 //! intervals, found by one sorted sweep (`O((n + m) log(n + m) + pairs)`); the same bound
 //! on y prunes before the full test. The gate graph (gated pairs) is split into connected
 //! components (union–find) and each component is solved on its own — components are a
-//! handful of tracks when targets are separated — with a single-edge component assigned
-//! directly. This is the exact optimum of the dense problem (pairs in different components
+//! handful of tracks when targets are separated — with a single-edge component, or a star
+//! (one track gated with several references, or one reference with several tracks) whose
+//! cheapest edge is unique, assigned directly (that edge is then the unique optimum). This
+//! is the exact optimum of the dense problem (pairs in different components
 //! cost `gamma`, like leaving both unassigned). Buffers live in the associator and are
 //! reused scan after scan.
 //!
@@ -136,6 +138,9 @@ struct Reference {
     info: StateCov,
     info_state: StateVec,
     informed: bool,
+    /// `state`, `cov` are behind `info` (recomputed by `refresh` when the reference is
+    /// next tested against).
+    stale: bool,
     members: u32,
 }
 
@@ -148,6 +153,7 @@ impl Reference {
             info: StateCov::zeros(),
             info_state: StateVec::zeros(),
             informed: false,
+            stale: false,
             members: 0,
         }
     }
@@ -160,13 +166,16 @@ impl Reference {
             info: StateCov::zeros(),
             info_state: StateVec::zeros(),
             informed: false,
+            stale: false,
             members: 0,
         };
         r.add(track);
         r
     }
 
-    /// Add a member: the reference becomes the convex combination of the members.
+    /// Add a member: the reference becomes the convex combination of the members (once
+    /// [`Reference::refresh`]ed; a reference gets at most one member per sensor, between
+    /// two refreshes).
     fn add(&mut self, track: &LocalTrack) {
         self.members += 1;
         if let Some(l) = cholesky4(&symmetrize(&track.cov)) {
@@ -174,13 +183,24 @@ impl Reference {
             self.info += inv;
             self.info_state += inv * track.state;
             self.informed = true;
+            self.stale = true;
+        } else if !self.informed && self.members == 1 {
+            self.state = track.state;
+            self.cov = track.cov;
+        }
+    }
+}
+
+impl Reference {
+    /// Bring `state`, `cov` up to the information sum: the convex combination of the
+    /// members (kept as it was if the sum is not positive definite).
+    fn refresh(&mut self) {
+        if self.stale {
+            self.stale = false;
             if let Some(c) = cholesky4(&symmetrize(&self.info)) {
                 self.cov = symmetrize(&chol_inverse4(&c));
                 self.state = self.cov * self.info_state;
             }
-        } else if !self.informed && self.members == 1 {
-            self.state = track.state;
-            self.cov = track.cov;
         }
     }
 }
@@ -219,6 +239,8 @@ pub struct Chi2Gnn {
     parent: Vec<u32>,
     matched: Vec<u32>,
     group_of: Vec<u32>,
+    /// References given a member by the last sensor processed.
+    touched: Vec<u32>,
     comp_tracks: Vec<u32>,
     comp_refs: Vec<u32>,
     cost: Vec<f64>,
@@ -255,6 +277,7 @@ impl Chi2Gnn {
             parent: Vec::new(),
             matched: Vec::new(),
             group_of: Vec::new(),
+            touched: Vec::new(),
             comp_tracks: Vec::new(),
             comp_refs: Vec::new(),
             cost: Vec::new(),
@@ -401,8 +424,7 @@ impl Chi2Gnn {
             while end < self.edges.len() && self.edges[end].root == root {
                 end += 1;
             }
-            if end - start == 1 {
-                let e = self.edges[start];
+            if let Some(e) = star_choice(&self.edges[start..end]) {
                 self.matched[e.track as usize] = e.reference;
             } else {
                 self.solve_component(start, end)?;
@@ -450,6 +472,31 @@ impl Chi2Gnn {
     }
 }
 
+/// The optimal assignment of a component that is a star — a single edge, one track gated
+/// with several references, or one reference with several tracks — whose cheapest edge
+/// is unique: that edge alone is assigned (the exact optimum, which `lsap` would return
+/// too: every other assignment leaves the centre with a dearer edge). `None` for other
+/// components and for ties, which go to `lsap`.
+fn star_choice(edges: &[Edge]) -> Option<Edge> {
+    let first = edges.first()?;
+    let one_track = edges.iter().all(|e| e.track == first.track);
+    let one_reference = edges.iter().all(|e| e.reference == first.reference);
+    if !(one_track || one_reference) {
+        return None;
+    }
+    let mut best = *first;
+    let mut tie = false;
+    for e in &edges[1..] {
+        if e.d2 < best.d2 {
+            best = *e;
+            tie = false;
+        } else if e.d2 == best.d2 {
+            tie = true;
+        }
+    }
+    (!tie).then_some(best)
+}
+
 fn finite(state: &StateVec, cov: &StateCov) -> bool {
     state.iter().chain(cov.iter()).all(|v| v.is_finite())
 }
@@ -489,6 +536,7 @@ impl TrackAssociator for Chi2Gnn {
             }
         }
         self.refs.clear();
+        self.touched.clear();
         for (g, (state, cov)) in ctx.predicted.iter().enumerate() {
             if !finite(state, cov) {
                 return Err(CenterError::Input(format!(
@@ -508,6 +556,11 @@ impl TrackAssociator for Chi2Gnn {
                 end += 1;
             }
             let batch = &tracks[start..end];
+            // the references the previous sensor changed (none are tested after the last)
+            for &r in &self.touched {
+                self.refs[r as usize].refresh();
+            }
+            self.touched.clear();
             let n_refs = self.refs.len();
             self.gate_batch(batch, n_refs);
             self.assign_batch(batch.len(), n_refs)?;
@@ -515,9 +568,11 @@ impl TrackAssociator for Chi2Gnn {
                 let r = self.matched[t];
                 if r == NONE {
                     self.group_of[start + t] = self.refs.len() as u32;
+                    self.touched.push(self.refs.len() as u32);
                     self.refs.push(Reference::started_by(track));
                 } else {
                     self.group_of[start + t] = r;
+                    self.touched.push(r);
                     self.refs[r as usize].add(track);
                 }
             }
