@@ -159,10 +159,28 @@ pub(crate) fn chol_solve4(l: &StateCov, b: &StateCov) -> StateCov {
     out
 }
 
-/// `(L L^T)^-1` from a Cholesky factor `L` ([`cholesky4`]): `Cholesky::inverse`.
+/// `(L L^T)^-1` from a Cholesky factor `L` ([`cholesky4`]): `Cholesky::inverse`, i.e. the
+/// solve with the identity, leaving out the steps on the identity's zeros above each
+/// column's one (they divide zero and add zero: no change, for a finite `L`).
 #[inline]
 pub(crate) fn chol_inverse4(l: &StateCov) -> StateCov {
-    chol_solve4(l, &StateCov::identity())
+    let mut out = StateCov::zeros();
+    for c in 0..4 {
+        let mut v = [0.0; 4];
+        v[c] = 1.0;
+        for i in c..4 {
+            let coeff = v[i] / l[(i, i)];
+            v[i] = coeff;
+            for r in i + 1..4 {
+                v[r] += -coeff * l[(r, i)];
+            }
+        }
+        backward_column(l, &mut v);
+        for (r, x) in v.into_iter().enumerate() {
+            out[(r, c)] = x;
+        }
+    }
+    out
 }
 
 /// Solve `A x = b` in place by LU factorisation with partial pivoting, `a` row-major

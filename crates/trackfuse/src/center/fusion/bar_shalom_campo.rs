@@ -369,10 +369,11 @@ fn solve_stein_nalgebra(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<
 /// Cholesky factorisation); `None` when the coherences cannot be formed.
 ///
 /// The check runs in the buffer `test` (column-major); when every coherence decouples the
-/// x and y axes (as block-diagonal covariances give), so does `I + W / max`, and it is checked as
-/// its two halves (the `[x, vx]` and the `[y, vy]` components of every member, each in the
-/// full matrix's order: the same pivots bit for bit, as in [`super::blue`]). Only when
-/// the check fails is a `DMatrix` allocated, for the eigenvalues of the full `W`.
+/// x and y axes (as block-diagonal covariances give), so does `I + W / max`, and it is
+/// checked as its two halves (the `[x, vx]` and the `[y, vy]` components of every member,
+/// each in the full matrix's order: the same pivots bit for bit, as in [`super::blue`];
+/// once when the halves are the same numbers). Only when the check fails is a `DMatrix`
+/// allocated, for the eigenvalues of the full `W`.
 fn joint_scale(
     pairs: &[StateCov],
     gains: &[Option<Gain>],
@@ -393,8 +394,17 @@ fn joint_scale(
         }
     }
     let decoupled = coherences.iter().all(axes_decouple);
+    // isotropic: the y half is the x half's numbers
+    let same_halves = || {
+        coherences.iter().all(|m| {
+            [(0, 0), (1, 0), (0, 1), (1, 1)]
+                .iter()
+                .all(|&(r, c)| m[(r, c)].to_bits() == m[(r + 2, c + 2)].to_bits())
+        })
+    };
     let passes = if decoupled {
-        bounded(coherences, n, max, &[0, 1], test) && bounded(coherences, n, max, &[2, 3], test)
+        bounded(coherences, n, max, &[0, 1], test)
+            && (same_halves() || bounded(coherences, n, max, &[2, 3], test))
     } else {
         bounded(coherences, n, max, &[0, 1, 2, 3], test)
     };
@@ -864,7 +874,14 @@ mod tests {
                     if k == 1 && round % 5 == 0 {
                         return None;
                     }
-                    gain_of(&(random_block_cov(&mut rng, round % 3 != 0) * size), &f, &q)
+                    // coupled axes, independent axes, isotropic
+                    let mut p = random_block_cov(&mut rng, round % 3 == 0) * size;
+                    if round % 3 == 2 {
+                        for (r, c) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                            p[(r + 2, c + 2)] = p[(r, c)];
+                        }
+                    }
+                    gain_of(&p, &f, &q)
                 })
                 .collect();
             let mut pairs = vec![StateCov::zeros(); n * (n - 1) / 2];

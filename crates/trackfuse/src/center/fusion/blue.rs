@@ -182,13 +182,18 @@ where
 /// Buffers of [`blue_in`] for three or more members, reused from group to group.
 #[derive(Debug, Default)]
 pub(crate) struct BlueScratch {
-    /// `D` (column-major), then its Cholesky factor.
+    /// The 4x4 blocks of the difference form: `C_j^T` (`j = 1..n`), `D_jk` (`j <= k`, at
+    /// `(j - 1) (n - 1) + k - 1`) and the differences `d_j`.
+    c_blocks: Vec<StateCov>,
+    d_blocks: Vec<StateCov>,
+    diffs: Vec<StateVec>,
+    /// `D` of the components solved (column-major), then its Cholesky factor.
     d: Vec<f64>,
-    /// `C^T` (column-major, `4(n-1) x 4`).
+    /// `C^T` (column-major, `k(n-1) x k`).
     ct: Vec<f64>,
     /// `D^-1 C^T`.
     gain_t: Vec<f64>,
-    /// The stacked differences `d_j`.
+    /// The stacked differences of the components solved.
     diff: Vec<f64>,
 }
 
@@ -234,15 +239,16 @@ fn blue_two(
 /// Three or more members: the difference form with one `4(n-1)`-square factorisation, in
 /// the caller's flat buffers.
 ///
-/// **The x and y axes decouple** when every member covariance and cross-covariance has
-/// exactly zero off-diagonal 2x2 blocks (state `[x, vx, y, vy]`): `D` and `C` then have
-/// zero entries between x and y components, and the problem is two independent ones of
-/// half the size, the `[x, vx]` and the `[y, vy]` components (two `2(n-1)`-square
-/// factorisations, 1/4 of the arithmetic). Each takes the rows and columns of the full
-/// problem in their order, and the Cholesky factorisation and triangular solves only
-/// ever add exact zeros for the entries left out, so the split gives the full problem's
-/// numbers bit for bit (a test checks it). When a half's `D` is singular the full problem
-/// is solved instead, so the pseudo-inverse and its tolerances are those of the full `D`.
+/// **The x and y axes decouple** when `D` and `C` have exactly zero entries between x and
+/// y components (state `[x, vx, y, vy]`; block-diagonal member covariances and
+/// cross-covariances give that): the problem is then two independent ones of half the
+/// size, the `[x, vx]` and the `[y, vy]` components (two `2(n-1)`-square factorisations,
+/// 1/4 of the arithmetic). Each takes the rows and columns of the full problem in their
+/// order, and the Cholesky factorisation and triangular solves only ever add exact zeros
+/// for the entries left out, so the split gives the full problem's numbers bit for bit (a
+/// test checks it). When the two halves are the same numbers (isotropic members) the y
+/// half reuses the x half's gain. When a half's `D` is singular the full problem is
+/// solved instead, so the pseudo-inverse and its tolerances are those of the full `D`.
 fn blue_general<F>(
     members: &[&LocalTrack],
     cross: &F,
@@ -251,34 +257,23 @@ fn blue_general<F>(
 where
     F: Fn(usize, usize) -> StateCov,
 {
-    let n = members.len();
-    let decoupled = members.iter().all(|m| axes_decouple(&m.cov))
-        && (0..n).all(|i| (i + 1..n).all(|j| axes_decouple(&cross(i, j))));
+    difference_blocks(members, cross, scratch);
+    let decoupled =
+        scratch.d_blocks.iter().all(axes_decouple) && scratch.c_blocks.iter().all(axes_decouple);
     let mut correction = StateVec::zeros();
     let mut reduction = StateCov::zeros();
-    let split = decoupled
-        && blue_part(
-            members,
-            cross,
-            &[0, 1],
-            false,
-            scratch,
-            &mut correction,
-            &mut reduction,
-        )?
-        && blue_part(
-            members,
-            cross,
-            &[2, 3],
-            false,
-            scratch,
-            &mut correction,
-            &mut reduction,
-        )?;
+    let mut split = false;
+    if decoupled && blue_part(&[0, 1], false, scratch, &mut correction, &mut reduction)? {
+        if same_axes(scratch) {
+            // the y half has the x half's D and C: its gain is the x gain, bit for bit
+            y_from_x(scratch, &mut correction, &mut reduction);
+            split = true;
+        } else {
+            split = blue_part(&[2, 3], false, scratch, &mut correction, &mut reduction)?;
+        }
+    }
     if !split {
         blue_part(
-            members,
-            cross,
             &[0, 1, 2, 3],
             true,
             scratch,
@@ -291,31 +286,51 @@ where
     finish(x, p)
 }
 
+/// Whether every block of the difference form has the same numbers in its x-x and y-y
+/// 2x2 blocks (isotropic members: the two halves of a decoupled problem are one).
+fn same_axes(scratch: &BlueScratch) -> bool {
+    let same = |m: &StateCov| {
+        [(0, 0), (1, 0), (0, 1), (1, 1)]
+            .iter()
+            .all(|&(r, c)| m[(r, c)].to_bits() == m[(r + 2, c + 2)].to_bits())
+    };
+    scratch.d_blocks.iter().all(same) && scratch.c_blocks.iter().all(same)
+}
+
+/// The y half of a decoupled problem from the x half just solved (`gain_t` in `scratch`)
+/// when the halves have the same `D` and `C` ([`same_axes`]): the same sums as
+/// [`blue_part`] for `[2, 3]` would form.
+fn y_from_x(scratch: &BlueScratch, correction: &mut StateVec, reduction: &mut StateCov) {
+    let m = 2 * scratch.diffs.len();
+    for a in 0..2 {
+        let g = &scratch.gain_t[a * m..(a + 1) * m];
+        correction[2 + a] = g
+            .iter()
+            .enumerate()
+            .map(|(r, u)| u * scratch.diffs[r / 2][2 + r % 2])
+            .sum::<f64>();
+        for b in 0..2 {
+            reduction[(2 + b, 2 + a)] = reduction[(b, a)];
+        }
+    }
+}
+
 /// The difference form restricted to the state components `comps` (all four, or one
-/// axis): adds `C D^-1 d` to `correction` and `C D^-1 C^T` to `reduction` at those
-/// components. `Ok(false)` when `D` is not positive definite and `pseudo_inverse` is off.
-#[allow(clippy::too_many_arguments)]
-fn blue_part<F>(
-    members: &[&LocalTrack],
-    cross: &F,
+/// axis), from the blocks of [`difference_blocks`]: adds `C D^-1 d` to `correction` and
+/// `C D^-1 C^T` to `reduction` at those components. `Ok(false)` when `D` is not positive
+/// definite and `pseudo_inverse` is off.
+fn blue_part(
     comps: &[usize],
     pseudo_inverse: bool,
     scratch: &mut BlueScratch,
     correction: &mut StateVec,
     reduction: &mut StateCov,
-) -> Result<bool, Inconsistent>
-where
-    F: Fn(usize, usize) -> StateCov,
-{
+) -> Result<bool, Inconsistent> {
     let k = comps.len();
-    let m = k * (members.len() - 1);
-    let BlueScratch {
-        d,
-        ct,
-        gain_t,
-        diff,
-    } = scratch;
-    fill_difference_form(members, cross, comps, d, ct, diff);
+    let n1 = scratch.diffs.len();
+    let m = k * n1;
+    fill_difference_form(comps, scratch);
+    let BlueScratch { d, ct, gain_t, .. } = scratch;
     // symmetrise (the factorisation reads the lower triangle)
     for c in 0..m {
         for r in c + 1..m {
@@ -328,7 +343,8 @@ where
         chol_solve_flat(d, m, gain_t, k);
     } else if pseudo_inverse {
         // D singular (or indefinite): the pseudo-inverse, on a fresh copy of D
-        fill_difference_form(members, cross, comps, d, ct, diff);
+        fill_difference_form(comps, scratch);
+        let BlueScratch { d, ct, gain_t, .. } = scratch;
         let dm = DMatrix::from_column_slice(m, m, d);
         let dm = (&dm + dm.transpose()) * 0.5;
         let g = psd_pseudo_inverse(dm)? * DMatrix::from_column_slice(m, k, ct);
@@ -336,6 +352,9 @@ where
     } else {
         return Ok(false);
     }
+    let BlueScratch {
+        ct, gain_t, diff, ..
+    } = scratch;
     for (a, &ca) in comps.iter().enumerate() {
         let g = &gain_t[a * m..(a + 1) * m];
         correction[ca] = g.iter().zip(diff.iter()).map(|(u, v)| u * v).sum::<f64>();
@@ -347,22 +366,13 @@ where
     Ok(true)
 }
 
-/// Fill `D` (`k(n-1)` square for the `k` components `comps`, column-major, both
-/// triangles), `C^T` (`k(n-1) x k`) and the differences of the difference form (module
-/// docs).
-fn fill_difference_form<F>(
-    members: &[&LocalTrack],
-    cross: &F,
-    comps: &[usize],
-    d: &mut Vec<f64>,
-    ct: &mut Vec<f64>,
-    diff: &mut Vec<f64>,
-) where
+/// The 4x4 blocks of the difference form (module docs) into `scratch`: `C_j^T`,
+/// `D_jk = P_0 - P_0k - P_j0 + P_jk` (`j <= k`) and `d_j = x_0 - x_j`.
+fn difference_blocks<F>(members: &[&LocalTrack], cross: &F, scratch: &mut BlueScratch)
+where
     F: Fn(usize, usize) -> StateCov,
 {
     let n = members.len();
-    let k = comps.len();
-    let m = k * (n - 1);
     let p0 = &members[0].cov;
     let x0 = &members[0].state;
     // Cov(e_i, e_j) for any i, j.
@@ -373,25 +383,55 @@ fn fill_difference_form<F>(
             Ordering::Greater => cross(j, i).transpose(),
         }
     };
+    scratch.c_blocks.clear();
+    scratch.diffs.clear();
+    scratch.d_blocks.clear();
+    scratch
+        .d_blocks
+        .resize((n - 1) * (n - 1), StateCov::zeros());
+    for (j, member) in members.iter().enumerate().skip(1) {
+        scratch.c_blocks.push((p0 - cov_of(0, j)).transpose());
+        scratch.diffs.push(x0 - member.state);
+        for k in j..n {
+            scratch.d_blocks[(j - 1) * (n - 1) + k - 1] =
+                p0 - cov_of(0, k) - cov_of(j, 0) + cov_of(j, k);
+        }
+    }
+}
+
+/// Fill `D` (`k(n-1)` square for the `k` components `comps`, column-major, both
+/// triangles), `C^T` (`k(n-1) x k`) and the differences from the blocks.
+fn fill_difference_form(comps: &[usize], scratch: &mut BlueScratch) {
+    let n1 = scratch.diffs.len();
+    let k = comps.len();
+    let m = k * n1;
+    let BlueScratch {
+        c_blocks,
+        d_blocks,
+        diffs,
+        d,
+        ct,
+        diff,
+        ..
+    } = scratch;
     d.clear();
     d.resize(m * m, 0.0);
     ct.clear();
     ct.resize(m * k, 0.0);
     diff.clear();
     diff.resize(m, 0.0);
-    for (j, member) in members.iter().enumerate().skip(1) {
-        let o = k * (j - 1);
-        let c = p0 - cov_of(0, j);
-        let dx = x0 - member.state;
+    for j in 0..n1 {
+        let o = k * j;
+        let (c, dx) = (&c_blocks[j], &diffs[j]);
         for (r, &cr) in comps.iter().enumerate() {
             diff[o + r] = dx[cr];
             for (col, &cc) in comps.iter().enumerate() {
-                ct[o + r + col * m] = c[(cc, cr)];
+                ct[o + r + col * m] = c[(cr, cc)];
             }
         }
-        for kk in j..n {
-            let ok = k * (kk - 1);
-            let block = p0 - cov_of(0, kk) - cov_of(j, 0) + cov_of(j, kk);
+        for kk in j..n1 {
+            let ok = k * kk;
+            let block = &d_blocks[j * n1 + kk];
             for (col, &cc) in comps.iter().enumerate() {
                 for (r, &cr) in comps.iter().enumerate() {
                     d[o + r + (ok + col) * m] = block[(cr, cc)];
@@ -570,11 +610,17 @@ mod tests {
         // block-diagonal covariances: the split by axis gives the full problem's numbers
         for round in 0..40 {
             let n = 3 + round % 4;
+            // independent axes; in odd rounds isotropic (the y block the x block)
             let block = |rng: &mut crate::rng::StreamRng| {
                 let mut p = spd(rng.random_range(0.0..10.0));
                 for (r, c) in [(0, 2), (0, 3), (1, 2), (1, 3)] {
                     p[(r, c)] = 0.0;
                     p[(c, r)] = 0.0;
+                }
+                if round % 2 == 1 {
+                    for (r, c) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                        p[(r + 2, c + 2)] = p[(r, c)];
+                    }
                 }
                 p + StateCov::identity() * 2.0
             };
@@ -595,10 +641,10 @@ mod tests {
             let cross = |i: usize, j: usize| factors[i] * factors[j].transpose() * rho;
             assert!(axes_decouple(&cross(0, 1)));
             let split = blue_general(&members, &cross, &mut scratch).unwrap();
+            assert_eq!(same_axes(&scratch), round % 2 == 1);
             let (mut correction, mut reduction) = (StateVec::zeros(), StateCov::zeros());
+            difference_blocks(&members, &cross, &mut scratch);
             assert!(blue_part(
-                &members,
-                &cross,
                 &[0, 1, 2, 3],
                 true,
                 &mut scratch,

@@ -215,6 +215,8 @@ impl Reference {
 /// An interval of the x sweep, in one y strip.
 #[derive(Debug, Clone, Copy)]
 struct Interval {
+    /// The sweep order: `lo` (as [`ordered`]), then references first, then index.
+    key: (u64, u64),
     lo: f64,
     hi: f64,
     /// Lower end of the (padded) y interval, to test each pair in one strip only.
@@ -225,25 +227,44 @@ struct Interval {
     index: u32,
 }
 
+/// `x` as an unsigned integer in the order of `f64::total_cmp`.
+fn ordered(x: f64) -> u64 {
+    let bits = x.to_bits();
+    if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | (1 << 63)
+    }
+}
+
 /// An interval still open in the sweep: index, `hi`, `ylo`.
 type Active = (u32, f64, f64);
 
-/// The horizontal strips of the sweep: `count` strips of `height` from `base`.
+/// The horizontal strips of the sweep: `count` strips of `1 / per_metre` from `base`.
 #[derive(Debug, Clone, Copy)]
 struct Strips {
     base: f64,
-    height: f64,
+    per_metre: f64,
     count: usize,
 }
 
 impl Strips {
-    /// The strip holding `y` (clamped to the strips).
+    fn new(base: f64, extent: f64, count: usize) -> Self {
+        Strips {
+            base,
+            per_metre: count as f64 / extent,
+            count,
+        }
+    }
+
+    /// The strip holding `y` (clamped to the strips; monotone in `y`, which is all the
+    /// sweep needs of it).
     fn of(&self, y: f64) -> u32 {
         if self.count <= 1 {
             return 0;
         }
         // `as` saturates (and maps NaN to 0)
-        (((y - self.base) / self.height) as usize).min(self.count - 1) as u32
+        (((y - self.base) * self.per_metre) as usize).min(self.count - 1) as u32
     }
 }
 
@@ -415,6 +436,7 @@ impl Chi2Gnn {
         self.intervals.resize(
             total,
             Interval {
+                key: (0, 0),
                 lo: 0.0,
                 hi: 0.0,
                 ylo: 0.0,
@@ -438,6 +460,7 @@ impl Chi2Gnn {
             for k in strips.of(ylo)..=strips.of(yhi) {
                 let slot = &mut self.fill[k as usize];
                 self.intervals[*slot] = Interval {
+                    key: (ordered(x - h), (kind as u64) << 32 | index as u64),
                     lo: x - h,
                     hi: x + h,
                     ylo,
@@ -450,11 +473,7 @@ impl Chi2Gnn {
         }
         for k in 0..strips.count {
             let run = self.strip_start[k]..self.strip_start[k + 1];
-            self.intervals[run].sort_unstable_by(|a, b| {
-                a.lo.total_cmp(&b.lo)
-                    .then(a.kind.cmp(&b.kind))
-                    .then(a.index.cmp(&b.index))
-            });
+            self.intervals[run].sort_unstable_by_key(|e| e.key);
         }
         // the sweep, strip by strip; a pair is tested in the strip holding the lower end
         // of its y overlap only
@@ -524,22 +543,18 @@ impl Chi2Gnn {
             .select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
         let height = 2.0 * *median;
         let extent = top - base;
-        let mut strips = Strips {
+        let one = Strips {
             base,
-            height: extent,
+            per_metre: 0.0,
             count: 1,
         };
         if !(height > 0.0 && height.is_finite() && extent.is_finite() && extent > height) {
-            return strips;
+            return one;
         }
         let mut count = ((extent / height).ceil() as usize).clamp(1, n);
         let budget = 4 * n + 64;
         while count > 1 {
-            strips = Strips {
-                base,
-                height: extent / count as f64,
-                count,
-            };
+            let strips = Strips::new(base, extent, count);
             let entries: usize = self
                 .y_bounds
                 .iter()
@@ -550,11 +565,7 @@ impl Chi2Gnn {
             }
             count /= 2;
         }
-        Strips {
-            base,
-            height: extent,
-            count: 1,
-        }
+        one
     }
 
     /// Optimal assignment of the gated pairs, component by component; fills
@@ -1227,6 +1238,25 @@ mod tests {
                 .map(|&(lo, hi)| (strips.of(hi) - strips.of(lo)) as usize + 1)
                 .sum();
             assert!(entries <= 4 * gnn.y_bounds.len() + 64);
+        }
+    }
+
+    #[test]
+    fn ordered_keys_follow_total_cmp() {
+        let values = [
+            f64::NEG_INFINITY,
+            -1e300,
+            -2.5,
+            -0.0,
+            0.0,
+            1e-310,
+            3.0,
+            f64::INFINITY,
+        ];
+        for a in values {
+            for b in values {
+                assert_eq!(ordered(a).cmp(&ordered(b)), a.total_cmp(&b), "{a} {b}");
+            }
         }
     }
 
