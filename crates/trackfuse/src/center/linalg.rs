@@ -97,19 +97,6 @@ fn forward_column(l: &StateCov, b: &mut [f64; 4]) {
     }
 }
 
-/// Backward substitution `L^T x = y` of one column in place, nalgebra's order (the dot
-/// product of the solved part is summed first, from the top).
-#[inline(always)]
-fn backward_column(l: &StateCov, b: &mut [f64; 4]) {
-    for i in (0..4).rev() {
-        let mut dot = 0.0;
-        for k in i + 1..4 {
-            dot += l[(k, i)] * b[k];
-        }
-        b[i] = (b[i] - dot) / l[(i, i)];
-    }
-}
-
 fn has_zero_diagonal(l: &StateCov) -> bool {
     (0..4).any(|i| l[(i, i)] == 0.0)
 }
@@ -133,54 +120,88 @@ pub(crate) fn solve_lower4(l: &StateCov, b: &StateCov) -> Option<StateCov> {
     if has_zero_diagonal(l) {
         return None;
     }
-    let mut out = *b;
-    for c in 0..4 {
-        let mut v = [out[(0, c)], out[(1, c)], out[(2, c)], out[(3, c)]];
-        forward_column(l, &mut v);
-        for (r, x) in v.into_iter().enumerate() {
-            out[(r, c)] = x;
-        }
-    }
-    Some(out)
+    let mut v = rows_of(b);
+    forward_rows(l, &mut v);
+    Some(from_rows(&v))
 }
 
 /// `(L L^T)^-1 B` from a Cholesky factor `L` ([`cholesky4`]): `Cholesky::solve`.
 #[inline]
 pub(crate) fn chol_solve4(l: &StateCov, b: &StateCov) -> StateCov {
-    let mut out = *b;
-    for c in 0..4 {
-        let mut v = [out[(0, c)], out[(1, c)], out[(2, c)], out[(3, c)]];
-        forward_column(l, &mut v);
-        backward_column(l, &mut v);
-        for (r, x) in v.into_iter().enumerate() {
-            out[(r, c)] = x;
-        }
-    }
-    out
+    let mut v = rows_of(b);
+    forward_rows(l, &mut v);
+    backward_rows(l, &mut v);
+    from_rows(&v)
 }
 
-/// `(L L^T)^-1` from a Cholesky factor `L` ([`cholesky4`]): `Cholesky::inverse`, i.e. the
-/// solve with the identity, leaving out the steps on the identity's zeros above each
-/// column's one (they divide zero and add zero: no change, for a finite `L`).
+/// `(L L^T)^-1` from a Cholesky factor `L` ([`cholesky4`]): `Cholesky::inverse` (the
+/// solve with the identity).
 #[inline]
 pub(crate) fn chol_inverse4(l: &StateCov) -> StateCov {
-    let mut out = StateCov::zeros();
-    for c in 0..4 {
-        let mut v = [0.0; 4];
-        v[c] = 1.0;
-        for i in c..4 {
-            let coeff = v[i] / l[(i, i)];
-            v[i] = coeff;
-            for r in i + 1..4 {
-                v[r] += -coeff * l[(r, i)];
-            }
-        }
-        backward_column(l, &mut v);
-        for (r, x) in v.into_iter().enumerate() {
-            out[(r, c)] = x;
+    let mut v = [[0.0; 4]; 4];
+    for (d, row) in v.iter_mut().enumerate() {
+        row[d] = 1.0;
+    }
+    forward_rows(l, &mut v);
+    backward_rows(l, &mut v);
+    from_rows(&v)
+}
+
+/// The rows of `m` (`v[row][column]`): the right-hand sides side by side, so each step of
+/// a substitution is one operation on all four columns (the columns' arithmetic is that
+/// of solving each alone; laid out so the compiler can pair the divisions).
+#[inline(always)]
+fn rows_of(m: &StateCov) -> [[f64; 4]; 4] {
+    let mut v = [[0.0; 4]; 4];
+    for (r, row) in v.iter_mut().enumerate() {
+        for (c, x) in row.iter_mut().enumerate() {
+            *x = m[(r, c)];
         }
     }
-    out
+    v
+}
+
+#[inline(always)]
+fn from_rows(v: &[[f64; 4]; 4]) -> StateCov {
+    StateCov::from_fn(|r, c| v[r][c])
+}
+
+/// [`forward_column`] on the four columns of `v` at once.
+#[inline(always)]
+fn forward_rows(l: &StateCov, v: &mut [[f64; 4]; 4]) {
+    for i in 0..4 {
+        let d = l[(i, i)];
+        let mut coeff = v[i];
+        for x in coeff.iter_mut() {
+            *x /= d;
+        }
+        v[i] = coeff;
+        for r in i + 1..4 {
+            let f = l[(r, i)];
+            for (x, c) in v[r].iter_mut().zip(coeff) {
+                *x += -c * f;
+            }
+        }
+    }
+}
+
+/// Backward substitution `L^T X = Y` of the four columns of `v` at once, nalgebra's
+/// order (per column, the dot product of the solved part is summed first, from the top).
+#[inline(always)]
+fn backward_rows(l: &StateCov, v: &mut [[f64; 4]; 4]) {
+    for i in (0..4).rev() {
+        let mut dot = [0.0; 4];
+        for k in i + 1..4 {
+            let f = l[(k, i)];
+            for (s, x) in dot.iter_mut().zip(v[k]) {
+                *s += f * x;
+            }
+        }
+        let d = l[(i, i)];
+        for (x, s) in v[i].iter_mut().zip(dot) {
+            *x = (*x - s) / d;
+        }
+    }
 }
 
 /// Solve `A x = b` in place by LU factorisation with partial pivoting, `a` row-major

@@ -309,9 +309,10 @@ fn solve_stein_by_axis(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<S
     };
     let (same_i, same_j) = (same_axes(b_i), same_axes(b_j));
     // the off-diagonal blocks' systems, unless they are diagonal blocks' ones
-    if !(same_i || same_j)
-        && !(lu_nonsingular(&mut system(0, 2)) && lu_nonsingular(&mut system(2, 0)))
-    {
+    let cross_regular = same_i
+        || same_j
+        || (lu_nonsingular(&mut system(0, 2)) && lu_nonsingular(&mut system(2, 0)));
+    if !cross_regular {
         return None;
     }
     let rhs = |a: usize| [c[(a, a)], c[(a + 1, a)], c[(a, a + 1)], c[(a + 1, a + 1)]];
@@ -384,10 +385,10 @@ fn joint_scale(
     let n = gains.len();
     coherences.clear();
     coherences.resize(pairs.len(), StateCov::zeros());
-    for i in 0..n {
-        let Some(g_i) = &gains[i] else { continue };
-        for j in i + 1..n {
-            let Some(g_j) = &gains[j] else { continue };
+    for (i, g_i) in gains.iter().enumerate() {
+        let Some(g_i) = g_i else { continue };
+        for (j, g_j) in gains.iter().enumerate().skip(i + 1) {
+            let Some(g_j) = g_j else { continue };
             let k = pair_index(n, i, j);
             let t = solve_lower4(&g_i.l, &pairs[k])?;
             coherences[k] = solve_lower4(&g_j.l, &t.transpose())?.transpose();
