@@ -21,11 +21,11 @@
 //!   `A_i = P_i M_i^-1`, the recursion's fixed point solves the Stein equation
 //!   `P_ij = A_i (F P_ij F^T + Q) A_j^T`, solved exactly as the 16x16 linear system
 //!   `(I - (A_j F) kron (A_i F)) vec(P_ij) = vec(A_i Q A_j^T)` (which splits into four
-//!   4x4 systems when the x and y axes are independent, see `solve_stein`). This is exact for two
-//!   linear Kalman filters at steady state (a unit test checks it against the recursion);
-//!   for EKFs, IMMs or filters still converging it is an approximation — and a poor one
-//!   for a filter whose `P_i` is much larger than its steady state under `Q` (a young
-//!   track): the recovered gain is then small, and the model reads that as strong
+//!   4x4 systems when the x and y axes are independent, see `solve_stein`). This is exact
+//!   for two linear Kalman filters at steady state (a unit test checks it against the
+//!   recursion); for EKFs, IMMs or filters still converging it is an approximation — and
+//!   a poor one for a filter whose `P_i` is much larger than its steady state under `Q` (a
+//!   young track): the recovered gain is then small, and the model reads that as strong
 //!   correlation. Because an approximation can exceed what any joint distribution allows,
 //!   all modelled `P_ij` of a group are scaled down together, when needed, so that the
 //!   normalised joint covariance `I + W` (`W_ij = L_i^-1 P_ij L_j^-T`, `P_i = L_i L_i^T`)
@@ -903,6 +903,69 @@ mod tests {
             }
         }
         assert!(scaled > 5, "the scaling path is exercised ({scaled})");
+    }
+
+    /// `bc` as it was computed before the fast paths: nalgebra's 16x16 solve, the dense
+    /// joint scaling and the dense BLUE.
+    fn dense_reference(members: &[&LocalTrack], dt: f64, q_std: f64) -> (StateVec, StateCov) {
+        let n = members.len();
+        let f = cv_transition(dt);
+        let q = process_noise(dt, q_std, q_std);
+        let gains: Vec<Option<Gain>> = members.iter().map(|m| gain_of(&m.cov, &f, &q)).collect();
+        let mut pairs = vec![StateCov::zeros(); n * (n - 1) / 2];
+        for i in 0..n {
+            for j in i + 1..n {
+                if let (Some(gi), Some(gj)) = (&gains[i], &gains[j]) {
+                    let c = gi.a * q * gj.a.transpose();
+                    pairs[pair_index(n, i, j)] = solve_stein_nalgebra(&gi.af, &gj.af, &c).unwrap();
+                }
+            }
+        }
+        let factors: Vec<Option<StateCov>> =
+            gains.iter().map(|g| g.as_ref().map(|g| g.l)).collect();
+        let scale = joint_scale_dense(&pairs, &factors, 0.95).unwrap();
+        pairs.iter_mut().for_each(|p| *p *= scale.min(1.0));
+        let cross = |i: usize, j: usize| pairs[pair_index(n, i, j)];
+        if n == 2 {
+            super::super::blue::blue(members, cross).unwrap()
+        } else {
+            super::super::blue::blue_general_dense(members, &cross).unwrap()
+        }
+    }
+
+    #[test]
+    fn fast_group_fusion_equals_the_dense_reference() {
+        use rand::RngExt;
+        let mut rng = crate::rng::stream(9, 0, "bc-test", 2);
+        let bc = BarShalomCampo::default();
+        for round in 0..80 {
+            let n = 2 + round % 4;
+            // coupled axes, independent axes, isotropic; young (large) or settled tracks
+            let kind = round % 3;
+            let size = if round % 2 == 0 { 1.0 } else { 20.0 };
+            let tracks: Vec<LocalTrack> = (0..n)
+                .map(|k| {
+                    let mut p = random_block_cov(&mut rng, kind == 0) * size;
+                    if kind == 2 {
+                        for (r, c) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                            p[(r + 2, c + 2)] = p[(r, c)];
+                        }
+                    }
+                    let mut t = local(k as i64 + 1, 3, 0.0, 0.0, 0.0, 0.0, 1.0);
+                    t.cov = p;
+                    t.state = StateVec::from_fn(|_, _| rng.random_range(-30.0..30.0));
+                    t
+                })
+                .collect();
+            let members: Vec<&LocalTrack> = tracks.iter().collect();
+            let (dt, q) = (rng.random_range(0.5..4.0), rng.random_range(0.2..3.0));
+            let (x, p) = bc.fuse(&members, &vec![1.0; n], &ctx(dt, q)).unwrap();
+            let (xr, pr) = dense_reference(&members, dt, q);
+            let sigma = pr.trace().sqrt();
+            assert!((x - xr).norm() <= 1e-10 * sigma, "{round}: {x} vs {xr}");
+            assert!((p - pr).norm() <= 1e-10 * pr.norm(), "{round}: {p} vs {pr}");
+        }
+        assert_eq!(bc.fallback_count(), 0);
     }
 
     #[test]
