@@ -17,6 +17,7 @@ use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::{run_with, RunOutput};
 use trackfuse::Scenario;
 
+mod bias;
 mod p001;
 mod p002;
 mod p003;
@@ -87,6 +88,11 @@ pub struct Reproduction {
 
 /// Every reproduction.
 pub const REPRODUCTIONS: &[Reproduction] = &[
+    Reproduction {
+        name: "bias",
+        summary: "bias estimation on realistic radars (bias-radars): fused RMSE within 25 % of the bias-free run",
+        run: bias::run,
+    },
     Reproduction {
         name: "001",
         summary: "FDB-DAF (001): Tables 1, 2, 4, 5 (local RMSE per target), Table 6 (time), NEES check",
