@@ -752,13 +752,27 @@ sigma_theta = 0.001
                     .map(|m| (m.target_id, m.sensor_id)),
             );
         }
-        let want: std::collections::BTreeSet<(Id, Id)> =
-            [(1, 1), (2, 1), (2, 2), (3, 2), (3, 3), (3, 4), (4, 4), (4, 5)]
-                .into_iter()
-                .collect();
+        let want: std::collections::BTreeSet<(Id, Id)> = [
+            (1, 1),
+            (2, 1),
+            (2, 2),
+            (3, 2),
+            (3, 3),
+            (3, 4),
+            (4, 4),
+            (4, 5),
+        ]
+        .into_iter()
+        .collect();
         assert_eq!(pairs, want);
-        assert_eq!(s.tracker.initiation.method, crate::local::InitiationMethod::Known);
-        assert_eq!((s.fusion.method.as_str(), s.fusion.rule.as_str()), ("fdbsc-ta", "fuzzy"));
+        assert_eq!(
+            s.tracker.initiation.method,
+            crate::local::InitiationMethod::Known
+        );
+        assert_eq!(
+            (s.fusion.method.as_str(), s.fusion.rule.as_str()),
+            ("fdbsc-ta", "fuzzy")
+        );
         assert!(s.fusion.params.contains_key("ftta"));
 
         let s = Scenario::builtin("000-s3").expect("registered");

@@ -4,6 +4,8 @@
 //! paper's parameters set explicitly, and writes the command that made it at the top of
 //! its output.
 
+mod p000;
+
 use crate::common::load_scenario;
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -81,7 +83,11 @@ pub struct Reproduction {
 }
 
 /// Every reproduction.
-pub const REPRODUCTIONS: &[Reproduction] = &[];
+pub const REPRODUCTIONS: &[Reproduction] = &[Reproduction {
+    name: "000",
+    summary: "paper 000 (FDBSC-TA): Tables 2 and 6, P_c against bias (Figs. 5-6)",
+    run: p000::run,
+}];
 
 /// The result of `runs` Monte Carlo runs of one configuration.
 pub struct McResult {
