@@ -252,6 +252,10 @@ pub const BUILTIN_SCENARIOS: &[(&str, &str)] = &[
         include_str!("../../../scenarios/bias-radars-nobias.toml"),
     ),
     (
+        "crossing-bench",
+        include_str!("../../../scenarios/crossing-bench.toml"),
+    ),
+    (
         "track-bench",
         include_str!("../../../scenarios/track-bench.toml"),
     ),

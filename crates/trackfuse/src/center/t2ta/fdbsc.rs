@@ -25,11 +25,13 @@
 //! and the clustering is on positions, so positions it is.
 //!
 //! # Spatial index
-//! The Eps-neighbourhoods come from a uniform grid with cells of side Eps ([`EpsGrid`]),
-//! not from all pairs: the points are sorted by cell (no hash map, so nothing depends on
-//! hash iteration order), and a neighbourhood query looks at the 3 x 3 cells around the
-//! point (three binary searches). Building is one sort, `O(m log m)`; a query costs
-//! `O(log m + k)` for `k` points in the nine cells, so the whole clustering is
+//! The Eps-neighbourhoods come from a uniform grid with cells of side (just over) Eps
+//! ([`EpsGrid`]), not from all pairs: the points are sorted by cell (no hash map, so
+//! nothing depends on hash iteration order). The components are found by one sweep over
+//! the sorted cells, each cell compared with itself and its four forward neighbours
+//! ([`EpsComponents::build`]); the other neighbourhood queries (splitting, continuation)
+//! look at the 3 x 3 cells around a point with three binary searches. Building is one
+//! sort, `O(m log m)`; the sweep is `O(m)` plus the distance checks, so the clustering is
 //! `O(m log m)` for any bounded target density. A grid rather than the `kiddo` k-d tree
 //! because the radius is fixed per scan (the grid's natural case), the query is exact and
 //! inclusive (`d <= Eps`) with the very arithmetic the tests' brute force uses, it
@@ -70,6 +72,11 @@
 //! infinite and eq. 6 has the limit `u_i = 1 / (number of tracks at d_min)` for the tracks
 //! at `d_min` and 0 for the others; that limit is used whenever `d_min < 1e-9` m.
 //!
+//! With the paper's `epsilon = 1e-6` the memberships are sharp: a member 10 % farther
+//! from the centre than the nearest one gets a quarter of its weight, one 50 % farther
+//! about 1e-3, so the fused estimate stays close to the member nearest the prediction.
+//! That is the paper's choice and the default; `membership_epsilon` closer to 1 softens it.
+//!
 //! # Adaptive Eps
 //! Eq. 12 sets Eps to the largest distance between a target's fused position and the
 //! positions its sensors reported. Per group with two or more members this computes
@@ -78,10 +85,11 @@
 //! the rule the center pairs it with). The paper gives eq. 12 for one target; for a scan
 //! with many, the next scan's Eps is
 //! `clamp(eps_scale * quantile(d_t, eps_quantile), eps_min, eps_max)`:
-//! - `eps_scale = 3`: eq. 12 taken literally sets Eps to the current spread, so half the
-//!   time the next scan's spread exceeds it and the cluster falls apart (two sensors:
-//!   the spread is the distance between the two tracks); a margin of three spreads keeps
-//!   a target's tracks connected.
+//! - `eps_scale = 3`: eq. 12 taken literally sets Eps to the current spread, so about
+//!   half the time the next scan's spread exceeds it and the cluster falls apart (two
+//!   sensors: with the sharp memberships the fused position sits on one track, and the
+//!   spread is the distance between the two); a margin of three spreads keeps a target's
+//!   tracks connected.
 //! - `eps_quantile = 0.5` (the median, nearest rank): a max over all targets lets one
 //!   wrongly merged cluster inflate Eps, which merges more clusters, which inflates Eps
 //!   (a runaway); the median is immune to a minority of those. `eps_quantile = 1` is the
@@ -330,18 +338,66 @@ pub struct EpsComponents {
 
 impl EpsComponents {
     /// Compute the components of `grid`'s points (neighbours: within the grid radius).
+    ///
+    /// A sweep over the cells in sorted order: each cell is compared with itself and
+    /// with its four "forward" neighbours `(x, y+1)`, `(x+1, y-1)`, `(x+1, y)`,
+    /// `(x+1, y+1)`, so every pair of neighbouring cells is visited once, and the cursor
+    /// into column `x+1` only moves forward: `O(m)` after the grid's sort, plus the
+    /// distance checks.
     pub fn build(&mut self, grid: &EpsGrid) {
         let m = grid.len();
         self.parent.clear();
         self.parent.extend(0..m as u32);
-        for i in 0..m {
-            let p = grid.point(i);
-            let parent = &mut self.parent;
-            grid.for_each_within(&p, |j, _| {
-                if j > i {
-                    union(parent, i as u32, j as u32);
+        let cells = &grid.cells;
+        let parent = &mut self.parent;
+        let mut link = |a: u32, b: u32| {
+            if squared_distance(&grid.points[a as usize], &grid.points[b as usize]) <= grid.radius2
+            {
+                union(parent, a, b);
+            }
+        };
+        let mut next_col = 0usize;
+        let mut b0 = 0usize;
+        while b0 < cells.len() {
+            let (x, y, _) = cells[b0];
+            let mut b1 = b0 + 1;
+            while b1 < cells.len() && (cells[b1].0, cells[b1].1) == (x, y) {
+                b1 += 1;
+            }
+            // within the cell
+            for a in b0..b1 {
+                for b in a + 1..b1 {
+                    link(cells[a].2, cells[b].2);
                 }
-            });
+            }
+            // (x, y+1): the cell right after this one, if it is that
+            if let Some(y_up) = y.checked_add(1) {
+                let mut c = b1;
+                while c < cells.len() && (cells[c].0, cells[c].1) == (x, y_up) {
+                    for a in b0..b1 {
+                        link(cells[a].2, cells[c].2);
+                    }
+                    c += 1;
+                }
+            }
+            // column x+1, rows y-1 ..= y+1
+            if let Some(x_next) = x.checked_add(1) {
+                let y_lo = y.saturating_sub(1);
+                let y_hi = y.saturating_add(1);
+                while next_col < cells.len()
+                    && (cells[next_col].0, cells[next_col].1) < (x_next, y_lo)
+                {
+                    next_col += 1;
+                }
+                let mut c = next_col;
+                while c < cells.len() && cells[c].0 == x_next && cells[c].1 <= y_hi {
+                    for a in b0..b1 {
+                        link(cells[a].2, cells[c].2);
+                    }
+                    c += 1;
+                }
+            }
+            b0 = b1;
         }
         // roots are the smallest index of each component; bucket by root
         self.count.clear();
@@ -491,30 +547,20 @@ impl FdbscTa {
     }
 
     /// Split one cluster with a repeated sensor (module doc, "Splitting") and push its
-    /// groups.
-    fn split_cluster(&mut self, c: usize, tracks: &[LocalTrack]) {
-        // candidate global tracks: predicted within Eps of a member
+    /// groups. `sorted`: the tracks are sorted by sensor (so the cluster's members,
+    /// ascending, come grouped by sensor).
+    fn split_cluster(&mut self, c: usize, tracks: &[LocalTrack], sorted: bool) {
         self.cluster_globals.clear();
-        for &i in self.components.component(c) {
-            let p = self.track_grid.point(i as usize);
-            let out = &mut self.cluster_globals;
-            self.global_grid
-                .for_each_within(&p, |g, _| out.push(g as u32));
-        }
-        self.cluster_globals.sort_unstable();
-        self.cluster_globals.dedup();
         self.sub_stamp.clear();
-        for (k, &g) in self.cluster_globals.iter().enumerate() {
-            self.global_sub[g as usize] = k as u32;
-            self.sub_stamp.push(NONE);
-        }
         // one sensor at a time, ascending sensor id
         self.by_sensor.clear();
         for &i in self.components.component(c) {
             self.by_sensor.push((tracks[i as usize].sensor_id, i));
             self.sub_of[i as usize] = NONE;
         }
-        self.by_sensor.sort_unstable();
+        if !sorted {
+            self.by_sensor.sort_unstable();
+        }
         let mut block = 0;
         while block < self.by_sensor.len() {
             let sensor = self.by_sensor[block].0;
@@ -527,12 +573,19 @@ impl FdbscTa {
             for &(_, i) in &self.by_sensor[block..end] {
                 let p = self.track_grid.point(i as usize);
                 let cand = &mut self.candidates;
-                let global_sub = &self.global_sub;
+                let global_sub = &mut self.global_sub;
+                let sub_stamp = &mut self.sub_stamp;
+                let cluster_globals = &mut self.cluster_globals;
+                // a global track within Eps of a member seeds a sub-group (made on first
+                // sight: "within Eps" is symmetric, so every member that could join it
+                // sees it in its own query)
                 self.global_grid.for_each_within(&p, |g, d2| {
-                    let s = global_sub[g];
-                    if s != NONE {
-                        cand.push((d2, i, s));
+                    if global_sub[g] == NONE {
+                        global_sub[g] = sub_stamp.len() as u32;
+                        sub_stamp.push(NONE);
+                        cluster_globals.push(g as u32);
                     }
+                    cand.push((d2, i, global_sub[g]));
                 });
                 let seed_sub = &self.seed_sub;
                 self.track_grid.for_each_within(&p, |j, d2| {
@@ -740,16 +793,24 @@ impl TrackAssociator for FdbscTa {
         self.group_start.clear();
         self.group_global.clear();
 
+        // the center sorts the tracks by sensor, so a cluster's members (ascending
+        // indices) come grouped by sensor; any other order takes a sort per cluster
+        let sorted = tracks.windows(2).all(|w| w[0].sensor_id <= w[1].sensor_id);
         for c in 0..self.components.len() {
             let members = self.components.component(c);
-            // a repeated sensor? (sort a copy: robust to any input order)
-            self.by_sensor.clear();
-            self.by_sensor
-                .extend(members.iter().map(|&i| (tracks[i as usize].sensor_id, i)));
-            self.by_sensor.sort_unstable();
-            let repeated = self.by_sensor.windows(2).any(|w| w[0].0 == w[1].0);
+            let repeated = if sorted {
+                members
+                    .windows(2)
+                    .any(|w| tracks[w[0] as usize].sensor_id == tracks[w[1] as usize].sensor_id)
+            } else {
+                self.by_sensor.clear();
+                self.by_sensor
+                    .extend(members.iter().map(|&i| (tracks[i as usize].sensor_id, i)));
+                self.by_sensor.sort_unstable();
+                self.by_sensor.windows(2).any(|w| w[0].0 == w[1].0)
+            };
             if repeated {
-                self.split_cluster(c, tracks);
+                self.split_cluster(c, tracks, sorted);
             } else {
                 self.push_group();
                 let members = self.components.component(c);
