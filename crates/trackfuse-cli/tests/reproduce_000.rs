@@ -19,8 +19,10 @@ fn reproduce_000_writes_its_tables() {
         "## Table 2: scenario I",
         "## Table 6: scenario III",
         "### Bias estimates",
-        "### Fig. 5: bearing bias swept",
-        "### Fig. 6: range bias swept",
+        "### Fig. 5: bearing biases 0 to 1.7 rad",
+        "### Fig. 6: range biases 0 to 2 km",
+        "### Fig. 5, bearing values read as degrees",
+        "### Fig. 6, bearing value read as degrees",
     ] {
         assert!(md.contains(heading), "missing {heading:?}");
     }
