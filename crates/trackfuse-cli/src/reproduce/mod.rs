@@ -4,8 +4,6 @@
 //! paper's parameters set explicitly, and writes the command that made it at the top of
 //! its output.
 
-mod p000;
-
 use crate::common::load_scenario;
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -18,6 +16,9 @@ use trackfuse::metrics::{RunMetrics, Summary};
 use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::{run_with, RunOutput};
 use trackfuse::Scenario;
+
+mod p000;
+mod p002;
 
 #[derive(Args, Debug)]
 pub struct ReproduceArgs {
@@ -83,11 +84,18 @@ pub struct Reproduction {
 }
 
 /// Every reproduction.
-pub const REPRODUCTIONS: &[Reproduction] = &[Reproduction {
-    name: "000",
-    summary: "paper 000 (FDBSC-TA): Tables 2 and 6, P_c against bias (Figs. 5-6)",
-    run: p000::run,
-}];
+pub const REPRODUCTIONS: &[Reproduction] = &[
+    Reproduction {
+        name: "000",
+        summary: "paper 000 (FDBSC-TA): Tables 2 and 6, P_c against bias (Figs. 5-6)",
+        run: p000::run,
+    },
+    Reproduction {
+        name: "002",
+        summary: "HT-T2GT + SDF-T2GT against wFC and FTA: time per global-track update (Table 1), association correctness, fusion rules",
+        run: p002::run,
+    },
+];
 
 /// The result of `runs` Monte Carlo runs of one configuration.
 pub struct McResult {

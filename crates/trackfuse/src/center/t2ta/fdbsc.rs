@@ -48,7 +48,15 @@
 //!   of a member of the cluster, each with its predicted position as centre;
 //! - each sensor's tracks in the cluster are assigned to the sub-groups within Eps of
 //!   them, greedily by ascending distance (ties by track index, then sub-group index), at
-//!   most one track of the sensor per sub-group;
+//!   most one track of the sensor per sub-group — *up to a common offset*: a sensor's
+//!   biases move all its tracks in a small region by nearly the same vector, so when its
+//!   biases are not corrected (yet) and exceed the target spacing, matching by raw
+//!   distance pairs its tracks with the wrong targets. The offset is zero, or the mean
+//!   `track - centre` difference of the assignment that the difference of one candidate
+//!   pair leads to, whichever assigns the most tracks within Eps, then has the smallest
+//!   sum of squared distances plus `0.01 |offset|^2` (so a zero offset wins unless a
+//!   shifted match is clearly better); searched only for blocks of two or more tracks
+//!   with at most 32 candidate pairs;
 //! - a track left unassigned opens a new sub-group with its own position as centre (for
 //!   the sensors that come after);
 //! - sub-groups that got no member are dropped.
@@ -102,8 +110,12 @@
 //!
 //! # Complexity
 //! Clustering, splitting and continuation are all grid queries plus sorts of candidate
-//! lists: `O(m log m)` for `m` local tracks at bounded density. (The paper's Sec. IV-C
-//! gives `O(T n^2)` for its all-pairs version.)
+//! lists: `O(m log m)` for `m` local tracks at bounded density; the offset search adds
+//! at most 32 greedy assignments of at most 32 pairs per sensor block of a split cluster.
+//! (The paper's Sec. IV-C gives `O(T n^2)` for its all-pairs version.) Measured in a
+//! debug build on a shared machine (1000 targets on a 1 km grid, 4 sensors, Eps 300 m):
+//! 4 000 tracks in 7-12 ms, 100 000 in 230-630 ms, so growth stays near `m log m`;
+//! a release build is many times faster.
 //!
 //! # References
 //! 000: Nazari, Pashazadeh, Mohammad-Khanli, IEEE Access 7 (2019), Sec. IV, Algorithm 1,
@@ -122,6 +134,12 @@ pub const NAME: &str = "fdbsc-ta";
 pub const D_MIN_ZERO: f64 = 1e-9;
 
 const NONE: u32 = u32::MAX;
+
+/// At most this many candidate pairs in a sensor's block for the common-offset search
+/// (each candidate costs a greedy assignment); above it the offset is zero.
+const MAX_OFFSET_PAIRS: usize = 32;
+/// Weight of the squared offset against the squared residuals in the offset search.
+const OFFSET_PENALTY: f64 = 0.01;
 
 /// Parameters of `fdbsc-ta` (`[fusion.params.fdbsc-ta]`).
 ///
@@ -492,7 +510,12 @@ pub struct FdbscTa {
     sub_of: Vec<u32>,
     sub_stamp: Vec<u32>,
     sub_count: Vec<usize>,
+    sub_centre: Vec<Vec2>,
     candidates: Vec<(f64, u32, u32)>,
+    shifted: Vec<(f64, u32, u32)>,
+    trial: u64,
+    trial_track: Vec<u64>,
+    trial_sub: Vec<u64>,
     // continuation
     group_mean: Vec<Vec2>,
     global_taken: Vec<bool>,
@@ -523,7 +546,12 @@ impl FdbscTa {
             sub_of: Vec::new(),
             sub_stamp: Vec::new(),
             sub_count: Vec::new(),
+            sub_centre: Vec::new(),
             candidates: Vec::new(),
+            shifted: Vec::new(),
+            trial: 0,
+            trial_track: Vec::new(),
+            trial_sub: Vec::new(),
             group_mean: Vec::new(),
             global_taken: Vec::new(),
             group_taken: Vec::new(),
@@ -552,6 +580,7 @@ impl FdbscTa {
     fn split_cluster(&mut self, c: usize, tracks: &[LocalTrack], sorted: bool) {
         self.cluster_globals.clear();
         self.sub_stamp.clear();
+        self.sub_centre.clear();
         // one sensor at a time, ascending sensor id
         self.by_sensor.clear();
         for &i in self.components.component(c) {
@@ -579,10 +608,13 @@ impl FdbscTa {
                 // a global track within Eps of a member seeds a sub-group (made on first
                 // sight: "within Eps" is symmetric, so every member that could join it
                 // sees it in its own query)
-                self.global_grid.for_each_within(&p, |g, d2| {
+                let sub_centre = &mut self.sub_centre;
+                let global_grid = &self.global_grid;
+                global_grid.for_each_within(&p, |g, d2| {
                     if global_sub[g] == NONE {
                         global_sub[g] = sub_stamp.len() as u32;
                         sub_stamp.push(NONE);
+                        sub_centre.push(global_grid.point(g));
                         cluster_globals.push(g as u32);
                     }
                     cand.push((d2, i, global_sub[g]));
@@ -595,9 +627,10 @@ impl FdbscTa {
                     }
                 });
             }
-            self.candidates.sort_unstable_by(by_distance);
-            for k in 0..self.candidates.len() {
-                let (_, i, s) = self.candidates[k];
+            let offset = self.block_offset(end - block);
+            self.assign_shifted(offset);
+            for k in 0..self.shifted.len() {
+                let (_, i, s) = self.shifted[k];
                 if self.sub_of[i as usize] == NONE && self.sub_stamp[s as usize] != stamp {
                     self.sub_of[i as usize] = s;
                     self.sub_stamp[s as usize] = stamp;
@@ -607,6 +640,7 @@ impl FdbscTa {
                 if self.sub_of[i as usize] == NONE {
                     let s = self.sub_stamp.len() as u32;
                     self.sub_stamp.push(stamp);
+                    self.sub_centre.push(self.track_grid.point(i as usize));
                     self.sub_of[i as usize] = s;
                     self.seed_sub[i as usize] = s;
                 }
@@ -649,6 +683,84 @@ impl FdbscTa {
         for &i in self.components.component(c) {
             self.seed_sub[i as usize] = NONE;
         }
+    }
+
+    /// Fill `shifted` with the candidate pairs of the current block whose distance,
+    /// with the block's tracks moved by `-offset`, is within Eps, sorted.
+    fn assign_shifted(&mut self, offset: Vec2) {
+        let eps2 = self.eps * self.eps;
+        self.shifted.clear();
+        for &(d2, i, s) in &self.candidates {
+            let d2 = if offset == Vec2::zeros() {
+                d2
+            } else {
+                squared_distance(
+                    &(self.track_grid.point(i as usize) - offset),
+                    &self.sub_centre[s as usize],
+                )
+            };
+            if d2 <= eps2 {
+                self.shifted.push((d2, i, s));
+            }
+        }
+        self.shifted.sort_unstable_by(by_distance);
+    }
+
+    /// Greedy one-to-one over `shifted`: the number of tracks assigned, the sum of their
+    /// squared distances, and the mean of their `track - centre` differences.
+    fn trial_assignment(&mut self) -> (usize, f64, Vec2) {
+        self.trial += 1;
+        let trial = self.trial;
+        let (mut count, mut residual, mut diff) = (0usize, 0.0, Vec2::zeros());
+        for &(d2, i, s) in &self.shifted {
+            if self.trial_track[i as usize] != trial && self.trial_sub[s as usize] != trial {
+                self.trial_track[i as usize] = trial;
+                self.trial_sub[s as usize] = trial;
+                count += 1;
+                residual += d2;
+                diff += self.track_grid.point(i as usize) - self.sub_centre[s as usize];
+            }
+        }
+        let mean = if count > 0 {
+            diff / count as f64
+        } else {
+            Vec2::zeros()
+        };
+        (count, residual, mean)
+    }
+
+    /// The common offset of one sensor's tracks against the sub-groups (module doc,
+    /// "Splitting"): zero, or the refined offset of a candidate pair that assigns more
+    /// tracks, or as many with a smaller residual plus offset penalty.
+    fn block_offset(&mut self, block_len: usize) -> Vec2 {
+        let n_pairs = self.candidates.len();
+        if block_len < 2 || !(2..=MAX_OFFSET_PAIRS).contains(&n_pairs) {
+            return Vec2::zeros();
+        }
+        self.trial_track.resize(self.track_grid.len(), 0);
+        if self.trial_sub.len() < self.sub_centre.len() {
+            self.trial_sub.resize(self.sub_centre.len(), 0);
+        }
+        self.assign_shifted(Vec2::zeros());
+        let (count, residual, _) = self.trial_assignment();
+        let mut best = (count, residual, Vec2::zeros());
+        for k in 0..n_pairs {
+            let (_, i, s) = self.candidates[k];
+            let o = self.track_grid.point(i as usize) - self.sub_centre[s as usize];
+            self.assign_shifted(o);
+            let (count, _, mean) = self.trial_assignment();
+            if count < 2 {
+                continue;
+            }
+            self.assign_shifted(mean);
+            let (count, residual, _) = self.trial_assignment();
+            let cost = residual + OFFSET_PENALTY * mean.norm_squared();
+            let best_cost = best.1 + OFFSET_PENALTY * best.2.norm_squared();
+            if count > best.0 || (count == best.0 && cost < best_cost) {
+                best = (count, residual, mean);
+            }
+        }
+        best.2
     }
 
     /// Continuation (module doc): greedy one-to-one by distance from the group mean to
@@ -1017,6 +1129,35 @@ mod tests {
             .map(|g| (g.members.clone(), g.global))
             .collect();
         assert_eq!(sets, vec![(vec![1, 3], Some(0)), (vec![0, 2], Some(1))]);
+    }
+
+    /// Splitting up to a common offset: three targets 500 m apart on a line, sensor 1's
+    /// tracks all moved by one bias-like 450 m offset. By raw distance its first two
+    /// tracks would pair with the wrong targets; with the common offset each pairs with
+    /// its own.
+    #[test]
+    fn split_matches_a_sensor_up_to_a_common_offset() {
+        let tracks = [
+            local(0, 0, 0.0, 0.0, 0.0, 0.0, 1.0),
+            local(0, 1, 0.0, 0.0, 500.0, 0.0, 1.0),
+            local(0, 2, 0.0, 0.0, 1000.0, 0.0, 1.0),
+            local(1, 0, 10.0, 0.0, 455.0, 0.0, 1.0),
+            local(1, 1, -5.0, 0.0, 948.0, 0.0, 1.0),
+            local(1, 2, 3.0, 0.0, 1452.0, 0.0, 1.0),
+        ];
+        let groups = run(&mut fixed(1000.0), &tracks, &[]);
+        let sets: Vec<Vec<usize>> = groups.iter().map(|g| g.members.clone()).collect();
+        assert_eq!(sets, vec![vec![0, 3], vec![1, 4], vec![2, 5]]);
+        // without an offset (unbiased, jittered) the zero offset still wins
+        let tracks = [
+            local(0, 0, 0.0, 0.0, 0.0, 0.0, 1.0),
+            local(0, 1, 0.0, 0.0, 500.0, 0.0, 1.0),
+            local(1, 0, 20.0, 0.0, -15.0, 0.0, 1.0),
+            local(1, 1, -10.0, 0.0, 520.0, 0.0, 1.0),
+        ];
+        let groups = run(&mut fixed(1000.0), &tracks, &[]);
+        let sets: Vec<Vec<usize>> = groups.iter().map(|g| g.members.clone()).collect();
+        assert_eq!(sets, vec![vec![0, 2], vec![1, 3]]);
     }
 
     /// d_min = 0: the alpha -> infinity limit, finite memberships.
