@@ -18,7 +18,10 @@ use trackfuse::pipeline::{run_with, RunOutput};
 use trackfuse::Scenario;
 
 mod p000;
+mod p001;
 mod p002;
+mod p003;
+mod p004;
 
 #[derive(Args, Debug)]
 pub struct ReproduceArgs {
@@ -91,9 +94,25 @@ pub const REPRODUCTIONS: &[Reproduction] = &[
         run: p000::run,
     },
     Reproduction {
+        name: "001",
+        summary: "FDB-DAF (001): Tables 1, 2, 4, 5 (local RMSE per target), Table 6 (time), NEES check",
+        run: p001::run,
+    },
+    Reproduction {
         name: "002",
         summary: "HT-T2GT + SDF-T2GT against wFC and FTA: time per global-track update (Table 1), association correctness, fusion rules",
         run: p002::run,
+    },
+    Reproduction {
+        name: "003",
+        summary: "Anwar & Aljahdali: FTTA correlation matrix (Table 4), fusion-rule RMSE (Table 5)",
+        run: p003::run,
+    },
+    Reproduction {
+        name: "004",
+        summary:
+            "Du et al.: FT- vs AT-FDTTA correct / false / missed association rates (cases 1-2)",
+        run: p004::run,
     },
 ];
 
