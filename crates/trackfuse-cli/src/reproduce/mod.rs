@@ -18,6 +18,7 @@ use trackfuse::pipeline::{run_with, RunOutput};
 use trackfuse::Scenario;
 
 mod bias;
+mod p000;
 mod p001;
 mod p002;
 mod p003;
@@ -88,6 +89,11 @@ pub struct Reproduction {
 
 /// Every reproduction.
 pub const REPRODUCTIONS: &[Reproduction] = &[
+    Reproduction {
+        name: "000",
+        summary: "paper 000 (FDBSC-TA): Tables 2 and 6, P_c against bias (Figs. 5-6)",
+        run: p000::run,
+    },
     Reproduction {
         name: "bias",
         summary: "bias estimation on realistic radars (bias-radars): fused RMSE within 25 % of the bias-free run",
