@@ -19,6 +19,7 @@ use trackfuse::Scenario;
 
 mod bias;
 mod p000;
+mod p000_s2;
 mod p001;
 mod p002;
 mod p003;
@@ -93,6 +94,11 @@ pub const REPRODUCTIONS: &[Reproduction] = &[
         name: "000",
         summary: "paper 000 (FDBSC-TA): Tables 2 and 6, P_c against bias (Figs. 5-6)",
         run: p000::run,
+    },
+    Reproduction {
+        name: "000-s2",
+        summary: "paper 000 scenario II (the default): Table 3 (bias estimates), Table 4 (RMSE)",
+        run: p000_s2::run,
     },
     Reproduction {
         name: "bias",
