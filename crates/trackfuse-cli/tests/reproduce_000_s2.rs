@@ -17,5 +17,8 @@ fn reproduce_000_s2_smoke() {
     assert!(md.contains("trackfuse reproduce 000-s2 --runs 2"), "{md}");
     assert!(md.contains("## Table 3: bias estimates"), "{md}");
     assert!(md.contains("## Table 4: position RMSE"), "{md}");
-    assert!(md.contains("| FDBSC-TA |") && md.contains("| MMSE |"), "{md}");
+    assert!(
+        md.contains("| FDBSC-TA |") && md.contains("| MMSE |"),
+        "{md}"
+    );
 }
