@@ -210,6 +210,8 @@ pub enum ScenarioError {
 /// The scenarios compiled into the library, by name. The first is the default.
 pub const BUILTIN_SCENARIOS: &[(&str, &str)] = &[
     ("000-s2", include_str!("../../../scenarios/000-s2.toml")),
+    ("000-s1", include_str!("../../../scenarios/000-s1.toml")),
+    ("000-s3", include_str!("../../../scenarios/000-s3.toml")),
     ("001-s1", include_str!("../../../scenarios/001-s1.toml")),
     (
         "001-s1-l2",
@@ -248,6 +250,10 @@ pub const BUILTIN_SCENARIOS: &[(&str, &str)] = &[
     (
         "bias-radars-nobias",
         include_str!("../../../scenarios/bias-radars-nobias.toml"),
+    ),
+    (
+        "crossing-bench",
+        include_str!("../../../scenarios/crossing-bench.toml"),
     ),
     (
         "track-bench",
@@ -713,5 +719,83 @@ sigma_theta = 0.001
             assert_eq!(s.sensor_table()[0].sigma_a, 60.0);
             assert_eq!(s.sensor_table()[0].clutter_density, Some(density));
         }
+    }
+
+    #[test]
+    fn paper_000_s1_s3_parse() {
+        let s = Scenario::builtin("000-s1").expect("registered");
+        assert_eq!((s.name.as_str(), s.dt, s.scans), ("000-s1", 1.0, 100));
+        assert_eq!(s.monte_carlo.runs, 100);
+        let ids: Vec<Id> = s.targets.iter().filter_map(|t| t.id).collect();
+        assert_eq!(ids, vec![1, 2, 3, 4]);
+        let table = s.sensor_table();
+        assert_eq!(table.len(), 5);
+        for x in &table {
+            assert_eq!(x.kind, SensorKind::RangeBearing);
+            assert_eq!((x.sigma_a, x.sigma_b, x.pd), (5.0, 1e-4, 0.95));
+            assert_eq!((x.bias_r, x.bias_theta), (0.0, 0.0));
+        }
+        // Table 2's coverage: T1 by S1; T2 by S1, S2; T3 by S2, S3, S4; T4 by S4, S5
+        let visible: Vec<Vec<Id>> = s
+            .sensors
+            .iter()
+            .map(|x| x.visible_targets.clone().expect("coverage"))
+            .collect();
+        assert_eq!(
+            visible,
+            vec![vec![1, 2], vec![2, 3], vec![3], vec![3, 4], vec![4]]
+        );
+        let mut sim = crate::sim::Simulation::new(&s, 0);
+        let (mut truth, mut z) = (Vec::new(), Vec::new());
+        let mut pairs = std::collections::BTreeSet::new();
+        for _ in 0..5 {
+            assert!(sim.next_scan(&mut truth, &mut z));
+            pairs.extend(
+                z.iter()
+                    .filter(|m| m.target_id >= 0)
+                    .map(|m| (m.target_id, m.sensor_id)),
+            );
+        }
+        let want: std::collections::BTreeSet<(Id, Id)> = [
+            (1, 1),
+            (2, 1),
+            (2, 2),
+            (3, 2),
+            (3, 3),
+            (3, 4),
+            (4, 4),
+            (4, 5),
+        ]
+        .into_iter()
+        .collect();
+        assert_eq!(pairs, want);
+        assert_eq!(
+            s.tracker.initiation.method,
+            crate::local::InitiationMethod::Known
+        );
+        assert_eq!(
+            (s.fusion.method.as_str(), s.fusion.rule.as_str()),
+            ("fdbsc-ta", "fuzzy")
+        );
+        assert!(s.fusion.params.contains_key("ftta"));
+
+        let s = Scenario::builtin("000-s3").expect("registered");
+        assert_eq!((s.name.as_str(), s.dt, s.scans), ("000-s3", 1.0, 118));
+        assert_eq!(s.targets.len(), 2);
+        assert_eq!(s.targets[0].initial, [100.0, 80.0, 1000.0, -100.0]);
+        assert_eq!(s.targets[1].initial, [100.0, 80.0, 400.0, 100.0]);
+        let starts: Vec<f64> = s.targets[1].acceleration.iter().map(|a| a.start).collect();
+        assert_eq!(starts, [0.0, 21.0, 41.0, 74.0, 86.0]);
+        assert_eq!(s.targets[0].acceleration[2].accel, [3.0, 19.0]);
+        assert_eq!(s.targets[1].acceleration[3].accel, [10.0, 7.0]);
+        let b: Vec<(f64, f64)> = s
+            .sensor_table()
+            .iter()
+            .map(|x| (x.bias_r, x.bias_theta))
+            .collect();
+        assert_eq!(b, vec![(400.0, 0.03), (500.0, 0.08)]);
+        assert_eq!(s.tracker.filter, "mie");
+        assert_eq!(s.fusion.bias.as_deref(), Some("fdbsc"));
+        assert!(s.fusion.params.contains_key("fdbsc"));
     }
 }

@@ -60,7 +60,7 @@
 //! positions corrected with the current estimate (so early groups, seen while the
 //! estimate was still far off, are relinearised and leave no trace of the early
 //! linearisation error), and from the second pass on every group whose chi-square
-//! residual at the current estimate exceeds the `residual_gate_probability` quantile
+//! residual at the current estimate exceeds the `gate_probability` quantile
 //! (with `2 members - 2` degrees of freedom, scaled up by the median normalised
 //! chi-square when the residuals are larger than the covariances say) is left out of
 //! that pass: a wrong pairing that got through is rejected once the majority of correct
@@ -297,7 +297,8 @@ pub enum Pairing {
 ///   pair's position difference, added to both tracks' covariances in the pairing (small
 ///   enough that the history test sees two targets drift apart at 20 m/s within eight
 ///   scans even for radars as precise as 000's).
-/// - `residual_gate_probability = 0.999`: the chi-square gate on a group's residual.
+/// - `gate_probability = 0.999`: the chi-square gate on a group's residual; 1 turns the
+///   gate off (every stored group is used).
 /// - `model_sigma = 5` m: isotropic model error added to every member's position
 ///   covariance.
 /// - `max_groups = 2000`: groups kept as raw observations (relinearised each scan);
@@ -323,8 +324,8 @@ pub struct FdbscBiasParams {
     pub pair_gate_probability: f64,
     /// Model error of a pair's position difference (m), per axis.
     pub pair_tolerance: f64,
-    /// Gate probability of the residual test of a group, in (0, 1).
-    pub residual_gate_probability: f64,
+    /// Gate probability of the residual test of a group, in (0, 1]; 1 = no gate.
+    pub gate_probability: f64,
     /// Model error (m), standard deviation per axis.
     pub model_sigma: f64,
     /// Groups kept for relinearisation (>= 1).
@@ -345,7 +346,7 @@ impl Default for FdbscBiasParams {
             pairing: Pairing::Consensus,
             pair_gate_probability: 0.9999,
             pair_tolerance: 10.0,
-            residual_gate_probability: 0.999,
+            gate_probability: 0.999,
             model_sigma: 5.0,
             max_groups: 2000,
             iterations: 3,
@@ -364,13 +365,19 @@ impl FdbscBiasParams {
         if self.forgetting <= 0.0 {
             return Err(ParamError::new(key("forgetting"), "must be above 0"));
         }
-        for (k, p) in [
-            ("pair_gate_probability", self.pair_gate_probability),
-            ("residual_gate_probability", self.residual_gate_probability),
-        ] {
-            if !(p > 0.0 && p < 1.0) {
-                return Err(ParamError::new(key(k), format!("{p} must be in (0, 1)")));
-            }
+        let p = self.pair_gate_probability;
+        if !(p > 0.0 && p < 1.0) {
+            return Err(ParamError::new(
+                key("pair_gate_probability"),
+                format!("{p} must be in (0, 1)"),
+            ));
+        }
+        let p = self.gate_probability;
+        if !(p > 0.0 && p <= 1.0) {
+            return Err(ParamError::new(
+                key("gate_probability"),
+                format!("{p} must be in (0, 1]"),
+            ));
         }
         positive(&key("pair_tolerance"), self.pair_tolerance)?;
         if !(self.model_sigma.is_finite() && self.model_sigma >= 0.0) {
@@ -873,10 +880,12 @@ impl FdbscBias {
         let k = (dof / 2) as usize;
         while self.quantile_cache.len() <= k {
             let d = 2 * self.quantile_cache.len() as u32;
-            self.quantile_cache.push((
-                chi2_quantile_even(d, self.params.residual_gate_probability),
-                chi2_quantile_even(d, 0.5),
-            ));
+            let gate = if self.params.gate_probability < 1.0 {
+                chi2_quantile_even(d, self.params.gate_probability)
+            } else {
+                f64::INFINITY
+            };
+            self.quantile_cache.push((gate, chi2_quantile_even(d, 0.5)));
         }
         self.quantile_cache[k]
     }
@@ -2464,7 +2473,11 @@ mod tests {
                 ..d()
             },
             FdbscBiasParams {
-                residual_gate_probability: 0.0,
+                gate_probability: 0.0,
+                ..d()
+            },
+            FdbscBiasParams {
+                gate_probability: 1.5,
                 ..d()
             },
             FdbscBiasParams {
@@ -2486,6 +2499,12 @@ mod tests {
         ] {
             assert!(FdbscBias::new(bad).is_err());
         }
+        // 1 turns the residual gate off
+        let off = FdbscBiasParams {
+            gate_probability: 1.0,
+            ..d()
+        };
+        assert!(FdbscBias::new(off).is_ok());
     }
 
     /// The registry builds it.

@@ -22,6 +22,7 @@ pub mod bias_estimation;
 pub mod fusion;
 pub mod fusion_center;
 pub mod hough;
+pub(crate) mod linalg;
 pub mod registry;
 pub mod t2ta;
 

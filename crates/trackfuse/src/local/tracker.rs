@@ -473,11 +473,10 @@ impl SensorTracker {
         let spread = |c: &Mat2| c[(0, 0)].max(c[(1, 1)]).max(0.0).sqrt();
         let max_dt = seeds.iter().map(|s| time - s.time).fold(0.0, f64::max);
         let max_seed_sigma = seeds.iter().map(|s| spread(&s.cov)).fold(0.0, f64::max);
-        for m in 0..self.used.len() {
+        for (m, &(p, pc)) in cart.iter().enumerate() {
             if self.used[m] {
                 continue;
             }
-            let (p, pc) = cart[m];
             let sp = spread(&pc);
             let reach_max = max_speed * max_dt + 3.0 * (sp + max_seed_sigma);
             let lo = seeds.partition_point(|s| s.position[0] < p[0] - reach_max);

@@ -26,11 +26,19 @@
 //! [`Inconsistent`], never turned into a wrong covariance.
 //!
 //! Cost: two members use fixed-size 4x4 algebra (no allocation); three or more use one
-//! `4(n-1)`-square Cholesky factorisation.
+//! `4(n-1)`-square Cholesky factorisation, in flat buffers the caller keeps from group to
+//! group ([`BlueScratch`]; the same algorithm as nalgebra's `DMatrix` Cholesky, the
+//! results equal to rounding — a test compares it with the `DMatrix` implementation it
+//! replaced on random groups).
 
+use crate::center::linalg::{
+    axes_decouple, chol_solve4, chol_solve_flat, cholesky4, cholesky_flat,
+};
 use crate::center::CenterError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
-use nalgebra::{DMatrix, DVector, SymmetricEigen};
+#[cfg(test)]
+use nalgebra::DVector;
+use nalgebra::{DMatrix, SymmetricEigen};
 use std::cmp::Ordering;
 
 /// A negative eigenvalue down to `-PSD_TOLERANCE * (largest |eigenvalue|)` counts as
@@ -90,16 +98,47 @@ fn canonical_cmp(a: &LocalTrack, b: &LocalTrack) -> Ordering {
         })
 }
 
-/// The members in canonical order (see [`canonical_cmp`]).
-pub(crate) fn canonical<'a>(members: &[&'a LocalTrack]) -> Vec<&'a LocalTrack> {
-    let mut sorted = members.to_vec();
-    sorted.sort_by(|a, b| canonical_cmp(a, b));
-    sorted
+/// Groups up to this size are put in canonical order without allocating.
+const CANONICAL_INLINE: usize = 16;
+
+/// The members of a group in canonical order ([`canonical`]); derefs to the slice.
+pub(crate) enum Canonical<'a> {
+    Inline([&'a LocalTrack; CANONICAL_INLINE], usize),
+    Heap(Vec<&'a LocalTrack>),
+}
+
+impl<'a> std::ops::Deref for Canonical<'a> {
+    type Target = [&'a LocalTrack];
+
+    fn deref(&self) -> &Self::Target {
+        match self {
+            Canonical::Inline(buf, n) => &buf[..*n],
+            Canonical::Heap(v) => v,
+        }
+    }
+}
+
+/// The members in canonical order (see [`canonical_cmp`]); no allocation for groups of
+/// up to 16 members.
+pub(crate) fn canonical<'a>(members: &[&'a LocalTrack]) -> Canonical<'a> {
+    match members.first() {
+        Some(&first) if members.len() <= CANONICAL_INLINE => {
+            let mut buf = [first; CANONICAL_INLINE];
+            buf[..members.len()].copy_from_slice(members);
+            buf[..members.len()].sort_by(|a, b| canonical_cmp(a, b));
+            Canonical::Inline(buf, members.len())
+        }
+        _ => {
+            let mut sorted = members.to_vec();
+            sorted.sort_by(|a, b| canonical_cmp(a, b));
+            Canonical::Heap(sorted)
+        }
+    }
 }
 
 /// Whether `p` is positive semidefinite up to rounding ([`PSD_TOLERANCE`]).
 pub(crate) fn is_psd(p: &StateCov) -> bool {
-    if p.cholesky().is_some() {
+    if cholesky4(p).is_some() {
         return true;
     }
     let eig = p.symmetric_eigenvalues();
@@ -137,11 +176,42 @@ pub(crate) fn blue<F>(
 where
     F: Fn(usize, usize) -> StateCov,
 {
+    blue_in(members, cross, &mut BlueScratch::default())
+}
+
+/// Buffers of [`blue_in`] for three or more members, reused from group to group.
+#[derive(Debug, Default)]
+pub(crate) struct BlueScratch {
+    /// The 4x4 blocks of the difference form: `C_j^T` (`j = 1..n`), `D_jk` (`j <= k`, at
+    /// `(j - 1) (n - 1) + k - 1`) and the differences `d_j`.
+    c_blocks: Vec<StateCov>,
+    d_blocks: Vec<StateCov>,
+    diffs: Vec<StateVec>,
+    /// `D` of the components solved (column-major), then its Cholesky factor.
+    d: Vec<f64>,
+    /// `C^T` (column-major, `k(n-1) x k`).
+    ct: Vec<f64>,
+    /// `D^-1 C^T`.
+    gain_t: Vec<f64>,
+    /// The stacked differences of the components solved.
+    diff: Vec<f64>,
+}
+
+/// [`blue`] with caller-owned buffers (no allocation once they have grown to the group
+/// size, except on the pseudo-inverse path).
+pub(crate) fn blue_in<F>(
+    members: &[&LocalTrack],
+    cross: F,
+    scratch: &mut BlueScratch,
+) -> Result<(StateVec, StateCov), Inconsistent>
+where
+    F: Fn(usize, usize) -> StateCov,
+{
     match members.len() {
         0 => Err(Inconsistent),
         1 => Ok((members[0].state, members[0].cov)),
         2 => blue_two(members[0], members[1], &cross(0, 1)),
-        _ => blue_general(members, &cross),
+        _ => blue_general(members, &cross, scratch),
     }
 }
 
@@ -154,8 +224,8 @@ fn blue_two(
     let c = a.cov - p_ab;
     let d = symmetrize(&(a.cov + b.cov - p_ab - p_ab.transpose()));
     // gain^T = D^-1 C^T
-    let gain_t: StateCov = match d.cholesky() {
-        Some(ch) => ch.solve(&c.transpose()),
+    let gain_t: StateCov = match cholesky4(&d) {
+        Some(l) => chol_solve4(&l, &c.transpose()),
         None => {
             let pinv = psd_pseudo_inverse(DMatrix::from_column_slice(4, 4, d.as_slice()))?;
             StateCov::from_column_slice(pinv.as_slice()) * c.transpose()
@@ -166,8 +236,221 @@ fn blue_two(
     finish(x, p)
 }
 
-/// Three or more members: the difference form with one `4(n-1)`-square factorisation.
-fn blue_general<F>(members: &[&LocalTrack], cross: &F) -> Result<(StateVec, StateCov), Inconsistent>
+/// Three or more members: the difference form with one `4(n-1)`-square factorisation, in
+/// the caller's flat buffers.
+///
+/// **The x and y axes decouple** when `D` and `C` have exactly zero entries between x and
+/// y components (state `[x, vx, y, vy]`; block-diagonal member covariances and
+/// cross-covariances give that): the problem is then two independent ones of half the
+/// size, the `[x, vx]` and the `[y, vy]` components (two `2(n-1)`-square factorisations,
+/// 1/4 of the arithmetic). Each takes the rows and columns of the full problem in their
+/// order, and the Cholesky factorisation and triangular solves only ever add exact zeros
+/// for the entries left out, so the split gives the full problem's numbers bit for bit (a
+/// test checks it). When the two halves are the same numbers (isotropic members) the y
+/// half reuses the x half's gain. When a half's `D` is singular the full problem is
+/// solved instead, so the pseudo-inverse and its tolerances are those of the full `D`.
+fn blue_general<F>(
+    members: &[&LocalTrack],
+    cross: &F,
+    scratch: &mut BlueScratch,
+) -> Result<(StateVec, StateCov), Inconsistent>
+where
+    F: Fn(usize, usize) -> StateCov,
+{
+    difference_blocks(members, cross, scratch);
+    let decoupled =
+        scratch.d_blocks.iter().all(axes_decouple) && scratch.c_blocks.iter().all(axes_decouple);
+    let mut correction = StateVec::zeros();
+    let mut reduction = StateCov::zeros();
+    let mut split = false;
+    if decoupled && blue_part(&[0, 1], false, scratch, &mut correction, &mut reduction)? {
+        if same_axes(scratch) {
+            // the y half has the x half's D and C: its gain is the x gain, bit for bit
+            y_from_x(scratch, &mut correction, &mut reduction);
+            split = true;
+        } else {
+            split = blue_part(&[2, 3], false, scratch, &mut correction, &mut reduction)?;
+        }
+    }
+    if !split {
+        blue_part(
+            &[0, 1, 2, 3],
+            true,
+            scratch,
+            &mut correction,
+            &mut reduction,
+        )?;
+    }
+    let x = members[0].state - correction;
+    let p = symmetrize(&(members[0].cov - reduction));
+    finish(x, p)
+}
+
+/// Whether every block of the difference form has the same numbers in its x-x and y-y
+/// 2x2 blocks (isotropic members: the two halves of a decoupled problem are one).
+fn same_axes(scratch: &BlueScratch) -> bool {
+    let same = |m: &StateCov| {
+        [(0, 0), (1, 0), (0, 1), (1, 1)]
+            .iter()
+            .all(|&(r, c)| m[(r, c)].to_bits() == m[(r + 2, c + 2)].to_bits())
+    };
+    scratch.d_blocks.iter().all(same) && scratch.c_blocks.iter().all(same)
+}
+
+/// The y half of a decoupled problem from the x half just solved (`gain_t` in `scratch`)
+/// when the halves have the same `D` and `C` ([`same_axes`]): the same sums as
+/// [`blue_part`] for `[2, 3]` would form.
+fn y_from_x(scratch: &BlueScratch, correction: &mut StateVec, reduction: &mut StateCov) {
+    let m = 2 * scratch.diffs.len();
+    for a in 0..2 {
+        let g = &scratch.gain_t[a * m..(a + 1) * m];
+        correction[2 + a] = g
+            .iter()
+            .enumerate()
+            .map(|(r, u)| u * scratch.diffs[r / 2][2 + r % 2])
+            .sum::<f64>();
+        for b in 0..2 {
+            reduction[(2 + b, 2 + a)] = reduction[(b, a)];
+        }
+    }
+}
+
+/// The difference form restricted to the state components `comps` (all four, or one
+/// axis), from the blocks of [`difference_blocks`]: adds `C D^-1 d` to `correction` and
+/// `C D^-1 C^T` to `reduction` at those components. `Ok(false)` when `D` is not positive
+/// definite and `pseudo_inverse` is off.
+fn blue_part(
+    comps: &[usize],
+    pseudo_inverse: bool,
+    scratch: &mut BlueScratch,
+    correction: &mut StateVec,
+    reduction: &mut StateCov,
+) -> Result<bool, Inconsistent> {
+    let k = comps.len();
+    let n1 = scratch.diffs.len();
+    let m = k * n1;
+    fill_difference_form(comps, scratch);
+    let BlueScratch { d, ct, gain_t, .. } = scratch;
+    // symmetrise (the factorisation reads the lower triangle)
+    for c in 0..m {
+        for r in c + 1..m {
+            d[r + c * m] = (d[r + c * m] + d[c + r * m]) * 0.5;
+        }
+    }
+    gain_t.clear();
+    gain_t.extend_from_slice(ct);
+    if cholesky_flat(d, m) {
+        chol_solve_flat(d, m, gain_t, k);
+    } else if pseudo_inverse {
+        // D singular (or indefinite): the pseudo-inverse, on a fresh copy of D
+        fill_difference_form(comps, scratch);
+        let BlueScratch { d, ct, gain_t, .. } = scratch;
+        let dm = DMatrix::from_column_slice(m, m, d);
+        let dm = (&dm + dm.transpose()) * 0.5;
+        let g = psd_pseudo_inverse(dm)? * DMatrix::from_column_slice(m, k, ct);
+        gain_t.copy_from_slice(g.as_slice());
+    } else {
+        return Ok(false);
+    }
+    let BlueScratch {
+        ct, gain_t, diff, ..
+    } = scratch;
+    for (a, &ca) in comps.iter().enumerate() {
+        let g = &gain_t[a * m..(a + 1) * m];
+        correction[ca] = g.iter().zip(diff.iter()).map(|(u, v)| u * v).sum::<f64>();
+        for (b, &cb) in comps.iter().enumerate() {
+            let c = &ct[b * m..(b + 1) * m];
+            reduction[(cb, ca)] = c.iter().zip(g).map(|(u, v)| u * v).sum::<f64>();
+        }
+    }
+    Ok(true)
+}
+
+/// The 4x4 blocks of the difference form (module docs) into `scratch`: `C_j^T`,
+/// `D_jk = P_0 - P_0k - P_j0 + P_jk` (`j <= k`) and `d_j = x_0 - x_j`.
+fn difference_blocks<F>(members: &[&LocalTrack], cross: &F, scratch: &mut BlueScratch)
+where
+    F: Fn(usize, usize) -> StateCov,
+{
+    let n = members.len();
+    let p0 = &members[0].cov;
+    let x0 = &members[0].state;
+    // Cov(e_i, e_j) for any i, j.
+    let cov_of = |i: usize, j: usize| -> StateCov {
+        match i.cmp(&j) {
+            Ordering::Equal => members[i].cov,
+            Ordering::Less => cross(i, j),
+            Ordering::Greater => cross(j, i).transpose(),
+        }
+    };
+    scratch.c_blocks.clear();
+    scratch.diffs.clear();
+    scratch.d_blocks.clear();
+    scratch
+        .d_blocks
+        .resize((n - 1) * (n - 1), StateCov::zeros());
+    for (j, member) in members.iter().enumerate().skip(1) {
+        scratch.c_blocks.push((p0 - cov_of(0, j)).transpose());
+        scratch.diffs.push(x0 - member.state);
+        for k in j..n {
+            scratch.d_blocks[(j - 1) * (n - 1) + k - 1] =
+                p0 - cov_of(0, k) - cov_of(j, 0) + cov_of(j, k);
+        }
+    }
+}
+
+/// Fill `D` (`k(n-1)` square for the `k` components `comps`, column-major, both
+/// triangles), `C^T` (`k(n-1) x k`) and the differences from the blocks.
+fn fill_difference_form(comps: &[usize], scratch: &mut BlueScratch) {
+    let n1 = scratch.diffs.len();
+    let k = comps.len();
+    let m = k * n1;
+    let BlueScratch {
+        c_blocks,
+        d_blocks,
+        diffs,
+        d,
+        ct,
+        diff,
+        ..
+    } = scratch;
+    d.clear();
+    d.resize(m * m, 0.0);
+    ct.clear();
+    ct.resize(m * k, 0.0);
+    diff.clear();
+    diff.resize(m, 0.0);
+    for j in 0..n1 {
+        let o = k * j;
+        let (c, dx) = (&c_blocks[j], &diffs[j]);
+        for (r, &cr) in comps.iter().enumerate() {
+            diff[o + r] = dx[cr];
+            for (col, &cc) in comps.iter().enumerate() {
+                ct[o + r + col * m] = c[(cr, cc)];
+            }
+        }
+        for kk in j..n1 {
+            let ok = k * kk;
+            let block = &d_blocks[j * n1 + kk];
+            for (col, &cc) in comps.iter().enumerate() {
+                for (r, &cr) in comps.iter().enumerate() {
+                    d[o + r + (ok + col) * m] = block[(cr, cc)];
+                    if kk != j {
+                        d[ok + col + (o + r) * m] = block[(cr, cc)];
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The difference form with nalgebra's dynamic matrices: the implementation before the
+/// flat-buffer one, kept as the reference the tests compare it with.
+#[cfg(test)]
+pub(crate) fn blue_general_dense<F>(
+    members: &[&LocalTrack],
+    cross: &F,
+) -> Result<(StateVec, StateCov), Inconsistent>
 where
     F: Fn(usize, usize) -> StateCov,
 {
@@ -289,10 +572,108 @@ mod tests {
         // the two-member fast path equals the general path
         let two = [&a, &b];
         let (x2, p2) = blue(&two, cross).unwrap();
-        let (xg, pg) = blue_general(&two, &cross).unwrap();
+        let (xg, pg) = blue_general(&two, &cross, &mut BlueScratch::default()).unwrap();
         assert!((x2 - xg).norm() < 1e-10 && (p2 - pg).norm() < 1e-10);
         let (xs2, ps2) = stacked(&two, &cross);
         assert!((x2 - xs2).norm() < 1e-9 && (p2 - ps2).norm() < 1e-9);
+    }
+
+    #[test]
+    fn flat_buffers_equal_the_dense_implementation() {
+        use crate::rng::stream;
+        use rand::RngExt;
+        let mut rng = stream(5, 0, "blue-test", 0);
+        let mut scratch = BlueScratch::default();
+        for round in 0..60 {
+            let n = 3 + round % 4;
+            let tracks: Vec<LocalTrack> = (0..n)
+                .map(|k| {
+                    let mut t = local(k as i64 + 1, 1, 0.0, 0.0, 0.0, 0.0, 1.0);
+                    t.state = StateVec::from_fn(|_, _| rng.random_range(-10.0..10.0));
+                    t.cov = spd(rng.random_range(0.0..10.0)) * rng.random_range(0.5..4.0);
+                    t
+                })
+                .collect();
+            let members: Vec<&LocalTrack> = tracks.iter().collect();
+            let rho = rng.random_range(0.0..0.6);
+            let factors: Vec<StateCov> = members
+                .iter()
+                .map(|m| m.cov.cholesky().unwrap().l())
+                .collect();
+            // a valid joint covariance: rho L_i L_j^T
+            let cross = |i: usize, j: usize| factors[i] * factors[j].transpose() * rho;
+            let fast = blue_general(&members, &cross, &mut scratch).unwrap();
+            let dense = blue_general_dense(&members, &cross).unwrap();
+            assert!((fast.0 - dense.0).norm() <= 1e-10 * (1.0 + dense.0.norm()));
+            assert!((fast.1 - dense.1).norm() <= 1e-10 * dense.1.norm());
+        }
+        // block-diagonal covariances: the split by axis gives the full problem's numbers
+        for round in 0..40 {
+            let n = 3 + round % 4;
+            // independent axes; in odd rounds isotropic (the y block the x block)
+            let block = |rng: &mut crate::rng::StreamRng| {
+                let mut p = spd(rng.random_range(0.0..10.0));
+                for (r, c) in [(0, 2), (0, 3), (1, 2), (1, 3)] {
+                    p[(r, c)] = 0.0;
+                    p[(c, r)] = 0.0;
+                }
+                if round % 2 == 1 {
+                    for (r, c) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                        p[(r + 2, c + 2)] = p[(r, c)];
+                    }
+                }
+                p + StateCov::identity() * 2.0
+            };
+            let tracks: Vec<LocalTrack> = (0..n)
+                .map(|k| {
+                    let mut t = local(k as i64 + 1, 1, 0.0, 0.0, 0.0, 0.0, 1.0);
+                    t.state = StateVec::from_fn(|_, _| rng.random_range(-10.0..10.0));
+                    t.cov = block(&mut rng);
+                    t
+                })
+                .collect();
+            let members: Vec<&LocalTrack> = tracks.iter().collect();
+            let factors: Vec<StateCov> = members
+                .iter()
+                .map(|m| m.cov.cholesky().unwrap().l())
+                .collect();
+            let rho = rng.random_range(0.0..0.6);
+            let cross = |i: usize, j: usize| factors[i] * factors[j].transpose() * rho;
+            assert!(axes_decouple(&cross(0, 1)));
+            let split = blue_general(&members, &cross, &mut scratch).unwrap();
+            assert_eq!(same_axes(&scratch), round % 2 == 1);
+            let (mut correction, mut reduction) = (StateVec::zeros(), StateCov::zeros());
+            difference_blocks(&members, &cross, &mut scratch);
+            assert!(blue_part(
+                &[0, 1, 2, 3],
+                true,
+                &mut scratch,
+                &mut correction,
+                &mut reduction
+            )
+            .unwrap());
+            let full = (
+                members[0].state - correction,
+                symmetrize(&(members[0].cov - reduction)),
+            );
+            assert_eq!(split, full);
+            let dense = blue_general_dense(&members, &cross).unwrap();
+            assert!((split.1 - dense.1).norm() <= 1e-10 * dense.1.norm());
+        }
+        // singular D (identical, fully correlated copies): the pseudo-inverse path
+        let a = local(1, 1, 5.0, 1.0, 6.0, 2.0, 3.0);
+        let b = local(2, 1, 5.0, 1.0, 6.0, 2.0, 3.0);
+        let c = local(3, 1, 5.0, 1.0, 6.0, 2.0, 3.0);
+        let members = [&a, &b, &c];
+        let fast = blue_general(&members, &|_, _| a.cov, &mut scratch).unwrap();
+        let dense = blue_general_dense(&members, &|_, _| a.cov).unwrap();
+        assert!((fast.0 - dense.0).norm() < 1e-12 && (fast.1 - dense.1).norm() < 1e-12);
+        let bad = StateCov::identity() * 9.0;
+        assert_eq!(blue_general_dense(&members, &|_, _| bad), Err(Inconsistent));
+        assert_eq!(
+            blue_general(&members, &|_, _| bad, &mut scratch),
+            Err(Inconsistent)
+        );
     }
 
     #[test]

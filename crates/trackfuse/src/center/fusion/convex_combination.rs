@@ -17,6 +17,7 @@
 //! - The prior global state is not used.
 
 use super::blue::{blue, canonical, validate};
+use crate::center::linalg::{chol_inverse4, cholesky4};
 use crate::center::{CenterError, FusionContext, FusionRule};
 use crate::params::{parse_params, ParamError, ParamTables};
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
@@ -48,9 +49,9 @@ pub(crate) fn convex_combination(members: &[&LocalTrack]) -> Option<(StateVec, S
     let mut info_state = StateVec::zeros();
     let mut all_definite = true;
     for m in members {
-        match m.cov.cholesky() {
-            Some(ch) => {
-                let inv = ch.inverse();
+        match cholesky4(&m.cov) {
+            Some(l) => {
+                let inv = chol_inverse4(&l);
                 info += inv;
                 info_state += inv * m.state;
             }
@@ -61,8 +62,8 @@ pub(crate) fn convex_combination(members: &[&LocalTrack]) -> Option<(StateVec, S
         }
     }
     if all_definite {
-        if let Some(ch) = symmetrize(&info).cholesky() {
-            let p = symmetrize(&ch.inverse());
+        if let Some(l) = cholesky4(&symmetrize(&info)) {
+            let p = symmetrize(&chol_inverse4(&l));
             let x = p * info_state;
             if x.iter().chain(p.iter()).all(|v| v.is_finite()) {
                 return Some((x, p));

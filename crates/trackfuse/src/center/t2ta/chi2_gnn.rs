@@ -38,11 +38,20 @@
 //! No all-pairs comparison and no dense assignment: a pair can pass the gate only if
 //! `|dx| <= sqrt(gamma S_xx) <= sqrt(gamma P_i,xx) + sqrt(gamma P_j,xx)`, so each track and
 //! reference is an interval on the x axis and candidate pairs are the overlapping
-//! intervals, found by one sorted sweep (`O((n + m) log(n + m) + pairs)`); the same bound
-//! on y prunes before the full test. The gate graph (gated pairs) is split into connected
+//! intervals, found by a sorted sweep; the same bound on y prunes before the full test.
+//! So that the sweep line holds only the estimates near one point (a plain x sweep holds
+//! a whole column of a grid of targets, `O(n^1.5)` work), the plane is cut into
+//! horizontal strips twice the median y extent `2 sqrt(gamma P_yy)` high, and the sweep
+//! runs in each strip over the estimates whose y interval (padded well above rounding)
+//! reaches it; a pair is tested in the strip holding the lower end of its y overlap only.
+//! Strips only skip pairs whose y intervals are disjoint, which the y bound rejects
+//! anyway, so the gated pairs are exactly those of an all-pairs test
+//! (`O((n + m) log(n + m) + pairs)`). The gate graph (gated pairs) is split into connected
 //! components (union–find) and each component is solved on its own — components are a
-//! handful of tracks when targets are separated — with a single-edge component assigned
-//! directly. This is the exact optimum of the dense problem (pairs in different components
+//! handful of tracks when targets are separated — with a single-edge component, or a star
+//! (one track gated with several references, or one reference with several tracks) whose
+//! cheapest edge is unique, assigned directly (that edge is then the unique optimum). This
+//! is the exact optimum of the dense problem (pairs in different components
 //! cost `gamma`, like leaving both unassigned). Buffers live in the associator and are
 //! reused scan after scan.
 //!
@@ -56,6 +65,7 @@
 //! Automatica 7, 1971 (1970 report). Y. Bar-Shalom, "On the track-to-track correlation
 //! problem", IEEE Trans. AC 26(2), 1981.
 
+use crate::center::linalg::{chol_inverse4, cholesky4, solve_lower_vec4};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::params::{parse_params, ParamError, ParamTables};
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
@@ -135,6 +145,9 @@ struct Reference {
     info: StateCov,
     info_state: StateVec,
     informed: bool,
+    /// `state`, `cov` are behind `info` (recomputed by `refresh` when the reference is
+    /// next tested against).
+    stale: bool,
     members: u32,
 }
 
@@ -147,6 +160,7 @@ impl Reference {
             info: StateCov::zeros(),
             info_state: StateVec::zeros(),
             informed: false,
+            stale: false,
             members: 0,
         }
     }
@@ -159,24 +173,24 @@ impl Reference {
             info: StateCov::zeros(),
             info_state: StateVec::zeros(),
             informed: false,
+            stale: false,
             members: 0,
         };
         r.add(track);
         r
     }
 
-    /// Add a member: the reference becomes the convex combination of the members.
+    /// Add a member: the reference becomes the convex combination of the members (once
+    /// [`Reference::refresh`]ed; a reference gets at most one member per sensor, between
+    /// two refreshes).
     fn add(&mut self, track: &LocalTrack) {
         self.members += 1;
-        if let Some(ch) = symmetrize(&track.cov).cholesky() {
-            let inv = ch.inverse();
+        if let Some(l) = cholesky4(&symmetrize(&track.cov)) {
+            let inv = chol_inverse4(&l);
             self.info += inv;
             self.info_state += inv * track.state;
             self.informed = true;
-            if let Some(c) = symmetrize(&self.info).cholesky() {
-                self.cov = symmetrize(&c.inverse());
-                self.state = self.cov * self.info_state;
-            }
+            self.stale = true;
         } else if !self.informed && self.members == 1 {
             self.state = track.state;
             self.cov = track.cov;
@@ -184,14 +198,85 @@ impl Reference {
     }
 }
 
-/// An interval of the x sweep.
+impl Reference {
+    /// Bring `state`, `cov` up to the information sum: the convex combination of the
+    /// members (kept as it was if the sum is not positive definite).
+    fn refresh(&mut self) {
+        if self.stale {
+            self.stale = false;
+            if let Some(c) = cholesky4(&symmetrize(&self.info)) {
+                self.cov = symmetrize(&chol_inverse4(&c));
+                self.state = self.cov * self.info_state;
+            }
+        }
+    }
+}
+
+/// An interval of the x sweep, in one y strip.
 #[derive(Debug, Clone, Copy)]
 struct Interval {
+    /// The sweep order: `lo` (as [`ordered`]), then references first, then index.
+    key: (u64, u64),
     lo: f64,
     hi: f64,
+    /// Lower end of the (padded) y interval, to test each pair in one strip only.
+    ylo: f64,
+    strip: u32,
     /// 0 = reference, 1 = track (references first at equal `lo`).
     kind: u8,
     index: u32,
+}
+
+/// `x` as an unsigned integer in the order of `f64::total_cmp`.
+fn ordered(x: f64) -> u64 {
+    let bits = x.to_bits();
+    if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | (1 << 63)
+    }
+}
+
+/// An interval still open in the sweep: index, `hi`, `ylo`.
+type Active = (u32, f64, f64);
+
+/// The horizontal strips of the sweep: `count` strips of `1 / per_metre` from `base`.
+#[derive(Debug, Clone, Copy)]
+struct Strips {
+    base: f64,
+    per_metre: f64,
+    count: usize,
+}
+
+impl Strips {
+    fn new(base: f64, extent: f64, count: usize) -> Self {
+        Strips {
+            base,
+            per_metre: count as f64 / extent,
+            count,
+        }
+    }
+
+    /// The strip holding `y` (clamped to the strips; monotone in `y`, which is all the
+    /// sweep needs of it).
+    fn of(&self, y: f64) -> u32 {
+        if self.count <= 1 {
+            return 0;
+        }
+        // `as` saturates (and maps NaN to 0)
+        (((y - self.base) * self.per_metre) as usize).min(self.count - 1) as u32
+    }
+}
+
+/// The padded y interval of an estimate: `y +- sqrt(gamma P_yy)`, widened by a relative
+/// `1e-9` and by `1e-12 (|y| + h)`, far above the rounding of these sums, so that two
+/// estimates whose padded intervals are disjoint always fail the y bound
+/// `dy^2 <= gamma (P_yy + P'_yy)` (`sqrt(a) + sqrt(b) >= sqrt(a + b)`).
+fn padded_y(gamma: f64, state: &StateVec, cov: &StateCov) -> (f64, f64) {
+    let y = state[2];
+    let h = (gamma * cov[(2, 2)].max(0.0)).sqrt();
+    let h = h * (1.0 + 1e-9) + 1e-12 * (y.abs() + h);
+    (y - h, y + h)
 }
 
 /// A gated pair: batch-local track index, reference index, statistic.
@@ -212,12 +297,22 @@ pub struct Chi2Gnn {
     gate_on: GateOn,
     refs: Vec<Reference>,
     intervals: Vec<Interval>,
-    active_refs: Vec<(u32, f64)>,
-    active_tracks: Vec<(u32, f64)>,
+    /// Padded y intervals of the references and tracks of a batch.
+    y_bounds: Vec<(f64, f64)>,
+    /// The first and last strip of each.
+    strip_range: Vec<(u32, u32)>,
+    widths: Vec<f64>,
+    /// First interval of each strip (and the total), and the fill positions.
+    strip_start: Vec<usize>,
+    fill: Vec<usize>,
+    active_refs: Vec<Active>,
+    active_tracks: Vec<Active>,
     edges: Vec<Edge>,
     parent: Vec<u32>,
     matched: Vec<u32>,
     group_of: Vec<u32>,
+    /// References given a member by the last sensor processed.
+    touched: Vec<u32>,
     comp_tracks: Vec<u32>,
     comp_refs: Vec<u32>,
     cost: Vec<f64>,
@@ -248,12 +343,18 @@ impl Chi2Gnn {
             gate_on: params.gate_on,
             refs: Vec::new(),
             intervals: Vec::new(),
+            y_bounds: Vec::new(),
+            strip_range: Vec::new(),
+            widths: Vec::new(),
+            strip_start: Vec::new(),
+            fill: Vec::new(),
             active_refs: Vec::new(),
             active_tracks: Vec::new(),
             edges: Vec::new(),
             parent: Vec::new(),
             matched: Vec::new(),
             group_of: Vec::new(),
+            touched: Vec::new(),
             comp_tracks: Vec::new(),
             comp_refs: Vec::new(),
             cost: Vec::new(),
@@ -274,12 +375,14 @@ impl Chi2Gnn {
     /// The test statistic `d^T (P_t + P_r)^-1 d` of a track and a reference, or `None`
     /// when the pair is outside the gate (or cannot be tested).
     fn statistic(&self, track: &LocalTrack, reference: &Reference) -> Option<f64> {
-        let d = track.state - reference.state;
-        let s = track.cov + reference.cov;
-        let (dx, dy) = (d[0], d[2]);
-        if dy * dy > self.gamma * s[(2, 2)] {
+        // the y bound first, from the two entries it needs
+        let dy = track.state[2] - reference.state[2];
+        if dy * dy > self.gamma * (track.cov[(2, 2)] + reference.cov[(2, 2)]) {
             return None;
         }
+        let d = track.state - reference.state;
+        let s = track.cov + reference.cov;
+        let dx = d[0];
         let d2 = match self.gate_on {
             GateOn::Position => {
                 let (sxx, syy, sxy) = (s[(0, 0)], s[(2, 2)], 0.5 * (s[(0, 2)] + s[(2, 0)]));
@@ -290,8 +393,8 @@ impl Chi2Gnn {
                 (syy * dx * dx - 2.0 * sxy * dx * dy + sxx * dy * dy) / det
             }
             GateOn::State => {
-                let ch = symmetrize(&s).cholesky()?;
-                let w = ch.l_dirty().solve_lower_triangular(&d)?;
+                let l = cholesky4(&symmetrize(&s))?;
+                let w = solve_lower_vec4(&l, &d)?;
                 w.norm_squared()
             }
         };
@@ -299,46 +402,106 @@ impl Chi2Gnn {
     }
 
     /// Candidate pairs of the batch `tracks` against references `0..n_refs` by the sorted
-    /// sweep on x, tested exactly; fills `self.edges` (root unset).
+    /// sweep on x within horizontal strips (module docs), tested exactly; fills
+    /// `self.edges` (root unset).
     fn gate_batch(&mut self, tracks: &[LocalTrack], n_refs: usize) {
         self.intervals.clear();
         self.edges.clear();
         let gamma = self.gamma;
+        let n_items = n_refs + tracks.len();
+        if n_refs == 0 || tracks.is_empty() {
+            return;
+        }
+        // padded y intervals of the references, then of the tracks
+        self.y_bounds.clear();
+        self.y_bounds.extend(
+            self.refs[..n_refs]
+                .iter()
+                .map(|r| padded_y(gamma, &r.state, &r.cov)),
+        );
+        self.y_bounds
+            .extend(tracks.iter().map(|t| padded_y(gamma, &t.state, &t.cov)));
+        let strips = self.strips();
+        // the x intervals, one per strip an estimate's y interval reaches, bucketed by
+        // strip (counting sort), then each strip sorted by lo
         let half = |cov: &StateCov| (gamma * cov[(0, 0)].max(0.0)).sqrt();
-        for (r, reference) in self.refs[..n_refs].iter().enumerate() {
-            let h = half(&reference.cov);
-            let x = reference.state[0];
-            self.intervals.push(Interval {
-                lo: x - h,
-                hi: x + h,
+        self.strip_range.clear();
+        self.strip_range.extend(
+            self.y_bounds
+                .iter()
+                .map(|&(lo, hi)| (strips.of(lo), strips.of(hi))),
+        );
+        self.strip_start.clear();
+        self.strip_start.resize(strips.count + 1, 0);
+        for &(first, last) in &self.strip_range {
+            for k in first..=last {
+                self.strip_start[k as usize + 1] += 1;
+            }
+        }
+        for k in 0..strips.count {
+            self.strip_start[k + 1] += self.strip_start[k];
+        }
+        let total = self.strip_start[strips.count];
+        self.intervals.resize(
+            total,
+            Interval {
+                key: (0, 0),
+                lo: 0.0,
+                hi: 0.0,
+                ylo: 0.0,
+                strip: 0,
                 kind: 0,
-                index: r as u32,
-            });
+                index: 0,
+            },
+        );
+        self.fill.clear();
+        self.fill
+            .extend_from_slice(&self.strip_start[..strips.count]);
+        for item in 0..n_items {
+            let (kind, index, x, h) = if item < n_refs {
+                let r = &self.refs[item];
+                (0, item, r.state[0], half(&r.cov))
+            } else {
+                let t = &tracks[item - n_refs];
+                (1, item - n_refs, t.state[0], half(&t.cov))
+            };
+            let ylo = self.y_bounds[item].0;
+            let (first, last) = self.strip_range[item];
+            for k in first..=last {
+                let slot = &mut self.fill[k as usize];
+                self.intervals[*slot] = Interval {
+                    key: (ordered(x - h), (kind as u64) << 32 | index as u64),
+                    lo: x - h,
+                    hi: x + h,
+                    ylo,
+                    strip: k,
+                    kind,
+                    index: index as u32,
+                };
+                *slot += 1;
+            }
         }
-        for (t, track) in tracks.iter().enumerate() {
-            let h = half(&track.cov);
-            let x = track.state[0];
-            self.intervals.push(Interval {
-                lo: x - h,
-                hi: x + h,
-                kind: 1,
-                index: t as u32,
-            });
+        for k in 0..strips.count {
+            let run = self.strip_start[k]..self.strip_start[k + 1];
+            self.intervals[run].sort_unstable_by_key(|e| e.key);
         }
-        self.intervals.sort_unstable_by(|a, b| {
-            a.lo.total_cmp(&b.lo)
-                .then(a.kind.cmp(&b.kind))
-                .then(a.index.cmp(&b.index))
-        });
-        self.active_refs.clear();
-        self.active_tracks.clear();
-        for k in 0..self.intervals.len() {
+        // the sweep, strip by strip; a pair is tested in the strip holding the lower end
+        // of its y overlap only
+        for k in 0..total {
             let item = self.intervals[k];
+            if k == 0 || self.intervals[k - 1].strip != item.strip {
+                self.active_refs.clear();
+                self.active_tracks.clear();
+            }
+            let home = |other_ylo: f64| strips.of(item.ylo.max(other_ylo)) == item.strip;
             if item.kind == 1 {
-                self.active_refs.retain(|&(_, hi)| hi >= item.lo);
+                self.active_refs.retain(|&(_, hi, _)| hi >= item.lo);
                 let track = &tracks[item.index as usize];
                 for a in 0..self.active_refs.len() {
-                    let r = self.active_refs[a].0;
+                    let (r, _, ylo) = self.active_refs[a];
+                    if !home(ylo) {
+                        continue;
+                    }
                     if let Some(d2) = self.statistic(track, &self.refs[r as usize]) {
                         self.edges.push(Edge {
                             root: 0,
@@ -348,12 +511,15 @@ impl Chi2Gnn {
                         });
                     }
                 }
-                self.active_tracks.push((item.index, item.hi));
+                self.active_tracks.push((item.index, item.hi, item.ylo));
             } else {
-                self.active_tracks.retain(|&(_, hi)| hi >= item.lo);
+                self.active_tracks.retain(|&(_, hi, _)| hi >= item.lo);
                 let reference = &self.refs[item.index as usize];
                 for a in 0..self.active_tracks.len() {
-                    let t = self.active_tracks[a].0;
+                    let (t, _, ylo) = self.active_tracks[a];
+                    if !home(ylo) {
+                        continue;
+                    }
                     if let Some(d2) = self.statistic(&tracks[t as usize], reference) {
                         self.edges.push(Edge {
                             root: 0,
@@ -363,9 +529,53 @@ impl Chi2Gnn {
                         });
                     }
                 }
-                self.active_refs.push((item.index, item.hi));
+                self.active_refs.push((item.index, item.hi, item.ylo));
             }
         }
+    }
+
+    /// Strips of twice the median padded y extent over the estimates' y range, at most one
+    /// per estimate, and fewer when the estimates would need more than four strip entries
+    /// each on average (a few very wide ones among many narrow ones); one strip when the
+    /// extents are degenerate.
+    fn strips(&mut self) -> Strips {
+        let (mut base, mut top) = (f64::INFINITY, f64::NEG_INFINITY);
+        self.widths.clear();
+        for &(lo, hi) in &self.y_bounds {
+            base = base.min(lo);
+            top = top.max(hi);
+            self.widths.push(hi - lo);
+        }
+        let n = self.y_bounds.len();
+        let mid = n / 2;
+        let (_, median, _) = self
+            .widths
+            .select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+        let height = 2.0 * *median;
+        let extent = top - base;
+        let one = Strips {
+            base,
+            per_metre: 0.0,
+            count: 1,
+        };
+        if !(height > 0.0 && height.is_finite() && extent.is_finite() && extent > height) {
+            return one;
+        }
+        let mut count = ((extent / height).ceil() as usize).clamp(1, n);
+        let budget = 4 * n + 64;
+        while count > 1 {
+            let strips = Strips::new(base, extent, count);
+            let entries: usize = self
+                .y_bounds
+                .iter()
+                .map(|&(lo, hi)| (strips.of(hi) - strips.of(lo)) as usize + 1)
+                .sum();
+            if entries <= budget {
+                return strips;
+            }
+            count /= 2;
+        }
+        one
     }
 
     /// Optimal assignment of the gated pairs, component by component; fills
@@ -400,8 +610,7 @@ impl Chi2Gnn {
             while end < self.edges.len() && self.edges[end].root == root {
                 end += 1;
             }
-            if end - start == 1 {
-                let e = self.edges[start];
+            if let Some(e) = star_choice(&self.edges[start..end]) {
                 self.matched[e.track as usize] = e.reference;
             } else {
                 self.solve_component(start, end)?;
@@ -449,6 +658,31 @@ impl Chi2Gnn {
     }
 }
 
+/// The optimal assignment of a component that is a star — a single edge, one track gated
+/// with several references, or one reference with several tracks — whose cheapest edge
+/// is unique: that edge alone is assigned (the exact optimum, which `lsap` would return
+/// too: every other assignment leaves the centre with a dearer edge). `None` for other
+/// components and for ties, which go to `lsap`.
+fn star_choice(edges: &[Edge]) -> Option<Edge> {
+    let first = edges.first()?;
+    let one_track = edges.iter().all(|e| e.track == first.track);
+    let one_reference = edges.iter().all(|e| e.reference == first.reference);
+    if !(one_track || one_reference) {
+        return None;
+    }
+    let mut best = *first;
+    let mut tie = false;
+    for e in &edges[1..] {
+        if e.d2 < best.d2 {
+            best = *e;
+            tie = false;
+        } else if e.d2 == best.d2 {
+            tie = true;
+        }
+    }
+    (!tie).then_some(best)
+}
+
 fn finite(state: &StateVec, cov: &StateCov) -> bool {
     state.iter().chain(cov.iter()).all(|v| v.is_finite())
 }
@@ -488,6 +722,7 @@ impl TrackAssociator for Chi2Gnn {
             }
         }
         self.refs.clear();
+        self.touched.clear();
         for (g, (state, cov)) in ctx.predicted.iter().enumerate() {
             if !finite(state, cov) {
                 return Err(CenterError::Input(format!(
@@ -507,6 +742,11 @@ impl TrackAssociator for Chi2Gnn {
                 end += 1;
             }
             let batch = &tracks[start..end];
+            // the references the previous sensor changed (none are tested after the last)
+            for &r in &self.touched {
+                self.refs[r as usize].refresh();
+            }
+            self.touched.clear();
             let n_refs = self.refs.len();
             self.gate_batch(batch, n_refs);
             self.assign_batch(batch.len(), n_refs)?;
@@ -514,9 +754,11 @@ impl TrackAssociator for Chi2Gnn {
                 let r = self.matched[t];
                 if r == NONE {
                     self.group_of[start + t] = self.refs.len() as u32;
+                    self.touched.push(self.refs.len() as u32);
                     self.refs.push(Reference::started_by(track));
                 } else {
                     self.group_of[start + t] = r;
+                    self.touched.push(r);
                     self.refs[r as usize].add(track);
                 }
             }
@@ -924,6 +1166,139 @@ mod tests {
                 None => assert_eq!(g.members, vec![n1 + k]),
             }
         }
+    }
+
+    #[test]
+    fn strip_sweep_finds_exactly_the_all_pairs_edges() {
+        let mut rng = stream(13, 0, "chi2-gnn-test", 2);
+        for round in 0..6 {
+            let mut gnn = Chi2Gnn::new(Chi2GnnParams {
+                gate_on: if round % 2 == 0 {
+                    GateOn::State
+                } else {
+                    GateOn::Position
+                },
+                ..Default::default()
+            })
+            .unwrap();
+            let area = 3000.0;
+            let mut estimate = |k: usize| {
+                let mut t = local(1, k as i64, 0.0, 0.0, 0.0, 0.0, 1.0);
+                // mostly narrow, some wide, a few very wide or degenerate (in the last
+                // rounds a third very wide: fewer strips, within the entry budget)
+                let size = match k % 23 {
+                    _ if round >= 4 && k % 3 == 2 => 1e6,
+                    0 => 1e6,
+                    1 => 0.0,
+                    2..=5 => 1e4,
+                    _ => 400.0,
+                };
+                t.cov = random_cov(&mut rng, size, 16.0);
+                t.state = StateVec::new(
+                    rng.random_range(0.0..area),
+                    rng.random_range(-20.0..20.0),
+                    rng.random_range(0.0..area),
+                    rng.random_range(-20.0..20.0),
+                );
+                t
+            };
+            let refs: Vec<LocalTrack> = (0..300).map(&mut estimate).collect();
+            let tracks: Vec<LocalTrack> = (0..250).map(&mut estimate).collect();
+            gnn.refs = refs.iter().map(Reference::started_by).collect();
+            for r in &mut gnn.refs {
+                r.refresh();
+            }
+            gnn.gate_batch(&tracks, refs.len());
+            let mut got: Vec<(u32, u32, u64)> = gnn
+                .edges
+                .iter()
+                .map(|e| (e.track, e.reference, e.d2.to_bits()))
+                .collect();
+            got.sort_unstable();
+            let mut expected = Vec::new();
+            for (t, track) in tracks.iter().enumerate() {
+                for (r, reference) in gnn.refs.iter().enumerate() {
+                    if let Some(d2) = gnn.statistic(track, reference) {
+                        // the x bound of the sweep is part of the method
+                        let h = |p: &StateCov| (gnn.gamma * p[(0, 0)].max(0.0)).sqrt();
+                        let (a, b) = (
+                            (
+                                track.state[0] - h(&track.cov),
+                                track.state[0] + h(&track.cov),
+                            ),
+                            (
+                                reference.state[0] - h(&reference.cov),
+                                reference.state[0] + h(&reference.cov),
+                            ),
+                        );
+                        if a.0 <= b.1 && b.0 <= a.1 {
+                            expected.push((t as u32, r as u32, d2.to_bits()));
+                        }
+                    }
+                }
+            }
+            expected.sort_unstable();
+            assert!(expected.len() > 100, "a real test ({})", expected.len());
+            assert_eq!(got, expected, "round {round}");
+            let strips = gnn.strips();
+            assert!(strips.count > 1, "several strips ({})", strips.count);
+            let entries: usize = gnn
+                .y_bounds
+                .iter()
+                .map(|&(lo, hi)| (strips.of(hi) - strips.of(lo)) as usize + 1)
+                .sum();
+            assert!(entries <= 4 * gnn.y_bounds.len() + 64);
+        }
+    }
+
+    #[test]
+    fn ordered_keys_follow_total_cmp() {
+        let values = [
+            f64::NEG_INFINITY,
+            -1e300,
+            -2.5,
+            -0.0,
+            0.0,
+            1e-310,
+            3.0,
+            f64::INFINITY,
+        ];
+        for a in values {
+            for b in values {
+                assert_eq!(ordered(a).cmp(&ordered(b)), a.total_cmp(&b), "{a} {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn star_components_and_ties() {
+        let e = |track, reference, d2| Edge {
+            root: 0,
+            track,
+            reference,
+            d2,
+        };
+        // one track, three references: the cheapest edge
+        let star = [e(0, 1, 3.0), e(0, 4, 1.0), e(0, 7, 2.0)];
+        assert_eq!(star_choice(&star).map(|x| x.reference), Some(4));
+        // one reference, two tracks
+        let star = [e(2, 5, 3.0), e(3, 5, 1.5)];
+        assert_eq!(star_choice(&star).map(|x| x.track), Some(3));
+        // a tie, or a component that is no star: left to lsap
+        assert!(star_choice(&[e(0, 1, 1.0), e(0, 2, 1.0)]).is_none());
+        assert!(star_choice(&[e(0, 1, 1.0), e(0, 2, 2.0), e(1, 2, 0.5)]).is_none());
+        // through the associator: two references equally far from one track, one of
+        // them is assigned and the other starts nothing
+        let tracks = [
+            local(1, 1, -5.0, 0.0, 0.0, 0.0, 25.0),
+            local(1, 2, 5.0, 0.0, 0.0, 0.0, 25.0),
+            local(2, 1, 0.0, 0.0, 0.0, 0.0, 25.0),
+        ];
+        let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
+        let groups = gnn.associate(&ctx(&[]), &tracks, &[]).unwrap();
+        check_groups(&tracks, &groups, 0);
+        assert_eq!(groups.len(), 2);
+        assert!(groups.iter().any(|g| g.members.len() == 2));
     }
 
     #[test]

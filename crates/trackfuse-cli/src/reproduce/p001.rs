@@ -1,0 +1,1532 @@
+//! `trackfuse reproduce 001`: paper 001 (Nazari, AlyanNezhadi, Hashemi, Mirrezaei 2023,
+//! FDB-DAF), Tables 1, 2, 4, 5 (position RMSE per target of the local tracker) and
+//! Table 6 (execution time), on the scenario files `001-s1`, `001-s1-l2`, `001-s2`,
+//! `001-s2-l2`, plus an end-to-end NEES check of the Kalman filter on a clutter-free
+//! variant of 001-s1.
+//!
+//! Every setting comes from the scenario files' `[tracker]` sections; this module only
+//! changes the associator (and its parameters, or the filter and gate for the few rows
+//! that say so) on top of them. The numbers are those of the local tracker
+//! (`Summary.local_rmse`); the fusion center is a pass-through.
+
+use super::{md_table, monte_carlo_with, num, rel, scenario, Ctx, McResult};
+use anyhow::{Context, Result};
+use std::collections::{BTreeMap, HashMap};
+use std::fmt::Write as _;
+use trackfuse::local::{InitiationConfig, InitiationMethod, TrackerConfig};
+use trackfuse::metrics::label_local_tracks;
+use trackfuse::pipeline::RunOutput;
+use trackfuse::types::{position_of, Id, StateCov, StateVec, Vec2};
+use trackfuse::Scenario;
+
+/// The paper's Monte Carlo run count (001 Sec. 4).
+const PAPER_RUNS: u32 = 100;
+
+/// Table 6: every method is timed this many times, interleaved, and the fastest median
+/// per-run time kept (the machine is shared: the median of a round ignores bursts of
+/// load, the minimum over rounds the slower rounds).
+const TIMING_ROUNDS: usize = 2;
+
+/// The slow variant (Fuzzy-GA searched every scan) is timed once, on one run in this
+/// many: its per-run time is what matters, not its RMSE.
+const TIMING_SLOW_EVERY: u32 = 10;
+
+/// One configuration of the local tracker, on top of a scenario's `[tracker]`.
+#[derive(Clone)]
+struct Variant {
+    /// Row label.
+    label: String,
+    associator: &'static str,
+    /// Parameters of the associator set on top of the scenario's table.
+    params: Vec<(&'static str, toml::Value)>,
+    /// Another filter than the scenario's.
+    filter: Option<&'static str>,
+    /// Another gate probability than the scenario's.
+    gate: Option<f64>,
+    /// Parameters of the filter (`filter`, else the scenario's).
+    filter_params: Vec<(&'static str, toml::Value)>,
+}
+
+impl Variant {
+    fn plain(label: &str, associator: &'static str) -> Variant {
+        Variant {
+            label: label.into(),
+            associator,
+            params: Vec::new(),
+            filter: None,
+            gate: None,
+            filter_params: Vec::new(),
+        }
+    }
+
+    fn fdb(label: &str, params: Vec<(&'static str, toml::Value)>) -> Variant {
+        Variant {
+            params,
+            ..Variant::plain(label, "fdb-daf")
+        }
+    }
+
+    fn tracker(&self, sc: &Scenario) -> TrackerConfig {
+        let mut cfg = sc.tracker.clone();
+        cfg.associator = self.associator.into();
+        if let Some(f) = self.filter {
+            cfg.filter = f.into();
+        }
+        if let Some(g) = self.gate {
+            cfg.gate_probability = g;
+        }
+        if !self.filter_params.is_empty() {
+            let table = cfg.params.entry(cfg.filter.clone()).or_default();
+            for (k, v) in &self.filter_params {
+                table.insert((*k).to_string(), v.clone());
+            }
+        }
+        if !self.params.is_empty() {
+            let table = cfg.params.entry(self.associator.to_string()).or_default();
+            for (k, v) in &self.params {
+                table.insert((*k).to_string(), v.clone());
+            }
+        }
+        cfg
+    }
+}
+
+fn s(v: &str) -> toml::Value {
+    toml::Value::String(v.into())
+}
+fn int(v: i64) -> toml::Value {
+    toml::Value::Integer(v)
+}
+fn float(v: f64) -> toml::Value {
+    toml::Value::Float(v)
+}
+
+/// The xi values of 001 Tables 2 and 5 as printed, and the threshold we run for each:
+/// memberships (eq. 12) lie in [0, 1) when more than one target is tracked, so the
+/// printed 1.00 and 1.50 can never be reached; they are read as percent.
+const XI: [(&str, f64); 5] = [
+    ("0.10", 0.10),
+    ("0.25", 0.25),
+    ("0.50", 0.50),
+    ("1.00", 0.010),
+    ("1.50", 0.015),
+];
+
+/// FDB-DAF variants of Tables 2 and 5, in the paper's row order.
+fn fdb_variants() -> Vec<Variant> {
+    let mut v = Vec::new();
+    for k in 1..=5 {
+        v.push(Variant::fdb(
+            &format!("k = {k}"),
+            vec![("selection", s("top-k")), ("k", int(k))],
+        ));
+    }
+    for (printed, xi) in XI {
+        let label = if (xi - printed.parse::<f64>().unwrap_or(xi)).abs() > 1e-12 {
+            format!("xi = {printed} (run as {xi})")
+        } else {
+            format!("xi = {printed}")
+        };
+        v.push(Variant::fdb(
+            &label,
+            vec![("selection", s("threshold")), ("xi", float(xi))],
+        ));
+    }
+    v.push(Variant::fdb(
+        "all measurements",
+        vec![("selection", s("all"))],
+    ));
+    v
+}
+
+/// The compared methods of Tables 1 and 4 (paper names, our associators) and our extra
+/// rows.
+const BASELINES: [(&str, &str); 4] = [
+    ("FNN", "fnn"),
+    ("JPDAF", "jpda"),
+    ("MEF-JPDAF", "mef-jpda"),
+    ("Fuzzy-GA", "fuzzy-ga"),
+];
+const EXTRA: [(&str, &str); 3] = [("NN", "nn"), ("GNN", "gnn"), ("PDA", "pda")];
+
+// ---- the paper's numbers (/work/shared/PAPER_TABLES.md) ----
+
+/// Table 1: (method, lambda) -> [T1, T2, T3].
+const TABLE1: [(&str, u32, [f64; 3]); 8] = [
+    ("FNN", 1, [38.31, 38.07, 52.94]),
+    ("FNN", 2, [41.20, 37.89, 54.14]),
+    ("JPDAF", 1, [26.43, 25.68, 37.41]),
+    ("JPDAF", 2, [28.18, 26.93, 39.03]),
+    ("MEF-JPDAF", 1, [28.67, 26.24, 42.69]),
+    ("MEF-JPDAF", 2, [30.15, 27.86, 45.94]),
+    ("Fuzzy-GA", 1, [17.81, 17.28, 30.73]),
+    ("Fuzzy-GA", 2, [18.62, 18.45, 34.83]),
+];
+
+/// Table 2 (read as lambda = 1), in `fdb_variants` order.
+const TABLE2: [[f64; 3]; 11] = [
+    [34.72, 33.19, 43.07],
+    [32.28, 31.11, 40.48],
+    [29.60, 28.22, 38.55],
+    [25.59, 24.42, 37.24],
+    [21.86, 20.84, 35.41],
+    [18.16, 17.81, 31.08],
+    [19.44, 18.98, 33.16],
+    [21.90, 20.56, 37.64],
+    [24.34, 23.71, 41.95],
+    [29.08, 28.49, 45.76],
+    [17.32, 17.14, 31.52],
+];
+
+/// Table 4: (method, lambda) -> [T1, T2].
+const TABLE4: [(&str, u32, [f64; 2]); 8] = [
+    ("FNN", 1, [581.68, 577.40]),
+    ("FNN", 2, [635.02, 629.75]),
+    ("JPDAF", 1, [361.67, 355.83]),
+    ("JPDAF", 2, [390.46, 385.92]),
+    ("MEF-JPDAF", 1, [348.91, 342.05]),
+    ("MEF-JPDAF", 2, [376.28, 368.11]),
+    ("Fuzzy-GA", 1, [312.72, 308.45]),
+    ("Fuzzy-GA", 2, [338.59, 332.96]),
+];
+
+/// Table 5: [lambda=1 T1, lambda=1 T2, lambda=2 T1, lambda=2 T2], `fdb_variants` order;
+/// the "all measurements" row lost its first cell in the PDF.
+const TABLE5: [[Option<f64>; 4]; 11] = [
+    [Some(529.47), Some(517.63), Some(578.60), Some(515.53)],
+    [Some(482.11), Some(469.81), Some(521.37), Some(507.46)],
+    [Some(413.05), Some(396.90), Some(446.82), Some(425.74)],
+    [Some(338.27), Some(324.07), Some(364.41), Some(350.38)],
+    [Some(326.70), Some(313.73), Some(348.72), Some(336.06)],
+    [Some(311.96), Some(308.07), Some(332.50), Some(330.98)],
+    [Some(324.83), Some(320.41), Some(347.28), Some(342.66)],
+    [Some(389.54), Some(375.77), Some(415.18), Some(401.34)],
+    [Some(427.06), Some(410.25), Some(459.46), Some(443.92)],
+    [Some(473.94), Some(461.47), Some(510.85), Some(499.04)],
+    [None, Some(274.99), Some(317.02), Some(296.37)],
+];
+
+/// Table 6: method -> (linear crossing, manoeuvring), seconds.
+const TABLE6: [(&str, f64, f64); 5] = [
+    ("FNN", 0.34, 7.82),
+    ("JPDAF", 1.41, 27.91),
+    ("MEF-JPDAF", 0.82, 25.59),
+    ("Fuzzy-GA", 4.79, 113.84),
+    ("FDB-DAF", 0.63, 12.42),
+];
+
+// ---- what each configuration gives ----
+
+/// Per-run quantities the summary does not hold, with each local track paired for the
+/// whole run with the target it was started on (known initiation): the fixed pairing of
+/// the paper's eq. 17, under which a swap or a lost track shows as error.
+#[derive(Debug, Clone, Default)]
+struct Identity {
+    /// Per target (in target-id order): sum of squared position errors, samples.
+    sq: Vec<(f64, u64)>,
+    /// Truth points per target.
+    truth: Vec<u64>,
+    /// A track ends the run nearer another target than its own.
+    on_other: bool,
+    /// A track ends the run farther than the label gate from its own target.
+    lost: bool,
+    /// Per scan: sum of the 4-dim NEES of the tracks against their own targets, count.
+    nees: BTreeMap<u32, (f64, u64)>,
+}
+
+fn nees(err: &StateVec, cov: &StateCov) -> Option<f64> {
+    let chol = cov.cholesky()?;
+    let v = err.dot(&chol.solve(err));
+    v.is_finite().then_some(v)
+}
+
+/// The identity pairing of one run: a track belongs to the target nearest to it at its
+/// first report (it starts at that target's known state).
+fn identity(out: &RunOutput, label_gate: f64) -> Identity {
+    let mut targets: Vec<Id> = out.sim.truth.iter().map(|t| t.target_id).collect();
+    targets.sort_unstable();
+    targets.dedup();
+    let index: HashMap<Id, usize> = targets.iter().enumerate().map(|(i, &t)| (t, i)).collect();
+    let mut truth: HashMap<(u32, Id), StateVec> = HashMap::new();
+    let mut id = Identity {
+        sq: vec![(0.0, 0); targets.len()],
+        truth: vec![0; targets.len()],
+        ..Identity::default()
+    };
+    let mut last_scan = 0;
+    for t in &out.sim.truth {
+        truth.insert((t.scan, t.target_id), t.state);
+        id.truth[index[&t.target_id]] += 1;
+        last_scan = last_scan.max(t.scan);
+    }
+    let nearest = |scan: u32, p: Vec2| -> Option<(Id, f64)> {
+        targets
+            .iter()
+            .filter_map(|&t| {
+                truth
+                    .get(&(scan, t))
+                    .map(|x| (t, (position_of(x) - p).norm()))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    };
+    let mut own: HashMap<(Id, Id), Id> = HashMap::new();
+    let mut last: HashMap<(Id, Id), (u32, Vec2)> = HashMap::new();
+    for l in &out.local {
+        let key = (l.sensor_id, l.track_id);
+        let p = position_of(&l.state);
+        let target = match own.get(&key) {
+            Some(&t) => t,
+            None => match nearest(l.scan, p) {
+                Some((t, _)) => {
+                    own.insert(key, t);
+                    t
+                }
+                None => continue,
+            },
+        };
+        let Some(x) = truth.get(&(l.scan, target)) else {
+            continue;
+        };
+        let e = &mut id.sq[index[&target]];
+        e.0 += (p - position_of(x)).norm_squared();
+        e.1 += 1;
+        if let Some(v) = nees(&(l.state - x), &l.cov) {
+            let n = id.nees.entry(l.scan).or_default();
+            n.0 += v;
+            n.1 += 1;
+        }
+        last.insert(key, (l.scan, p));
+    }
+    for (key, (scan, p)) in &last {
+        if *scan != last_scan {
+            continue;
+        }
+        let target = own[key];
+        let d_own = truth
+            .get(&(*scan, target))
+            .map_or(f64::INFINITY, |x| (position_of(x) - p).norm());
+        if d_own > label_gate {
+            id.lost = true;
+        } else if nearest(*scan, *p).is_some_and(|(t, _)| t != target) {
+            id.on_other = true;
+        }
+    }
+    id
+}
+
+/// Per-scan NEES of one run with the evaluation's labelling (scan-by-scan assignment
+/// within the label gate), for tracks not started at known states.
+fn labelled_nees(out: &RunOutput, label_gate: f64) -> BTreeMap<u32, (f64, u64)> {
+    let labels = label_local_tracks(&out.sim.truth, &out.local, label_gate);
+    let truth: HashMap<(u32, Id), StateVec> = out
+        .sim
+        .truth
+        .iter()
+        .map(|t| ((t.scan, t.target_id), t.state))
+        .collect();
+    let mut per_scan: BTreeMap<u32, (f64, u64)> = BTreeMap::new();
+    for l in &out.local {
+        let Some(t) = labels.get(&(l.scan, l.sensor_id, l.track_id)) else {
+            continue;
+        };
+        if let Some(v) = truth
+            .get(&(l.scan, *t))
+            .and_then(|x| nees(&(l.state - x), &l.cov))
+        {
+            let n = per_scan.entry(l.scan).or_default();
+            n.0 += v;
+            n.1 += 1;
+        }
+    }
+    per_scan
+}
+
+/// A configuration's aggregate.
+struct Outcome {
+    mc: McResult,
+    /// Labelled local RMSE per target (target-id order) and coverage (samples over
+    /// truth points).
+    rmse: Vec<Option<f64>>,
+    coverage: Vec<f64>,
+    /// Identity-paired RMSE per target.
+    identity_rmse: Vec<Option<f64>>,
+    on_other_runs: u32,
+    lost_runs: u32,
+    nees_per_scan: BTreeMap<u32, (f64, u64)>,
+}
+
+impl Outcome {
+    fn mean_coverage(&self) -> f64 {
+        if self.coverage.is_empty() {
+            return 0.0;
+        }
+        self.coverage.iter().sum::<f64>() / self.coverage.len() as f64
+    }
+}
+
+fn run_variant(ctx: &Ctx, sc: &Scenario, v: &Variant, runs: u32) -> Result<Outcome> {
+    let cfg = v.tracker(sc);
+    let gate = sc.evaluation.label_gate;
+    let known = cfg.initiation.method == InitiationMethod::Known;
+    let label = format!("{} {}", sc.name, v.label);
+    let (mc, ids) = monte_carlo_with(ctx, &label, sc, &cfg, &sc.fusion, runs, |o| {
+        let mut id = identity(o, gate);
+        if !known {
+            id.nees = labelled_nees(o, gate);
+        }
+        id
+    })
+    .with_context(|| format!("{} with {}", sc.name, v.label))?;
+    let n_targets = ids.first().map_or(0, |i| i.sq.len());
+    let mut sq = vec![(0.0, 0u64); n_targets];
+    let mut truth = vec![0u64; n_targets];
+    let mut nees_per_scan: BTreeMap<u32, (f64, u64)> = BTreeMap::new();
+    let (mut on_other_runs, mut lost_runs) = (0, 0);
+    for id in &ids {
+        for (t, e) in id.sq.iter().enumerate().take(n_targets) {
+            sq[t].0 += e.0;
+            sq[t].1 += e.1;
+        }
+        for (t, n) in id.truth.iter().enumerate().take(n_targets) {
+            truth[t] += n;
+        }
+        for (scan, (s, n)) in &id.nees {
+            let e = nees_per_scan.entry(*scan).or_default();
+            e.0 += s;
+            e.1 += n;
+        }
+        on_other_runs += u32::from(id.on_other);
+        lost_runs += u32::from(id.lost);
+    }
+    let mut targets: Vec<Id> = sc
+        .targets
+        .iter()
+        .enumerate()
+        .map(|(i, t)| t.id.unwrap_or(i as Id))
+        .collect();
+    targets.sort_unstable();
+    let local = &mc.summary.local_rmse;
+    let rmse: Vec<Option<f64>> = targets
+        .iter()
+        .map(|t| local.iter().find(|l| l.target_id == *t).map(|l| l.rmse))
+        .collect();
+    let coverage: Vec<f64> = targets
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let samples = local
+                .iter()
+                .find(|l| l.target_id == *t)
+                .map_or(0, |l| l.samples);
+            let n = truth.get(i).copied().unwrap_or(0);
+            if n > 0 {
+                samples as f64 / n as f64
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let identity_rmse = sq
+        .iter()
+        .map(|&(s, n)| (n > 0).then(|| (s / n as f64).sqrt()))
+        .collect();
+    Ok(Outcome {
+        mc,
+        rmse,
+        coverage,
+        identity_rmse,
+        on_other_runs,
+        lost_runs,
+        nees_per_scan,
+    })
+}
+
+// ---- chi-square band ----
+
+/// The p-quantile of the chi-square distribution with `k` degrees of freedom
+/// (Wilson-Hilferty; relative error below 1e-3 for k >= 40).
+fn chi2_quantile(p: f64, k: f64) -> f64 {
+    let z = normal_quantile(p);
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + z * a.sqrt()).powi(3)
+}
+
+/// Standard normal quantile (Acklam's rational approximation: absolute error below 1e-8
+/// for 0.02425 <= p <= 0.97575, where the bands here use it, below 1e-4 in the tails).
+fn normal_quantile(p: f64) -> f64 {
+    const A: [f64; 6] = [
+        -3.969683028665376e+01,
+        2.209460984245205e+02,
+        -2.759285104469687e+02,
+        1.383_577_518_672_69e2,
+        -3.066479806614716e+01,
+        2.506628277459239e+00,
+    ];
+    const B: [f64; 5] = [
+        -5.447609879822406e+01,
+        1.615858368580409e+02,
+        -1.556989798598866e+02,
+        6.680131188771972e+01,
+        -1.328068155288572e+01,
+    ];
+    const C: [f64; 6] = [
+        -7.784894002430293e-03,
+        -3.223964580411365e-01,
+        -2.400758277161838e+00,
+        -2.549671010139127e+00,
+        4.374664141464968e+00,
+        2.938163982698783e+00,
+    ];
+    const D: [f64; 4] = [
+        7.784695709041462e-03,
+        3.224671290700398e-01,
+        2.445134137142996e+00,
+        3.754408661907416e+00,
+    ];
+    let lower = 0.02425;
+    if p < lower {
+        let q = (-2.0 * p.ln()).sqrt();
+        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
+            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
+    } else if p <= 1.0 - lower {
+        let q = p - 0.5;
+        let r = q * q;
+        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
+            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
+    } else {
+        -normal_quantile(1.0 - p)
+    }
+}
+
+/// The two-sided 95 % band of the mean of `n` independent 4-dof NEES values.
+fn nees_band(n: u64) -> (f64, f64) {
+    let k = 4.0 * n as f64;
+    (
+        chi2_quantile(0.025, k) / n as f64,
+        chi2_quantile(0.975, k) / n as f64,
+    )
+}
+
+// ---- formatting ----
+
+fn m(v: Option<f64>) -> String {
+    num(v, 1)
+}
+fn pct(v: f64) -> String {
+    format!("{:.0} %", v * 100.0)
+}
+fn cov_cell(o: &Outcome) -> String {
+    o.coverage
+        .iter()
+        .map(|c| format!("{:.0}", c * 100.0))
+        .collect::<Vec<_>>()
+        .join(" / ")
+        + " %"
+}
+
+/// Paper / ours / difference cells for one target.
+fn triple(paper: Option<f64>, ours: Option<f64>) -> [String; 3] {
+    [
+        num(paper, 2),
+        m(ours),
+        ours.map_or_else(|| "-".into(), |o| rel(o, paper)),
+    ]
+}
+
+fn mean(v: &[Option<f64>]) -> Option<f64> {
+    let x: Vec<f64> = v.iter().flatten().copied().collect();
+    (!x.is_empty()).then(|| x.iter().sum::<f64>() / x.len() as f64)
+}
+
+/// Scan numbers as ranges, `3-7, 12`; `none` when empty.
+fn scan_ranges(scans: &[u32]) -> String {
+    if scans.is_empty() {
+        return "none".into();
+    }
+    let mut parts = Vec::new();
+    let mut start = scans[0];
+    let mut prev = scans[0];
+    for &k in &scans[1..] {
+        if k != prev + 1 {
+            parts.push(if start == prev {
+                format!("{start}")
+            } else {
+                format!("{start}-{prev}")
+            });
+            start = k;
+        }
+        prev = k;
+    }
+    parts.push(if start == prev {
+        format!("{start}")
+    } else {
+        format!("{start}-{prev}")
+    });
+    parts.join(", ")
+}
+
+/// Clutter-free copy of a scenario.
+fn clutter_free(sc: &Scenario) -> Scenario {
+    let mut c = sc.clone();
+    c.name = format!("{}-no-clutter", sc.name);
+    c.clutter.density = 0.0;
+    for s in &mut c.sensors {
+        s.clutter_density = Some(0.0);
+    }
+    c.tracker.clutter_density = Some(0.0);
+    c
+}
+
+pub fn run(ctx: &Ctx) -> Result<String> {
+    let runs = ctx.runs_or(PAPER_RUNS);
+    let s1 = [scenario("001-s1")?, scenario("001-s1-l2")?];
+    let s2 = [scenario("001-s2")?, scenario("001-s2-l2")?];
+    let lambdas = [1u32, 2];
+
+    let baselines: Vec<Variant> = BASELINES
+        .iter()
+        .map(|(p, a)| Variant::plain(p, a))
+        .collect();
+    let extras: Vec<Variant> = EXTRA.iter().map(|(p, a)| Variant::plain(p, a)).collect();
+    let fdbs = fdb_variants();
+    let fdb_all = Variant::fdb("FDB-DAF (all)", vec![("selection", s("all"))]);
+
+    // ---- scenario 1 ----
+    let mut r1: Vec<[Outcome; 2]> = Vec::new(); // baselines, extras, fdb_all
+    let mut f1: Vec<[Outcome; 2]> = Vec::new(); // fdb variants
+    for v in baselines
+        .iter()
+        .chain(&extras)
+        .chain(std::iter::once(&fdb_all))
+    {
+        r1.push([
+            run_variant(ctx, &s1[0], v, runs)?,
+            run_variant(ctx, &s1[1], v, runs)?,
+        ]);
+    }
+    for v in &fdbs {
+        f1.push([
+            run_variant(ctx, &s1[0], v, runs)?,
+            run_variant(ctx, &s1[1], v, runs)?,
+        ]);
+    }
+    let s1_free = clutter_free(&s1[0]);
+    let free1 = [
+        run_variant(ctx, &s1_free, &Variant::plain("GNN", "gnn"), runs)?,
+        run_variant(ctx, &s1_free, &fdb_all, runs)?,
+    ];
+
+    // ---- scenario 2 ----
+    let mut r2: Vec<[Outcome; 2]> = Vec::new();
+    let mut f2: Vec<[Outcome; 2]> = Vec::new();
+    for v in baselines
+        .iter()
+        .chain(&extras)
+        .chain(std::iter::once(&fdb_all))
+    {
+        r2.push([
+            run_variant(ctx, &s2[0], v, runs)?,
+            run_variant(ctx, &s2[1], v, runs)?,
+        ]);
+    }
+    for v in &fdbs {
+        f2.push([
+            run_variant(ctx, &s2[0], v, runs)?,
+            run_variant(ctx, &s2[1], v, runs)?,
+        ]);
+    }
+    let s2_free = clutter_free(&s2[0]);
+    let free2 = [
+        run_variant(ctx, &s2_free, &Variant::plain("GNN", "gnn"), runs)?,
+        run_variant(ctx, &s2_free, &fdb_all, runs)?,
+    ];
+    // filter / gate rows of scenario 2 (lambda = 1)
+    let s2_rows: Vec<(String, Variant)> = vec![
+        (
+            "JPDAF, `imm` instead of `mie`".into(),
+            Variant {
+                filter: Some("imm"),
+                ..Variant::plain("JPDAF imm", "jpda")
+            },
+        ),
+        (
+            "FDB-DAF (all), `imm` instead of `mie`".into(),
+            Variant {
+                filter: Some("imm"),
+                ..fdb_all.clone()
+            },
+        ),
+        (
+            "JPDAF, `kf` (no manoeuvre model)".into(),
+            Variant {
+                filter: Some("kf"),
+                ..Variant::plain("JPDAF kf", "jpda")
+            },
+        ),
+        (
+            "JPDAF, gate P_G = 0.99 (001-s1's)".into(),
+            Variant {
+                gate: Some(0.99),
+                ..Variant::plain("JPDAF 0.99", "jpda")
+            },
+        ),
+    ];
+    let mut s2_extra = Vec::new();
+    for (label, v) in &s2_rows {
+        s2_extra.push((label.clone(), run_variant(ctx, &s2[0], v, runs)?));
+    }
+    // FDB-DAF's Eps, sensitivity
+    let eps_values = [0.4, 0.55, 0.7, 1.0, 1.3];
+    let mut eps_rows = Vec::new();
+    for e in eps_values {
+        let v = Variant::fdb(
+            &format!("eps_scale {e}"),
+            vec![("selection", s("all")), ("eps_scale", float(e))],
+        );
+        eps_rows.push((
+            e,
+            run_variant(ctx, &s1[0], &v, runs)?,
+            run_variant(ctx, &s1[1], &v, runs)?,
+            run_variant(ctx, &s2[0], &v, runs)?,
+        ));
+    }
+
+    // ---- NEES ----
+    let nees_known = run_variant(ctx, &s1_free, &Variant::plain("GNN", "gnn"), runs)?;
+    let mut no_cross = s1_free.clone();
+    no_cross.name = "001-s1-no-clutter-targets-1-3".into();
+    no_cross.targets.remove(1);
+    no_cross.tracker.initiation.method = InitiationMethod::MOfN;
+    // real track management: a track started badly (two-point velocity noise of 212 m/s)
+    // and lost is deleted, not kept for the paper's "never delete"
+    no_cross.tracker.initiation.delete_after = InitiationConfig::default().delete_after;
+    let mut nees_rows = Vec::new();
+    for (label, f, fp) in [
+        ("gnn + kf", "kf", vec![]),
+        ("gnn + imm (defaults)", "imm", vec![]),
+        (
+            "gnn + imm (omega 0.05, p_stay 0.99: its unit tests' straight-target setting)",
+            "imm",
+            vec![("omega", float(0.05)), ("p_stay", float(0.99))],
+        ),
+    ] {
+        let v = Variant {
+            filter: Some(f),
+            filter_params: fp,
+            ..Variant::plain(label, "gnn")
+        };
+        nees_rows.push((label.to_string(), run_variant(ctx, &no_cross, &v, runs)?));
+    }
+    // the same KF check on other random draws (master seed + 1)
+    let mut other_seed = no_cross.clone();
+    other_seed.seed += 1;
+    nees_rows.insert(
+        1,
+        (
+            format!("gnn + kf, master seed {}", other_seed.seed),
+            run_variant(ctx, &other_seed, &Variant::plain("GNN kf", "gnn"), runs)?,
+        ),
+    );
+
+    // ---- timing (Table 6): the median per-run time of local tracking, the fastest of
+    // interleaved rounds ----
+    let mut timed: Vec<(String, Variant, u32)> = BASELINES
+        .iter()
+        .chain(&EXTRA)
+        .map(|(p, a)| ((*p).to_string(), Variant::plain(p, a), runs))
+        .collect();
+    timed.push(("FDB-DAF (all)".into(), fdb_all.clone(), runs));
+    timed.push((
+        "Fuzzy-GA, weighting = membership (searched every scan)".into(),
+        Variant {
+            params: vec![("weighting", s("membership"))],
+            ..Variant::plain("Fuzzy-GA membership", "fuzzy-ga")
+        },
+        runs.div_ceil(TIMING_SLOW_EVERY),
+    ));
+    let mut timing = vec![[f64::INFINITY; 2]; timed.len()];
+    for round in 0..TIMING_ROUNDS {
+        for (i, (_, v, n)) in timed.iter().enumerate() {
+            if round > 0 && i == timed.len() - 1 {
+                continue;
+            }
+            for (si, sc) in [&s1[0], &s2[0]].into_iter().enumerate() {
+                let (_, mut per_run) = monte_carlo_with(
+                    ctx,
+                    &format!("time {}", v.label),
+                    sc,
+                    &v.tracker(sc),
+                    &sc.fusion,
+                    *n,
+                    |o| o.times.track.as_secs_f64() * 1e3,
+                )?;
+                per_run.sort_by(f64::total_cmp);
+                let median = per_run.get(per_run.len() / 2).copied().unwrap_or(f64::NAN);
+                timing[i][si] = timing[i][si].min(median);
+            }
+        }
+    }
+    let timed: Vec<(String, Variant)> = timed.into_iter().map(|(a, b, _)| (a, b)).collect();
+
+    // ---------------- the Markdown ----------------
+    let mut md = String::new();
+    writeln!(
+        md,
+        "# Reproduction of paper 001: FDB-DAF (Nazari, AlyanNezhadi, Hashemi, Mirrezaei 2023)\n"
+    )?;
+    writeln!(
+        md,
+        "Tables 1, 2, 4, 5 (position RMSE per target of the single-sensor local tracker) and \
+         Table 6 (execution time) of 001, on the scenario files `scenarios/001-s1.toml`, \
+         `001-s1-l2.toml` (three linear crossing targets, lambda = 1 and 2 false alarms per km^2), \
+         `001-s2.toml`, `001-s2-l2.toml` (two manoeuvring targets, Table 3), with {runs} Monte \
+         Carlo runs each (the paper's 100), and an end-to-end NEES check of the Kalman filter.\n"
+    )?;
+    writeln!(md, "Made with:\n\n```\n{}\n```\n", ctx.command("001"))?;
+    writeln!(
+        md,
+        "Source: `crates/trackfuse-cli/src/reproduce/p001.rs`. Paper numbers transcribed from \
+         `PAPER_TABLES.md` (001).\n"
+    )?;
+
+    writeln!(md, "## Settings\n")?;
+    writeln!(
+        md,
+        "All settings are in the scenario files' `[tracker]` sections (with the reasons in \
+         comments); this reproduction only swaps the associator and its parameters on top of \
+         them:\n\n\
+         - one position sensor (H of eq. 20), Pd = 1, Poisson clutter over a box around the paths \
+           (187 km^2 in scenario 1, 672 km^2 in scenario 2), its density known to the tracker;\n\
+         - tracks start at the targets' known initial states (`[tracker.initiation] method = \
+           \"known\"`, initial standard deviations 150 m / 60 m and 10 m/s) and are never deleted;\n\
+         - scenario 1: `kf` with the truth's process noise 0.2 m/s^2 (the printed Q = 0.02^2 km^2 \
+           read as in 000-s2), dt = 1 s, 60 scans (001 gives neither), sigma = 150 m; gate \
+           P_G = 0.99;\n\
+         - scenario 2: `mie` (classical input estimation standing in for the paper's \"modified \
+           input estimation\"; `crates/trackfuse/src/local/filter/input_estimation.rs`), q = 1 m/s^2, \
+           sigma = 60 m, 118 scans; gate P_G = 1 - 1e-8 (6 sigma): `mie` needs 5 updates to detect \
+           a manoeuvre and with a 3-sigma gate every method loses both targets at the first one \
+           (row \"gate P_G = 0.99\" below);\n\
+         - FDB-DAF: MinPts = 3, Eps = 0.55 C with C = pi, the volume of the unit circle, Eps read \
+           as a Mahalanobis distance under the track's innovation covariance (1.73 sigma); no \
+           gate; eq. 12-16 exactly, the PDA covariance (with the spread of innovations) in the \
+           update;\n\
+         - the baselines as implemented in `crates/trackfuse/src/local/association/` (`fnn`, \
+           `jpda`, `mef-jpda`, `fuzzy-ga`, each with its documented defaults: `mef-jpda` and \
+           `fuzzy-ga` scale PDA likelihoods by their memberships);\n\
+         - the fusion center is a pass-through (`chi2-gnn` + `sf` on one sensor).\n"
+    )?;
+    writeln!(
+        md,
+        "**RMSE and labelling.** \"Ours\" is `Summary.local_rmse`: at each scan the local tracks \
+         are assigned to the targets by optimal assignment on position within `label_gate` = 1 km \
+         (`[evaluation]`), and the RMSE is over all (run, scan) samples where the target has a \
+         track. A track swap at a crossing therefore does *not* show as error in these tables \
+         (the labels follow the positions), and a lost track drops out of the RMSE instead of \
+         inflating it: the *coverage* column (labelled samples over truth points, per target) \
+         shows losses. The section \"Swaps and losses\" gives the RMSE with each track paired for \
+         the whole run with the target it started on (the fixed pairing of eq. 17), and how many \
+         runs end with a track on the wrong target or lost.\n"
+    )?;
+
+    // ---- Table 1 ----
+    writeln!(md, "## Table 1: scenario 1, compared methods\n")?;
+    let header1 = [
+        "method",
+        "lambda",
+        "T1 paper",
+        "T1 ours",
+        "diff",
+        "T2 paper",
+        "T2 ours",
+        "diff",
+        "T3 paper",
+        "T3 ours",
+        "diff",
+        "coverage T1/T2/T3",
+    ];
+    let mut rows = Vec::new();
+    let all_rows: Vec<&str> = BASELINES
+        .iter()
+        .map(|b| b.0)
+        .chain(EXTRA.iter().map(|e| e.0))
+        .chain(std::iter::once("FDB-DAF (all)"))
+        .collect();
+    for (i, name) in all_rows.iter().enumerate() {
+        for (li, &lambda) in lambdas.iter().enumerate() {
+            let o = &r1[i][li];
+            let paper = TABLE1
+                .iter()
+                .find(|(n, l, _)| n == name && *l == lambda)
+                .map(|x| x.2);
+            let paper = if *name == "FDB-DAF (all)" && lambda == 1 {
+                Some(TABLE2[10])
+            } else {
+                paper
+            };
+            let tag = if i >= BASELINES.len() && *name != "FDB-DAF (all)" {
+                format!("{name} (ours)")
+            } else if *name == "FDB-DAF (all)" {
+                format!("{name} (Table 2)")
+            } else {
+                (*name).to_string()
+            };
+            let mut row = vec![tag, lambda.to_string()];
+            for t in 0..3 {
+                row.extend(triple(
+                    paper.map(|p| p[t]),
+                    o.rmse.get(t).copied().flatten(),
+                ));
+            }
+            row.push(cov_cell(o));
+            rows.push(row);
+        }
+    }
+    for (label, o) in [
+        ("GNN, no clutter (bound)", &free1[0]),
+        ("FDB-DAF (all), no clutter", &free1[1]),
+    ] {
+        let mut row = vec![label.to_string(), "0".into()];
+        for t in 0..3 {
+            row.extend(triple(None, o.rmse.get(t).copied().flatten()));
+        }
+        row.push(cov_cell(o));
+        rows.push(row);
+    }
+    md.push_str(&md_table(&header1, &rows));
+    md.push('\n');
+
+    // ratios and ranking
+    let avg = |o: &Outcome| mean(&o.rmse);
+    let bound = avg(&free1[0]);
+    let mut ranking: Vec<(String, f64)> = all_rows
+        .iter()
+        .enumerate()
+        .filter(|(i, n)| *i < BASELINES.len() || **n == "FDB-DAF (all)")
+        .filter_map(|(i, n)| avg(&r1[i][0]).map(|v| ((*n).to_string(), v)))
+        .collect();
+    ranking.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let mut paper_rank: Vec<(String, f64)> = TABLE1
+        .iter()
+        .filter(|x| x.1 == 1)
+        .map(|x| (x.0.to_string(), x.2.iter().sum::<f64>() / 3.0))
+        .chain(std::iter::once((
+            "FDB-DAF (all)".to_string(),
+            TABLE2[10].iter().sum::<f64>() / 3.0,
+        )))
+        .collect();
+    paper_rank.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let fmt_rank = |r: &[(String, f64)]| {
+        r.iter()
+            .map(|(n, v)| format!("{n} {v:.1}"))
+            .collect::<Vec<_>>()
+            .join(" < ")
+    };
+    writeln!(
+        md,
+        "Mean over the three targets at lambda = 1, best first: paper {}; ours {}.\n",
+        fmt_rank(&paper_rank),
+        fmt_rank(&ranking)
+    )?;
+    writeln!(
+        md,
+        "**Why our numbers are 2-7 times the paper's.** With sigma = 150 m, q = 0.2 m/s^2 and \
+         dt = 1 s even a clutter-free Kalman filter with perfect association averages {} m over \
+         our 60 scans (row \"no clutter\"; the Riccati recursion from the 150 m initial \
+         uncertainty gives 77 m, its steady state 48 m): every entry of Tables 1-2 (17-54 m) is \
+         below what the printed noise allows at dt = 1 s, so the paper's sampling interval (not \
+         given) must be shorter, its run longer, or its RMSE computed otherwise (eq. 17 is per \
+         scan; how the tables average it is not said). We keep dt = 1 s and 60 scans (the \
+         scenario files' documented reading) rather than pick a dt that would bring the \
+         numbers down; the ratios between methods are what compare.\n",
+        m(bound)
+    )?;
+    writeln!(
+        md,
+        "**Why the ranking differs.** In the paper Fuzzy-GA and FDB-DAF (all) are best and JPDAF \
+         and MEF-JPDAF follow. Ours puts the PDA-type methods (JPDA, MEF-JPDA, Fuzzy-GA and our \
+         PDA) within a few percent of each other and nearest the clutter-free bound, and \
+         FDB-DAF (all) last, level with or behind FNN (ranking line above; at lambda = 2 see \
+         the table). We checked \
+         FDB-DAF against 001's Fig. 1 and eq. 12-16 again (clustering seeded at each \
+         prediction with the MinPts rule, memberships over the targets with alpha = \
+         -ln(1e-6) / d_min, selection, per-target normalisation) and found no departure that \
+         would change this; the reasons are in eq. 12-16 themselves:\n\n\
+         1. Eq. 12 normalises each measurement's membership over the *targets*. A target with no \
+            other target near it gives every measurement of its cluster u = 1 (the other \
+            targets' terms vanish), so \"all measurements\" (eq. 16) is the *unweighted* mean of \
+            the cluster: a false alarm 1.7 sigma away pulls as hard as the target's own \
+            measurement, and there is no \"none of them\" hypothesis (no beta_0). PDA, JPDA and \
+            our MEF-JPDA / Fuzzy-GA weigh each measurement by its likelihood against the clutter \
+            density and keep a miss hypothesis.\n\
+         2. Eps = 0.55 C = 1.73 innovation standard deviations holds the target's own \
+            measurement with probability 1 - exp(-1.73^2/2) = 0.775, so on about one scan in \
+            four the cluster holds only false alarms (full weight) or nothing (the track \
+            coasts). Without clutter this alone costs FDB-DAF {} m against {} m (row \"no \
+            clutter\"). A larger Eps catches the measurement more often but lets the density \
+            clustering chain through the clutter (section \"FDB-DAF's Eps\").\n\
+         3. Top-k and threshold selection work on the same memberships: for an isolated target \
+            top-k is \"the k nearest clustered measurements, equally weighted\" (ties of u = 1 \
+            broken by distance) and a threshold xi < 1 keeps the whole cluster, so the \
+            thresholds differ only at the crossings (Table 2 below).\n\n\
+         The paper's FDB-DAF (all) at 17 m, beside its JPDAF at 26 m, would need memberships \
+         that fall with distance inside one target's cluster, which eq. 12 does not give. Our \
+         JPDA, MEF-JPDA and Fuzzy-GA being within a few percent of each other (not 26 vs 29 vs \
+         18 m) follows from the baselines: with one isolated target per gate they all reduce to \
+         PDA, and differ only where gates overlap, at the two crossings.\n",
+        m(avg(&free1[1])),
+        m(bound)
+    )?;
+
+    // ---- Table 2 ----
+    writeln!(md, "## Table 2: scenario 1, FDB-DAF variants\n")?;
+    writeln!(
+        md,
+        "Table 2 does not state lambda; it is compared with our lambda = 1 (its \"all \
+         measurements\" row, 17.32 m, is below Table 1's best lambda = 1 entry, as the text says; \
+         lambda = 2 would fit too), and our lambda = 2 is given beside it. xi = 1.00 and 1.50 \
+         cannot be reached by any membership of eq. 12 (u < 1 whenever two or more targets are \
+         tracked, and 1.5 > 1 always), so with the previous engineers we read them as percent \
+         (0.010, 0.015); no reading of them as membership thresholds reproduces the paper's \
+         increase of RMSE with xi, because for an isolated target every clustered measurement \
+         has u = 1 and passes every threshold below 1.\n"
+    )?;
+    let header2 = [
+        "variant",
+        "T1 paper",
+        "T1 ours",
+        "diff",
+        "T2 paper",
+        "T2 ours",
+        "diff",
+        "T3 paper",
+        "T3 ours",
+        "diff",
+        "coverage",
+        "ours lambda=2 T1/T2/T3",
+        "coverage lambda=2",
+    ];
+    let mut rows = Vec::new();
+    for (i, v) in fdbs.iter().enumerate() {
+        let [o1, o2] = &f1[i];
+        let mut row = vec![v.label.clone()];
+        for (t, &paper) in TABLE2[i].iter().enumerate() {
+            row.extend(triple(Some(paper), o1.rmse.get(t).copied().flatten()));
+        }
+        row.push(cov_cell(o1));
+        row.push(
+            o2.rmse
+                .iter()
+                .map(|r| m(*r))
+                .collect::<Vec<_>>()
+                .join(" / "),
+        );
+        row.push(cov_cell(o2));
+        rows.push(row);
+    }
+    md.push_str(&md_table(&header2, &rows));
+    md.push('\n');
+    let k_trend: Vec<String> = (0..5).map(|i| m(avg(&f1[i][0]))).collect();
+    let xi_trend: Vec<String> = (5..10).map(|i| m(avg(&f1[i][0]))).collect();
+    writeln!(
+        md,
+        "Mean over the targets at lambda = 1: k = 1..5: {}; xi = 0.10, 0.25, 0.50, 1.00, 1.50: \
+         {}; all: {} m. The paper's trend with k (RMSE falls as k grows, k = 1 worst) holds in \
+         ours only from k = 1 to k = 2: k = 1 is the nearest measurement inside the 1.73-sigma \
+         neighbourhood, which misses the target's own measurement on a quarter of the scans \
+         (and is worse than FNN, where the paper finds it better); from k = 4 on top-k is \
+         almost always the whole cluster, hence equal to \"all\", and a second equally \
+         weighted measurement helps only as long as it is more often the target's than a false \
+         alarm. The paper's trend with xi does not appear (see above), nor its gap between \
+         k = 5 and \"all\", nor its \"the second strategy is better\": here the thresholds \
+         are all within a few percent of \"all\".\n",
+        k_trend.join(", "),
+        xi_trend.join(", "),
+        m(avg(&f1[10][0]))
+    )?;
+
+    // ---- Table 4 ----
+    writeln!(md, "## Table 4: scenario 2, compared methods\n")?;
+    let header4 = [
+        "method",
+        "lambda",
+        "T1 paper",
+        "T1 ours",
+        "diff",
+        "T2 paper",
+        "T2 ours",
+        "diff",
+        "coverage T1/T2",
+    ];
+    let mut rows = Vec::new();
+    for (i, name) in all_rows.iter().enumerate() {
+        for (li, &lambda) in lambdas.iter().enumerate() {
+            let o = &r2[i][li];
+            let paper: Option<[Option<f64>; 2]> = if *name == "FDB-DAF (all)" {
+                let r = TABLE5[10];
+                Some(if lambda == 1 {
+                    [r[0], r[1]]
+                } else {
+                    [r[2], r[3]]
+                })
+            } else {
+                TABLE4
+                    .iter()
+                    .find(|(n, l, _)| n == name && *l == lambda)
+                    .map(|x| [Some(x.2[0]), Some(x.2[1])])
+            };
+            let tag = if i >= BASELINES.len() && *name != "FDB-DAF (all)" {
+                format!("{name} (ours)")
+            } else if *name == "FDB-DAF (all)" {
+                format!("{name} (Table 5)")
+            } else {
+                (*name).to_string()
+            };
+            let mut row = vec![tag, lambda.to_string()];
+            for t in 0..2 {
+                row.extend(triple(
+                    paper.and_then(|p| p[t]),
+                    o.rmse.get(t).copied().flatten(),
+                ));
+            }
+            row.push(cov_cell(o));
+            rows.push(row);
+        }
+    }
+    for (label, o) in s2_extra.iter().map(|(l, o)| (l.as_str(), o)).chain([
+        ("GNN, no clutter (bound)", &free2[0]),
+        ("FDB-DAF (all), no clutter", &free2[1]),
+    ]) {
+        let lam = if label.contains("no clutter") {
+            "0"
+        } else {
+            "1"
+        };
+        let mut row = vec![label.to_string(), lam.into()];
+        for t in 0..2 {
+            row.extend(triple(None, o.rmse.get(t).copied().flatten()));
+        }
+        row.push(cov_cell(o));
+        rows.push(row);
+    }
+    md.push_str(&md_table(&header4, &rows));
+    md.push('\n');
+    let fdb2 = &r2[all_rows.len() - 1][0];
+    writeln!(
+        md,
+        "**Reading.** The RMSE here is over the labelled samples only (a track within 1 km of \
+         its target), so it must be read with the coverage. Without clutter, GNN with `mie` \
+         follows both targets through all manoeuvres (coverage {} %, RMSE {} m, the bound). \
+         FDB-DAF (all) follows them for {} of the scans and loses both at the first manoeuvre \
+         (t = 21 s) in every run, with or without clutter: its Eps (1.73 innovation standard \
+         deviations, fixed by the paper, against the gated methods' 6) is left by the target's \
+         measurement within a few scans of the onset, before `mie` has the 5 updates it needs to \
+         detect the manoeuvre. (001's Fig. 3 shows its FDB-DAF following both targets; ours \
+         cannot with the paper's Eps, see also \"FDB-DAF's Eps\".) The gated methods keep the \
+         measurement in their gate, but in clutter a false alarm nearer the prediction than the \
+         manoeuvring target's measurement takes over often enough that JPDAF loses a track in \
+         {} of the runs at lambda = 1 and {} at lambda = 2 (coverage {} and {}); the \
+         nearest-neighbour methods (FNN, NN, GNN) lose one in almost every run. So our RMSEs \
+         are lower than the paper's because they leave the lost parts out; the paper's values \
+         (275-635 m) are of the size of tracks that lag by hundreds of metres or are partly \
+         lost, which eq. 17 over all scans would give. Entry by entry the two cannot be \
+         compared; the paper's ranking FNN worst, then JPDAF, MEF-JPDAF, Fuzzy-GA holds in ours \
+         only as \"nearest-neighbour methods worse than PDA-type ones\", with FDB-DAF last by \
+         coverage. `imm` (CV + two coordinated turns) does worse than `mie` here, as the \
+         filter's documentation measured: the accelerations of Table 3 are largely \
+         along-track, which coordinated turns do not model; a CV `kf` loses both targets, and \
+         so does every method with 001-s1's 3-sigma gate.\n",
+        free2[0]
+            .coverage
+            .iter()
+            .map(|c| format!("{:.0}", c * 100.0))
+            .collect::<Vec<_>>()
+            .join(" / "),
+        m(avg(&free2[0])),
+        pct(fdb2.mean_coverage()),
+        pct(f64::from(r2[1][0].lost_runs) / f64::from(runs)),
+        pct(f64::from(r2[1][1].lost_runs) / f64::from(runs)),
+        pct(r2[1][0].mean_coverage()),
+        pct(r2[1][1].mean_coverage()),
+    )?;
+
+    // ---- Table 5 ----
+    writeln!(md, "## Table 5: scenario 2, FDB-DAF variants\n")?;
+    let header5 = [
+        "variant",
+        "l=1 T1 paper",
+        "l=1 T1 ours",
+        "diff",
+        "l=1 T2 paper",
+        "l=1 T2 ours",
+        "diff",
+        "l=2 T1 paper",
+        "l=2 T1 ours",
+        "diff",
+        "l=2 T2 paper",
+        "l=2 T2 ours",
+        "diff",
+        "coverage l=1 / l=2",
+    ];
+    let mut rows = Vec::new();
+    for (i, v) in fdbs.iter().enumerate() {
+        let mut row = vec![v.label.clone()];
+        for (li, o) in f2[i].iter().enumerate() {
+            for t in 0..2 {
+                row.extend(triple(
+                    TABLE5[i][2 * li + t],
+                    o.rmse.get(t).copied().flatten(),
+                ));
+            }
+        }
+        row.push(format!(
+            "{} / {}",
+            pct(f2[i][0].mean_coverage()),
+            pct(f2[i][1].mean_coverage())
+        ));
+        rows.push(row);
+    }
+    md.push_str(&md_table(&header5, &rows));
+    md.push('\n');
+    writeln!(
+        md,
+        "Every variant shares the loss at the first manoeuvre described under Table 4, so \
+         their RMSEs (over the part of the run before the loss) are close to each other and \
+         lower than the paper's, and their ordering says little.\n"
+    )?;
+
+    // ---- Eps ----
+    writeln!(md, "## FDB-DAF's Eps (sensitivity, \"all measurements\")\n")?;
+    writeln!(
+        md,
+        "Eps = eps_scale x pi innovation standard deviations; 0.55 is the paper's. Mean RMSE \
+         over the targets, with the mean coverage.\n"
+    )?;
+    let mut rows = Vec::new();
+    for (e, a, b, c) in &eps_rows {
+        rows.push(vec![
+            format!("{e}"),
+            format!("{:.2}", e * std::f64::consts::PI),
+            m(avg(a)),
+            pct(a.mean_coverage()),
+            m(avg(b)),
+            pct(b.mean_coverage()),
+            m(avg(c)),
+            pct(c.mean_coverage()),
+        ]);
+    }
+    md.push_str(&md_table(
+        &[
+            "eps_scale",
+            "Eps (sigma)",
+            "s1 lambda=1",
+            "coverage",
+            "s1 lambda=2",
+            "coverage",
+            "s2 lambda=1",
+            "coverage",
+        ],
+        &rows,
+    ));
+    md.push('\n');
+    writeln!(
+        md,
+        "A larger Eps holds the target's own measurement more often (it helps a little at \
+         lambda = 1), but the larger the neighbourhood the more false alarms it holds and the \
+         sooner the density clustering chains through the clutter (every member with MinPts = 3 \
+         points in its neighbourhood brings them in): at lambda = 2 tracks are lost from about \
+         2.2 sigma on, at lambda = 1 from about pi. In scenario 2 (sigma = 60 m, so fewer false \
+         alarms per neighbourhood) a larger Eps keeps the targets somewhat longer through the \
+         manoeuvres, never through all of them. No value brings FDB-DAF level with the PDA-type \
+         methods of Table 1; the tables above use the paper's 0.55.\n"
+    )?;
+
+    // ---- swaps ----
+    writeln!(md, "## Swaps and losses\n")?;
+    writeln!(
+        md,
+        "Each track paired for the whole run with the target whose known state started it \
+         (the fixed pairing of eq. 17): RMSE over all scans (a swapped or lost track counts with \
+         its full error), and the share of runs in which some track ends the run nearer another \
+         target than its own (swap or coalescence) or farther than the label gate (1 km) from its \
+         own (lost).\n"
+    )?;
+    let mut rows = Vec::new();
+    for (name, res, n_t) in [("001-s1", &r1, 3usize), ("001-s2", &r2, 2usize)] {
+        for (i, label) in all_rows.iter().enumerate() {
+            for (li, &lambda) in lambdas.iter().enumerate() {
+                let o = &res[i][li];
+                let idr: Vec<String> = (0..n_t)
+                    .map(|t| m(o.identity_rmse.get(t).copied().flatten()))
+                    .collect();
+                rows.push(vec![
+                    name.to_string(),
+                    (*label).to_string(),
+                    lambda.to_string(),
+                    idr.join(" / "),
+                    pct(f64::from(o.on_other_runs) / f64::from(o.mc.runs.max(1))),
+                    pct(f64::from(o.lost_runs) / f64::from(o.mc.runs.max(1))),
+                ]);
+            }
+        }
+    }
+    md.push_str(&md_table(
+        &[
+            "scenario",
+            "method",
+            "lambda",
+            "fixed-pairing RMSE per target",
+            "runs ending on another target",
+            "runs with a lost track",
+        ],
+        &rows,
+    ));
+    md.push('\n');
+    writeln!(
+        md,
+        "In scenario 1 the tracks of targets 1 and 2 cross at t = 25 s and those of 2 and 3 at \
+         t = 35 s, with 150 m noise: a swap there would show in this table and not in Tables 1-2 \
+         (whose scan-by-scan labels follow positions). No run ends with one: at the crossings \
+         the targets' velocities differ by 200 m/s in y, and the tracks' velocity estimates \
+         carry them through; the fixed-pairing RMSEs equal the labelled ones except where a \
+         nearest-neighbour track is lost in about one run in a hundred. In scenario 2 a lost \
+         track coasts on its last estimate, including `mie`'s estimated acceleration, so its \
+         fixed-pairing RMSE grows to tens of kilometres: those entries say \"lost\", not how \
+         far.\n"
+    )?;
+
+    // ---- Table 6 ----
+    writeln!(md, "## Table 6: execution time\n")?;
+    writeln!(
+        md,
+        "Ours: the median over the runs of the wall time of local tracking of one run (the \
+         `track` stage time each run reports, which `McResult.track_time` sums), the faster of \
+         {TIMING_ROUNDS} interleaved rounds, lambda = 1, Rust release build, runs in parallel on \
+         a machine shared with other jobs (so still some tens of percent of noise). It is the \
+         whole tracking stage: sorting and indexing the scan's measurements (187 or 672 false \
+         alarms per scan) and the filter are common to every method. The paper's: MATLAB on an \
+         Intel i7-6500 (2.5 GHz), seconds for its 100 runs; only the ratios to FDB-DAF \
+         compare.\n"
+    )?;
+    let fdb_idx = all_rows.len() - 1;
+    let (f_lin, f_man) = (timing[fdb_idx][0], timing[fdb_idx][1]);
+    let mut rows = Vec::new();
+    for (i, (name, _)) in timed.iter().enumerate() {
+        let paper = TABLE6
+            .iter()
+            .find(|x| x.0 == name || (name == "FDB-DAF (all)" && x.0 == "FDB-DAF"));
+        let [lin, man] = timing[i];
+        let paper_fdb = TABLE6[4];
+        let label = if paper.is_none() {
+            format!("{name} (ours)")
+        } else if name == "Fuzzy-GA" {
+            "Fuzzy-GA (note)".to_string()
+        } else {
+            name.clone()
+        };
+        rows.push(vec![
+            label,
+            num(paper.map(|p| p.1), 2),
+            num(paper.map(|p| p.2), 2),
+            num(paper.map(|p| p.1 / paper_fdb.1), 2),
+            num(paper.map(|p| p.2 / paper_fdb.2), 2),
+            format!("{lin:.2}"),
+            format!("{man:.2}"),
+            format!("{:.2}", lin / f_lin),
+            format!("{:.2}", man / f_man),
+        ]);
+    }
+    md.push_str(&md_table(
+        &[
+            "method",
+            "paper linear (s)",
+            "paper manoeuvring (s)",
+            "paper ratio linear",
+            "paper ratio manoeuvring",
+            "ours linear (ms/run)",
+            "ours manoeuvring (ms/run)",
+            "our ratio linear",
+            "our ratio manoeuvring",
+        ],
+        &rows,
+    ));
+    md.push('\n');
+    let ga = &timing[3];
+    let ga_full = &timing[timed.len() - 1];
+    writeln!(
+        md,
+        "Ratios are to FDB-DAF (all) of the same column. In ours every method but Fuzzy-GA \
+         costs about the same, within the noise: per scan the cost is dominated by what all \
+         share (sorting and indexing the scan's measurements, the filter), and each \
+         association touches only the few measurements of a gate or of a neighbourhood, found \
+         by the same sorted sweep. So the paper's reason for FDB-DAF's speed (no gating) does \
+         not show: a gate found by binary search costs no more than the density clustering's \
+         neighbourhood queries. Fuzzy-GA (note): our `fuzzy-ga` (default weighting \
+         `revised-pda`) runs its genetic search only for groups of tracks that share validated \
+         measurements (a lone track's c-means memberships do not depend on its centre), i.e. at \
+         the crossings: {:.1} x FDB-DAF in scenario 1, {:.1} x in scenario 2, far below the \
+         paper's 7.6 x and 9.2 x. The last row forces the search every scan (`weighting = \
+         \"membership\"`, whose noise cluster makes a lone track's memberships depend on its \
+         centre; 20 chromosomes x 31 generations of objective evaluations per group and scan, \
+         timed once, on {} runs): {:.0} x in scenario 1 and {:.0} x in scenario 2, where the 6-sigma \
+         gates hold more measurements; the paper's ratios lie between the two modes.\n",
+        ga[0] / f_lin,
+        ga[1] / f_man,
+        runs.div_ceil(TIMING_SLOW_EVERY),
+        ga_full[0] / f_lin,
+        ga_full[1] / f_man,
+    )?;
+
+    // ---- NEES ----
+    writeln!(
+        md,
+        "## Consistency check: NEES of the local tracks without clutter\n"
+    )?;
+    let n_runs = u64::from(runs);
+    let mut rows = Vec::new();
+    let band_row = |label: &str, o: &Outcome, summary: Option<f64>, rows: &mut Vec<Vec<String>>| {
+        let per_scan: Vec<(f64, u64)> = o.nees_per_scan.values().copied().collect();
+        let n = per_scan.iter().map(|x| x.1).max().unwrap_or(0);
+        let (lo, hi) = nees_band(n.max(1));
+        let inside = per_scan
+            .iter()
+            .filter(|(s, c)| {
+                let v = s / *c as f64;
+                *c > 0 && (lo..=hi).contains(&v)
+            })
+            .count();
+        let all: (f64, u64) = per_scan
+            .iter()
+            .fold((0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        let scans: Vec<u32> = o.nees_per_scan.keys().copied().collect();
+        let outside = |f: &dyn Fn(f64) -> bool| -> Vec<u32> {
+            scans
+                .iter()
+                .zip(&per_scan)
+                .filter(|(_, (s, c))| *c > 0 && f(s / *c as f64))
+                .map(|(k, _)| *k)
+                .collect()
+        };
+        let below = outside(&|v| v < lo);
+        let above = outside(&|v| v > hi);
+        let tail_from = per_scan.len() * 2 / 3;
+        let tail: (f64, u64) = per_scan[tail_from..]
+            .iter()
+            .fold((0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        rows.push(vec![
+            label.to_string(),
+            num(summary, 2),
+            num((all.1 > 0).then(|| all.0 / all.1 as f64), 2),
+            num((tail.1 > 0).then(|| tail.0 / tail.1 as f64), 2),
+            format!("[{lo:.2}, {hi:.2}] (n = {n})"),
+            format!("{} of {}", inside, per_scan.len()),
+            format!(
+                "below: {}; above: {}",
+                scan_ranges(&below),
+                scan_ranges(&above)
+            ),
+        ]);
+    };
+    band_row(
+        "001-s1 without clutter, 3 targets, known start, gnn + kf",
+        &nees_known,
+        nees_known.mc.summary.nees_local,
+        &mut rows,
+    );
+    for (f, o) in &nees_rows {
+        band_row(
+            &format!("001-s1 without clutter, targets 1 and 3, M-of-N start, {f}"),
+            o,
+            o.mc.summary.nees_local,
+            &mut rows,
+        );
+    }
+    md.push_str(&md_table(
+        &[
+            "case",
+            "`Summary.nees_local`",
+            "NEES (own pairing)",
+            "own pairing, last third of the scans",
+            "95 % band per scan",
+            "scans inside the band",
+            "scans outside",
+        ],
+        &rows,
+    ));
+    md.push('\n');
+    writeln!(
+        md,
+        "4-dimensional NEES `e^T P^-1 e` of the local tracks against the truth, ideal 4, on \
+         {n_runs} runs. The band is the two-sided 95 % chi-square band of the mean of n = runs x \
+         targets NEES values of one scan, `[chi2_0.025(4n) / n, chi2_0.975(4n) / n]`. \"Own \
+         pairing\" pairs each track with the target it follows (the target it started on, or \
+         its label for M-of-N tracks) and averages over all scans and runs. (`ekf` is `kf` for \
+         a position sensor.)\n\n\
+         - **Three crossing targets, known start** (the 001-s1 setting without clutter): \
+           `Summary.nees_local` is far above 4 without the filter being at fault. The \
+           evaluation labels tracks scan by scan on *position*, and at a crossing (t = 25 s, \
+           35 s) the two tracks are for a scan or two nearer each other's target, where the \
+           velocity error (200 m/s in y against a velocity standard deviation of 1-2 m/s) gives \
+           a NEES of ~10^4, which dominates the mean. With the own pairing the filter is \
+           *pessimistic* at first: the known initial state is the exact truth while the tracker \
+           is told 150 m / 10 m/s, and with q = 0.2 m/s^2 the velocity prior is forgotten \
+           slowly; from the last third of the run on it is inside the band.\n\
+         - **Targets 1 and 3 only** (parallel, 2 km apart: no crossing), M-of-N initiation \
+           (two-point differencing, whose initial covariance is that of its errors) with the \
+           default deletion after 5 misses: here `Summary.nees_local` itself is the end-to-end \
+           check, and the Kalman filter `kf` passes it (its mean inside the band). With the \
+           scenario's seed one stretch of scans falls below the band, with the next master seed \
+           none: the run-averaged NEES of consecutive scans is strongly correlated (the same \
+           runs, slowly varying errors), so scans outside the band come in stretches that vary \
+           from draw to draw, and their share is not a per-scan 5 %.\n\
+         - The IMM (`imm`) is *conservative* here, below the band on almost every scan: its \
+           coordinated-turn modes (+-0.1 rad/s by default) predict a 270 m/s target 27 m/s off \
+           the CV velocity per scan, and the mixing keeps that spread in the covariance while \
+           the target goes straight; with this scenario's small q = 0.2 m/s^2 the spread \
+           dominates. Its unit tests (`crates/trackfuse/src/local/filter/imm.rs`) pass with \
+           q = 2 m/s^2 and their own note that the IMM sits below 4 on a straight target; their \
+           omega 0.05 / p_stay 0.99 setting is still below the band here. This is the known \
+           price of the IMM's model set, not a fault of the update.\n"
+    )?;
+    Ok(md)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi_square_band_matches_tables() {
+        assert!((normal_quantile(0.975) - 1.959_964).abs() < 1e-6);
+        assert!((normal_quantile(0.01) + 2.326_348).abs() < 1e-4);
+        // chi2 quantiles, 100 degrees of freedom (standard tables): 74.222, 129.561
+        assert!((chi2_quantile(0.025, 100.0) / 74.222 - 1.0).abs() < 2e-3);
+        assert!((chi2_quantile(0.975, 100.0) / 129.561 - 1.0).abs() < 2e-3);
+        // the NEES band of 25 runs of 4 dof is that over 4
+        let (lo, hi) = nees_band(25);
+        assert!((lo - 74.222 / 25.0).abs() < 0.01 && (hi - 129.561 / 25.0).abs() < 0.01);
+    }
+
+    #[test]
+    fn scan_ranges_are_compact() {
+        assert_eq!(scan_ranges(&[]), "none");
+        assert_eq!(scan_ranges(&[3]), "3");
+        assert_eq!(scan_ranges(&[0, 1, 2, 5, 7, 8]), "0-2, 5, 7-8");
+    }
+
+    #[test]
+    fn variants_set_their_parameters_on_the_scenario() {
+        let sc = scenario("001-s1").unwrap();
+        let v = &fdb_variants()[1];
+        let cfg = v.tracker(&sc);
+        assert_eq!(cfg.associator, "fdb-daf");
+        let table = &cfg.params["fdb-daf"];
+        assert_eq!(table["selection"].as_str(), Some("top-k"));
+        assert_eq!(table["k"].as_integer(), Some(2));
+        // the scenario's own keys stay
+        assert_eq!(table["eps_scale"].as_float(), Some(0.55));
+        assert!(cfg.validate().is_ok());
+        // xi printed as 1.00 runs as a percentage
+        assert!(fdb_variants()[8].label.contains("run as 0.01"));
+    }
+}
