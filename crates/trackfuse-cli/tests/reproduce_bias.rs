@@ -15,7 +15,15 @@ fn reproduce_bias_smoke() {
         .success();
     let md = std::fs::read_to_string(&out).expect("markdown");
     assert!(md.contains("trackfuse reproduce bias --runs 2"), "{md}");
-    assert!(md.contains("| biased, `fdbsc` bias estimation |"), "{md}");
-    assert!(md.contains("| no biases (reference) |"), "{md}");
+    assert!(
+        md.contains("| bias-radars, `fdbsc` (the scenario's settings) |"),
+        "{md}"
+    );
+    assert!(md.contains("| bias-radars-nobias (reference) |"), "{md}");
     assert!(md.contains("## Bias estimates after the last scan"), "{md}");
+    assert!(
+        md.contains("## The same on files, as a user runs it"),
+        "{md}"
+    );
+    assert!(md.contains("sensor_id,bias_r,bias_theta"), "{md}");
 }

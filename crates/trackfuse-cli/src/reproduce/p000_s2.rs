@@ -4,11 +4,34 @@
 //! settings its `[tracker]` and `[fusion]` sections give; extra rows for the `ci` and `bc`
 //! rules. Every variant runs with the `fdbsc` bias estimator (eq. 15), as the paper's
 //! methods do in scenario II.
+//!
+//! Each run is simulated and tracked once; the five fusion variants fuse the same local
+//! tracks. The `mmse` reference groups the local tracks by the true association: a local
+//! track is labelled with the target whose *biased image* (the truth moved by the
+//! sensor's true range and bearing bias, which the evaluation may read) it follows, by
+//! gated optimal assignment per sensor and scan. Labelling the biased tracks against the
+//! true positions instead mislabels some of them (the displacements, 0.5-1.2 km, exceed
+//! the 440 m between targets and are not a common translation), and the "oracle" would
+//! then fuse wrong tracks.
+//!
+//! The paper's local rows (about 23 m, while the raw tracks of these radars sit 0.5-0.9 km
+//! off) can only be local tracks after the center's bias correction, so the table gives
+//! both: the raw local tracks and the local tracks corrected with each run's final
+//! `fdbsc` estimates (FDBSC-TA variant), against the same labels.
 
-use super::{md_table, monte_carlo_with, num, rel, scenario, Ctx, McResult};
+use super::{md_table, num, rel, scenario, Ctx};
 use anyhow::Result;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
 use trackfuse::center::bias::BiasEstimate;
+use trackfuse::center::bias_estimation::polar_shift_position;
+use trackfuse::center::registry::make_rule;
+use trackfuse::center::{fuse_all, FusionConfig};
+use trackfuse::metrics::{evaluate_run, gated_assignment, EvalInput, RunMetrics, Summary};
+use trackfuse::montecarlo::run_parallel;
+use trackfuse::pipeline::track_run;
+use trackfuse::sim::simulate;
+use trackfuse::types::{position_of, Id, LocalTrack, Sensor, SensorKind, TruthState, Vec2};
 
 const PAPER_RUNS: u32 = 100;
 /// Table 3: (true range bias km, estimated km, true bearing bias rad, estimated rad).
@@ -29,32 +52,226 @@ const TABLE4_LOCAL: [[f64; 3]; 3] = [
     [24.63, 24.06, 24.02],
     [23.72, 22.97, 23.13],
 ];
-/// The scans after which the estimates have settled in this scenario (the parallel
-/// targets, 500 m apart at the start, separate by 20 m/s).
-const SETTLED_FROM: u32 = 80;
+/// The scan from which the "settled" RMSE is taken: the first scans with tracks (M-of-N
+/// confirms from scan 3) come before the estimator has separated the equally spaced
+/// targets (module doc of `center/bias_estimation.rs`).
+const SETTLED_FROM: u32 = 10;
+/// The fusion variants: label, method, rule.
+const VARIANTS: [(&str, &str, &str); 5] = [
+    ("FTF", "ftta", "fuzzy"),
+    ("FDBSC-TA", "fdbsc-ta", "fuzzy"),
+    ("MMSE", "fdbsc-ta", "mmse"),
+    ("FDBSC-TA + ci (extra)", "fdbsc-ta", "ci"),
+    ("FDBSC-TA + bc (extra)", "fdbsc-ta", "bc"),
+];
+/// Index of FDBSC-TA in [`VARIANTS`].
+const FDBSC: usize = 1;
 
-fn target_rmse(r: &McResult, target: i64) -> Option<f64> {
-    r.summary
-        .fused_rmse_per_target
-        .iter()
-        .find(|t| t.target_id == target)
-        .map(|t| t.rmse)
+/// The biased image of `p` in sensor `s`'s frame (what its local tracker follows).
+fn image_of(p: Vec2, s: &Sensor) -> Vec2 {
+    match s.kind {
+        SensorKind::RangeBearing => polar_shift_position(&p, &s.position(), s.bias_r, s.bias_theta),
+        SensorKind::Position => p,
+    }
 }
 
-fn settled(r: &McResult) -> Option<f64> {
-    let late: Vec<f64> = r
-        .summary
+/// `(scan, sensor, track) -> target` by gated optimal assignment of each sensor's tracks
+/// to the targets' images in its biased frame.
+fn biased_frame_labels(
+    truth: &[TruthState],
+    local: &[LocalTrack],
+    sensors: &[Sensor],
+    gate: f64,
+) -> HashMap<(u32, Id, Id), Id> {
+    let mut by_scan: BTreeMap<u32, Vec<(Id, Vec2)>> = BTreeMap::new();
+    for t in truth {
+        by_scan
+            .entry(t.scan)
+            .or_default()
+            .push((t.target_id, position_of(&t.state)));
+    }
+    let mut tracks: BTreeMap<(u32, Id), Vec<(Id, Vec2)>> = BTreeMap::new();
+    for l in local {
+        tracks
+            .entry((l.scan, l.sensor_id))
+            .or_default()
+            .push((l.track_id, position_of(&l.state)));
+    }
+    let mut labels = HashMap::with_capacity(local.len());
+    for ((scan, sensor), ts) in &tracks {
+        let (Some(targets), Some(s)) =
+            (by_scan.get(scan), sensors.iter().find(|s| s.id == *sensor))
+        else {
+            continue;
+        };
+        let images: Vec<Vec2> = targets.iter().map(|(_, p)| image_of(*p, s)).collect();
+        let pos: Vec<Vec2> = ts.iter().map(|(_, p)| *p).collect();
+        for (li, ti) in gated_assignment(&pos, &images, gate)
+            .into_iter()
+            .enumerate()
+        {
+            if let Some(ti) = ti {
+                labels.insert((*scan, *sensor, ts[li].0), targets[ti].0);
+            }
+        }
+    }
+    labels
+}
+
+/// Squared errors of local tracks, `(sensor, target) -> (sum, count)`: raw, or corrected
+/// with `estimates`.
+type LocalErrors = BTreeMap<(Id, Id), (f64, u64)>;
+
+fn local_errors(
+    truth: &[TruthState],
+    local: &[LocalTrack],
+    sensors: &[Sensor],
+    labels: &HashMap<(u32, Id, Id), Id>,
+    estimates: Option<&[BiasEstimate]>,
+) -> LocalErrors {
+    let truth_at: HashMap<(u32, Id), Vec2> = truth
+        .iter()
+        .map(|t| ((t.scan, t.target_id), position_of(&t.state)))
+        .collect();
+    let mut out = LocalErrors::new();
+    for l in local {
+        let Some(&target) = labels.get(&(l.scan, l.sensor_id, l.track_id)) else {
+            continue;
+        };
+        let Some(p) = truth_at.get(&(l.scan, target)) else {
+            continue;
+        };
+        let mut q = position_of(&l.state);
+        if let (Some(est), Some(s)) = (
+            estimates.and_then(|e| e.iter().find(|b| b.sensor_id == l.sensor_id)),
+            sensors.iter().find(|s| s.id == l.sensor_id),
+        ) {
+            q = polar_shift_position(&q, &s.position(), -est.range, -est.bearing);
+        }
+        let e = out.entry((l.sensor_id, target)).or_insert((0.0, 0));
+        e.0 += (q - p).norm_squared();
+        e.1 += 1;
+    }
+    out
+}
+
+/// One run: per variant its metrics and final bias estimates; the raw and corrected
+/// local errors.
+struct RunResult {
+    variants: Vec<(RunMetrics, Vec<BiasEstimate>)>,
+    local_raw: LocalErrors,
+    local_corrected: LocalErrors,
+}
+
+fn settled(s: &Summary) -> Option<f64> {
+    let late: Vec<f64> = s
         .fused_rmse_per_scan
         .iter()
-        .filter(|(s, _)| *s >= SETTLED_FROM)
+        .filter(|(scan, _)| *scan >= SETTLED_FROM)
         .map(|(_, v)| v * v)
         .collect();
     (!late.is_empty()).then(|| (late.iter().sum::<f64>() / late.len() as f64).sqrt())
 }
 
+fn target_rmse(s: &Summary, target: Id) -> Option<f64> {
+    s.fused_rmse_per_target
+        .iter()
+        .find(|t| t.target_id == target)
+        .map(|t| t.rmse)
+}
+
+fn merge(into: &mut LocalErrors, from: &LocalErrors) {
+    for (k, (s, n)) in from {
+        let e = into.entry(*k).or_insert((0.0, 0));
+        e.0 += s;
+        e.1 += n;
+    }
+}
+
+fn rms(e: &LocalErrors, key: (Id, Id)) -> Option<f64> {
+    e.get(&key)
+        .filter(|(_, n)| *n > 0)
+        .map(|(s, n)| (s / *n as f64).sqrt())
+}
+
+/// Mean and standard deviation.
+fn mean_std(v: &[f64]) -> (f64, f64) {
+    let n = v.len().max(1) as f64;
+    let m = v.iter().sum::<f64>() / n;
+    (
+        m,
+        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n).sqrt(),
+    )
+}
+
 pub fn run(ctx: &Ctx) -> Result<String> {
     let runs = ctx.runs_or(PAPER_RUNS);
     let sc = scenario("000-s2")?;
+    let gate = sc.evaluation.label_gate;
+    let fusions: Vec<FusionConfig> = VARIANTS
+        .iter()
+        .map(|(_, method, rule)| FusionConfig {
+            method: method.to_string(),
+            rule: rule.to_string(),
+            ..sc.fusion.clone()
+        })
+        .collect();
+    let mut needs_truth = Vec::new();
+    for f in &fusions {
+        needs_truth.push(make_rule(&f.rule, &f.params)?.needs_true_association());
+    }
+    let bar = ctx.bar(runs as u64, "000-s2: 5 variants");
+    let results: Vec<RunResult> = run_parallel(
+        runs as u64,
+        |run| -> Result<RunResult> {
+            let sim = simulate(&sc, run);
+            let local = track_run(&sc, &sc.tracker, &sim, run)?;
+            let labels = biased_frame_labels(&sim.truth, &local, &sim.sensors, gate);
+            let mut variants = Vec::with_capacity(fusions.len());
+            for (f, &truth) in fusions.iter().zip(&needs_truth) {
+                let fused = fuse_all(&local, f, Some(&sim.sensors), truth.then_some(&labels))?;
+                let metrics = evaluate_run(
+                    &EvalInput {
+                        truth: &sim.truth,
+                        fused: &fused.fused,
+                        associations: Some(&fused.associations),
+                        local: Some(&local),
+                    },
+                    &sc.evaluation,
+                );
+                variants.push((metrics, fused.bias));
+            }
+            let local_raw = local_errors(&sim.truth, &local, &sim.sensors, &labels, None);
+            let local_corrected = local_errors(
+                &sim.truth,
+                &local,
+                &sim.sensors,
+                &labels,
+                Some(&variants[FDBSC].1),
+            );
+            Ok(RunResult {
+                variants,
+                local_raw,
+                local_corrected,
+            })
+        },
+        || bar.inc(1),
+    )?;
+    bar.finish_and_clear();
+    let mut summaries = Vec::new();
+    for k in 0..VARIANTS.len() {
+        let mut m = RunMetrics::default();
+        for r in &results {
+            m.merge(&r.variants[k].0);
+        }
+        summaries.push(m.summary(&sc.evaluation));
+    }
+    let (mut raw, mut corrected) = (LocalErrors::new(), LocalErrors::new());
+    for r in &results {
+        merge(&mut raw, &r.local_raw);
+        merge(&mut corrected, &r.local_corrected);
+    }
+
     let mut md = String::new();
     writeln!(
         md,
@@ -62,58 +279,51 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     )?;
     writeln!(
         md,
-        "Made by `{}` (release build), {runs} Monte Carlo runs per row (the paper: \
-         {PAPER_RUNS}). Scenario `000-s2` (`scenarios/000-s2.toml`, the built-in default; its \
-         comments give every value the paper leaves out): three targets 500 m apart at the \
-         start, three fully overlapping radars (sigma_r = 5 m, sigma_theta = 0.1 mrad, \
-         Pd = 0.95) with biases (0.4 km, 0.03 rad), (0.5 km, 0.08 rad), (0.6 km, 0.04 rad); \
-         local trackers `{}` + `{}` with M-of-N initiation; every method with the `{}` bias \
-         estimator (000 eq. 15). FTF = `ftta` + `fuzzy`, FDBSC-TA = `fdbsc-ta` + `fuzzy`, \
-         MMSE = the `mmse` rule (the BLUE given the true association).\n",
+        "Made by `{}` (release build), {runs} Monte Carlo runs (the paper: {PAPER_RUNS}); \
+         each run is simulated and tracked once and fused by every variant. Scenario \
+         `000-s2` (`scenarios/000-s2.toml`, the built-in default; its comments give every \
+         value the paper leaves out): three targets 500 m apart at the start on a line, \
+         crossing at t = 25 s, three fully overlapping radars (sigma_r = 5 m, sigma_theta = \
+         0.1 mrad, Pd = 0.95) with biases (0.4 km, 0.03 rad), (0.5 km, 0.08 rad), (0.6 km, \
+         0.04 rad), clutter 1 per km^2; local trackers `{}` + `{}` with M-of-N initiation \
+         (first confirmed tracks at scan 3); every variant with the `{}` bias estimator \
+         (000 eq. 15) at its defaults. FTF = `ftta` + `fuzzy` (resolutions from the \
+         local-track covariances), FDBSC-TA = `fdbsc-ta` + `fuzzy`, MMSE = the `mmse` rule \
+         (the BLUE given the true association; local tracks labelled in their sensor's \
+         biased frame, see `crates/trackfuse-cli/src/reproduce/p000_s2.rs`).\n",
         ctx.command("000-s2"),
         sc.tracker.associator,
         sc.tracker.filter,
         sc.fusion.bias.clone().unwrap_or_else(|| "none".into())
     )?;
-    let variants = [
-        ("FTF", "ftta", "fuzzy"),
-        ("FDBSC-TA", "fdbsc-ta", "fuzzy"),
-        ("MMSE", "fdbsc-ta", "mmse"),
-        ("FDBSC-TA + ci (extra)", "fdbsc-ta", "ci"),
-        ("FDBSC-TA + bc (extra)", "fdbsc-ta", "bc"),
-    ];
-    let mut results = Vec::new();
-    for (label, method, rule) in variants {
-        let mut fusion = sc.fusion.clone();
-        fusion.method = method.into();
-        fusion.rule = rule.into();
-        let (r, est) = monte_carlo_with(ctx, label, &sc, &sc.tracker, &fusion, runs, |o| {
-            o.fused.bias.clone()
-        })?;
-        results.push((label, r, est));
-    }
 
+    // ---- Table 3
     writeln!(md, "## Table 3: bias estimates after the last scan\n")?;
-    let fd = &results[1].2;
     let mut rows = Vec::new();
+    let mut worst = (0.0f64, 0.0f64);
     for (i, s) in sc.sensor_table().iter().enumerate() {
-        let got: Vec<&BiasEstimate> = fd
+        let got: Vec<&BiasEstimate> = results
             .iter()
-            .flat_map(|e| e.iter())
+            .flat_map(|r| r.variants[FDBSC].1.iter())
             .filter(|e| e.sensor_id == s.id)
             .collect();
-        let n = got.len().max(1) as f64;
-        let mr = got.iter().map(|e| e.range).sum::<f64>() / n / 1e3;
-        let mb = got.iter().map(|e| e.bearing).sum::<f64>() / n;
+        let (mr, sr) = mean_std(&got.iter().map(|e| e.range / 1e3).collect::<Vec<_>>());
+        let (mb, sb) = mean_std(&got.iter().map(|e| e.bearing).collect::<Vec<_>>());
+        for e in &got {
+            worst.0 = worst.0.max((e.range - s.bias_r).abs());
+            worst.1 = worst.1.max((e.bearing - s.bias_theta).abs());
+        }
         let (tr, pr, tb, pb) = TABLE3[i];
         rows.push(vec![
             format!("S{}", i + 1),
             format!("{tr}"),
             format!("{pr}"),
-            format!("{mr:.3}"),
+            format!("{mr:.4} ± {sr:.4}"),
+            rel(mr, Some(pr)),
             format!("{tb}"),
             format!("{pb}"),
-            format!("{mb:.4}"),
+            format!("{mb:.5} ± {sb:.5}"),
+            rel(mb, Some(pb)),
         ]);
     }
     md.push_str(&md_table(
@@ -121,47 +331,55 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             "sensor",
             "true range bias (km)",
             "paper estimate",
-            "ours (FDBSC-TA, mean over runs)",
+            "ours (mean ± std over runs)",
+            "ours vs paper",
             "true bearing bias (rad)",
             "paper estimate",
             "ours",
+            "ours vs paper",
         ],
         &rows,
     ));
+    writeln!(
+        md,
+        "\nOurs: the FDBSC-TA variant's `fdbsc` estimates after the last scan. The largest \
+         error over all runs and sensors: {:.1} m in range, {:.2} mrad in bearing.\n",
+        worst.0,
+        worst.1 * 1e3
+    )?;
 
-    writeln!(md, "\n## Table 4: position RMSE (m)\n")?;
+    // ---- Table 4
+    writeln!(md, "## Table 4: position RMSE (m)\n")?;
     let mut rows = Vec::new();
+    let fd = &summaries[FDBSC];
     for (si, paper) in TABLE4_LOCAL.iter().enumerate() {
-        let mut r = vec![format!("local S{} (raw, biased)", si + 1)];
-        for (t, p) in paper.iter().enumerate() {
-            let ours = results[1]
-                .1
-                .summary
-                .local_rmse
-                .iter()
-                .find(|l| l.sensor_id == si as i64 && l.target_id == t as i64)
-                .map(|l| l.rmse);
-            r.extend([
-                format!("{p}"),
-                num(ours, 1),
-                rel(ours.unwrap_or(f64::NAN), Some(*p)),
-            ]);
+        for (label, errors) in [("raw", &raw), ("bias-corrected", &corrected)] {
+            let mut r = vec![format!("local S{} ({label})", si + 1)];
+            for (t, p) in paper.iter().enumerate() {
+                let ours = rms(errors, (si as Id, t as Id));
+                r.extend([
+                    format!("{p}"),
+                    num(ours, 1),
+                    rel(ours.unwrap_or(f64::NAN), Some(*p)),
+                ]);
+            }
+            r.extend(["-".into(), "-".into(), "-".into()]);
+            rows.push(r);
         }
-        r.extend(["-".into(), "-".into(), "-".into()]);
-        rows.push(r);
     }
-    for (k, (label, res, _)) in results.iter().enumerate() {
+    for (k, (label, _, _)) in VARIANTS.iter().enumerate() {
+        let s = &summaries[k];
         let paper = TABLE4.get(k).map(|p| p.1);
         let mut r = vec![label.to_string()];
         for t in 0..3 {
-            let ours = target_rmse(res, t as i64);
+            let ours = target_rmse(s, t as Id);
             let p = paper.map(|p| p[t]);
             r.extend([num(p, 2), num(ours, 1), rel(ours.unwrap_or(f64::NAN), p)]);
         }
         r.extend([
-            num(settled(res), 1),
-            num(res.summary.probability_correct_association, 3),
-            num(res.summary.track_coverage, 3),
+            num(settled(s), 1),
+            num(s.probability_correct_association, 3),
+            num(s.track_coverage, 3),
         ]);
         rows.push(r);
     }
@@ -177,63 +395,125 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             "T3 paper",
             "T3 ours",
             "diff",
-            &format!("ours from scan {SETTLED_FROM}"),
+            &format!("ours, all targets, from scan {SETTLED_FROM}"),
             "P_c",
             "coverage",
         ],
         &rows,
     ));
-    // runs whose final estimates are all within 10 % (range) and 5 mrad (bearing)
-    let truth = sc.sensor_table();
-    let converged = fd
-        .iter()
-        .filter(|run| {
-            truth.iter().all(|s| {
-                run.iter().any(|e| {
-                    e.sensor_id == s.id
-                        && (e.range - s.bias_r).abs() <= 0.1 * s.bias_r.abs()
-                        && (e.bearing - s.bias_theta).abs() <= 0.005
-                })
-            })
-        })
-        .count();
-    let fdbsc = &results[1].1;
-    let mut order: Vec<(f64, &str)> = results[..3]
-        .iter()
-        .map(|(l, r, _)| (r.summary.fused_rmse.unwrap_or(f64::INFINITY), *l))
+    writeln!(
+        md,
+        "\nOurs are eq. 11 over every scan with an assigned estimate and every run (the \
+         assignment gate is the GOSPA cut-off, {} m). The column from scan {SETTLED_FROM} \
+         is the root mean of the per-scan mean squared errors from that scan on. Local \
+         rows: `raw` are the local tracks as reported (biased); `bias-corrected` the same \
+         tracks corrected with the run's final FDBSC-TA estimates, the reading under which \
+         the paper's local rows (about 23 m) make sense.\n",
+        sc.evaluation.gospa_c
+    )?;
+
+    // ---- discussion, from the numbers
+    let over = |k: usize| summaries[k].fused_rmse;
+    let mut order: Vec<(f64, &str)> = (0..3)
+        .map(|k| (over(k).unwrap_or(f64::INFINITY), VARIANTS[k].0))
         .collect();
     order.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let ranking = order
+    let ranking = |o: &[(f64, &str)]| {
+        o.iter()
+            .map(|(v, l)| format!("{l} ({v:.1} m)"))
+            .collect::<Vec<_>>()
+            .join(" < ")
+    };
+    let mut late: Vec<(f64, &str)> = (0..3)
+        .map(|k| {
+            (
+                settled(&summaries[k]).unwrap_or(f64::INFINITY),
+                VARIANTS[k].0,
+            )
+        })
+        .collect();
+    late.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let paper_fd = TABLE4[FDBSC].1.iter().sum::<f64>() / 3.0;
+    let fd_settled = settled(fd).unwrap_or(f64::NAN);
+    // the first scans of every variant
+    let first: Vec<u32> = fd
+        .fused_rmse_per_scan
         .iter()
-        .map(|(v, l)| format!("{l} ({v:.0} m)"))
-        .collect::<Vec<_>>()
-        .join(" < ");
-    md.push_str(&format!(
-        "\n## Where we differ, and why\n\n\
-- **Bias estimates (Table 3).** In {converged} of {} runs FDBSC-TA's final estimates are all \
-within 10 % in range and 5 mrad in bearing of the truth, as close as the paper's own; the \
-means above include the runs that did not get there, which is why they are farther off.\n\
-- **Fused RMSE (Table 4) is far above the paper's** (FDBSC-TA {} m over the run, {} m from \
-scan {SETTLED_FROM} on, against the paper's ~11.6 m). The `fdbsc` estimator \
-(`center/bias_estimation.rs`) learns only from groups that cannot as well belong to a \
-neighbouring target: here the three targets start 500 m apart while each radar's bias \
-displaces its tracks by 0.6-1.2 km, so hardly any group is unambiguous until the targets \
-have separated (they diverge at 20 m/s), and the fused tracks carry the uncorrected biases \
-for most of the run; in the runs where the estimates converge, the per-scan RMSE falls to \
-tens of metres in the last scans. The paper's numbers imply an estimator that learns from \
-the first scans; eq. 15 as printed does not say how it resolves this ambiguity. We keep \
-the estimator that does not learn from ambiguous groups: on realistic geometry it brings \
-the fused RMSE within 22 % of the bias-free run (`docs/reproduction/bias.md`); scenario II \
-as we read it stays an open problem, noted on the issue.\n\
-- **Ranking** by the fused RMSE over the run: ours {ranking}; the paper's MMSE < \
-FDBSC-TA < FTF. FTF forms no multi-sensor groups at these offsets (P_c above), so its \
-estimator never learns; from scan {SETTLED_FROM} on FDBSC-TA is well ahead of it.\n\
-- **Local rows**: ours are the raw biased local tracks, hundreds of metres off the truth; \
-the paper's ~23 m local errors must be after bias correction or in the sensors' own \
-frames (the text does not say).\n",
-        runs,
-        num(fdbsc.summary.fused_rmse, 1),
-        num(settled(fdbsc), 1),
-    ));
+        .take(6)
+        .map(|(s, _)| *s)
+        .collect();
+    let mut rows = Vec::new();
+    for (k, (label, _, _)) in VARIANTS.iter().enumerate() {
+        let mut r = vec![label.to_string()];
+        for sc_ in &first {
+            let v = summaries[k]
+                .fused_rmse_per_scan
+                .iter()
+                .find(|(s, _)| s == sc_)
+                .map(|(_, v)| *v);
+            r.push(num(v, 0));
+        }
+        rows.push(r);
+    }
+    let mut header = vec!["fused RMSE (m) at scan".to_string()];
+    header.extend(first.iter().map(|s| s.to_string()));
+    let header: Vec<&str> = header.iter().map(|s| s.as_str()).collect();
+    writeln!(
+        md,
+        "## Where we differ, and why
+"
+    )?;
+    writeln!(
+        md,
+        "- **Bias estimates (Table 3)** match the paper's accuracy or better (see the \
+         differences and the largest error above). The estimator's pairing, tested over the \
+         tracks' histories, and its joint least squares are described in \
+         `crates/trackfuse/src/center/bias_estimation.rs`."
+    )?;
+    writeln!(
+        md,
+        "- **Fused RMSE over the run is above the paper's** (FDBSC-TA {} m over the run, \
+         {fd_settled:.1} m from scan {SETTLED_FROM} on, against the paper's {paper_fd:.1} m \
+         average). Most of the excess is in the first scans, whose per-scan RMSE is:\n",
+        num(fd.fused_rmse, 1),
+    )?;
+    md.push_str(&md_table(&header, &rows));
+    writeln!(
+        md,
+        "\n  Our trackers know nothing at the start (M-of-N, first tracks at scan 3; known \
+         initial states are of no use to a biased radar, whose tracks follow the target's \
+         image 0.5-1 km away), so the first confirmed tracks reach the center uncorrected: \
+         a pair of tracks is learnt from at its second consecutive acceptance \
+         (`confirm_scans = 2`), and while a radar has confirmed only two of the three \
+         equally spaced targets a pairing shifted by one spacing fits a scan as well as the \
+         right one, so the estimator waits for the targets' relative motion (20 m/s) to \
+         tell them apart. The paper does not say how its trackers start or from which scan \
+         its RMSE counts. From scan {SETTLED_FROM} on ours is {} the paper's.",
+        if fd_settled <= paper_fd {
+            "below"
+        } else {
+            "above"
+        }
+    )?;
+    writeln!(
+        md,
+        "- **Ranking** over the run: ours {}; from scan {SETTLED_FROM}: {}; the paper's: \
+         MMSE < FDBSC-TA < FTF. The whole-run ranking is decided by the first scans (table \
+         above): there the tracks are still uncorrected or partly corrected, and the rules \
+         that average a group's members by their covariances (`mmse`, `ci`, `bc`) average \
+         the three radars' displacements, while the sharp maximum-entropy memberships of \
+         the fuzzy rule follow the member nearest the prediction. Once the biases are \
+         corrected the fused error is the residual bias error the three radars share.",
+        ranking(&order),
+        ranking(&late)
+    )?;
+    writeln!(
+        md,
+        "- **Local rows**: the raw local tracks are the radars' biased images, 0.5-0.9 km off \
+         the truth. Corrected with the final bias estimates they are within a few metres of \
+         the truth, below the paper's ~23 m: our estimates (Table 3) are closer to the truth \
+         than the paper's, whose local rows are consistent with its estimation errors (6-10 m \
+         in range and 0.3-1.3 mrad, i.e. 3-13 m at 10 km, on 5 m radars)."
+    )?;
     Ok(md)
 }

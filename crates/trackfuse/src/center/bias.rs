@@ -1,8 +1,8 @@
 //! Sensor-bias estimation and correction at the fusion center (000 eq. 15, Table 3).
 //!
-//! The seam: a [`BiasEstimator`] corrects each scan's local tracks with its current
-//! estimates before association, and updates its estimates from the scan's decisions
-//! after fusion. The center knows the sensor positions (sensors.csv) but never the true
+//! The seam: a [`BiasEstimator`] may learn from each scan's raw local tracks first
+//! ([`BiasEstimator::observe`]), corrects them with its current estimates before
+//! association, and updates its estimates from the scan's decisions after fusion. The center knows the sensor positions (sensors.csv) but never the true
 //! biases.
 
 use super::TrackGroup;
@@ -22,6 +22,13 @@ pub struct BiasEstimate {
 pub trait BiasEstimator: Send {
     /// The name (as `[fusion] bias = "..."` selects it).
     fn name(&self) -> &'static str;
+    /// Learn from one scan's uncorrected local tracks (sorted by `(sensor_id,
+    /// track_id)`) before they are corrected and associated; the center calls it each
+    /// scan just before [`correct`](Self::correct), with the same tracks. The default
+    /// does nothing. An estimator that finds its own same-target pairs learns here, so
+    /// that a scan is corrected with estimates that already include its own data (the
+    /// first scan too).
+    fn observe(&mut self, _raw: &[LocalTrack], _sensors: &[Sensor]) {}
     /// Correct `tracks` (one scan, sorted by `(sensor_id, track_id)`) in place with the
     /// current estimates.
     fn correct(&self, tracks: &mut [LocalTrack], sensors: &[Sensor]);

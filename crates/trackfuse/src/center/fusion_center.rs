@@ -7,7 +7,7 @@
 //!    predicted to it with the nearly-constant-velocity model;
 //! 2. every global track is predicted from its last update to the scan time (CV model,
 //!    white acceleration `process_noise`);
-//! 3. the bias estimator, if any, corrects the local tracks;
+//! 3. the bias estimator, if any, observes the raw local tracks and corrects them;
 //! 4. the association method groups the local tracks and says which global track each
 //!    group continues (or, for the `mmse` reference, the truth labels do);
 //! 5. the fusion rule fuses each group; groups that continue a global track update it,
@@ -227,7 +227,8 @@ impl FusionCenter {
         // the uncorrected tracks, kept only when a bias estimator will learn from them
         let mut raw = std::mem::take(&mut self.buf_raw);
         raw.clear();
-        if let (Some(b), Some(s)) = (&self.bias, &self.sensors) {
+        if let (Some(b), Some(s)) = (&mut self.bias, &self.sensors) {
+            b.observe(&sorted, s);
             raw.extend_from_slice(&sorted);
             b.correct(&mut sorted, s);
         }

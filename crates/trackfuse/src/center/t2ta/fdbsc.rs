@@ -27,7 +27,9 @@
 //! # Spatial index
 //! The Eps-neighbourhoods come from a uniform grid with cells of side (just over) Eps
 //! ([`EpsGrid`]), not from all pairs: the points are sorted by cell (no hash map, so
-//! nothing depends on hash iteration order). The components are found by one sweep over
+//! nothing depends on hash iteration order), each as one `u128` (the cell's coordinates
+//! packed in order above the point's index), so the per-scan sort and the searches
+//! compare integers. The components are found by one sweep over
 //! the sorted cells, each cell compared with itself and its four forward neighbours
 //! ([`EpsComponents::build`]); the other neighbourhood queries (splitting, continuation)
 //! look at the 3 x 3 cells around a point with three binary searches. Building is one
@@ -268,8 +270,10 @@ pub fn max_entropy_memberships(distances: &[f64], epsilon: f64, out: &mut [f64])
 pub struct EpsGrid {
     radius2: f64,
     inv_cell: f64,
-    /// `(cell x, cell y, point index)`, sorted.
-    cells: Vec<(i64, i64, u32)>,
+    /// `pack(cell x, cell y) << 32 | point index`, sorted: one primitive per point, so
+    /// the per-scan sort and the cell searches compare integers (the order is that of
+    /// `(cell x, cell y, index)`).
+    cells: Vec<u128>,
     points: Vec<Vec2>,
 }
 
@@ -285,7 +289,7 @@ impl EpsGrid {
         self.cells.clear();
         for (i, p) in self.points.iter().enumerate() {
             let (cx, cy) = cell_of(p, self.inv_cell);
-            self.cells.push((cx, cy, i as u32));
+            self.cells.push(entry(pack(cx, cy), i as u32));
         }
         self.cells.sort_unstable();
     }
@@ -309,13 +313,14 @@ impl EpsGrid {
     /// (inclusive), in grid order.
     pub fn for_each_within(&self, p: &Vec2, mut f: impl FnMut(usize, f64)) {
         let (cx, cy) = cell_of(p, self.inv_cell);
-        let (y_lo, y_hi) = (cy.saturating_sub(1), cy.saturating_add(1));
-        for x in cx.saturating_sub(1)..=cx.saturating_add(1) {
-            let start = self.cells.partition_point(|&(a, b, _)| (a, b) < (x, y_lo));
-            for &(a, b, i) in &self.cells[start..] {
-                if a != x || b > y_hi {
+        for x in cx - 1..=cx + 1 {
+            let (lo, hi) = (pack(x, cy - 1), pack(x, cy + 1));
+            let start = self.cells.partition_point(|&c| key(c) < lo);
+            for &c in &self.cells[start..] {
+                if key(c) > hi {
                     break;
                 }
+                let i = index(c);
                 let q = self.points[i as usize];
                 let d2 = squared_distance(&q, p);
                 if d2 <= self.radius2 {
@@ -326,12 +331,46 @@ impl EpsGrid {
     }
 }
 
+/// Cell coordinates are clamped to this range, so that a neighbour (+-1) still fits an
+/// `i32` and [`pack`] keeps their order. Points beyond it (farther than 2^31 cells from the
+/// origin) share the edge cells: the distance test is exact, so the result is the same.
+const CELL_MIN: i64 = i32::MIN as i64 + 2;
+const CELL_MAX: i64 = i32::MAX as i64 - 2;
+
 #[inline]
 fn cell_of(p: &Vec2, inv_cell: f64) -> (i64, i64) {
-    (
-        (p[0] * inv_cell).floor() as i64,
-        (p[1] * inv_cell).floor() as i64,
-    )
+    let c = |v: f64| ((v * inv_cell).floor() as i64).clamp(CELL_MIN, CELL_MAX);
+    (c(p[0]), c(p[1]))
+}
+
+/// Cell `(x, y)` (each within `CELL_MIN - 1 ..= CELL_MAX + 1`) as one integer ordered as
+/// `(x, y)`.
+#[inline]
+fn pack(x: i64, y: i64) -> u64 {
+    let u = |v: i64| ((v as i32 as u32) ^ 0x8000_0000) as u64;
+    (u(x) << 32) | u(y)
+}
+
+/// The coordinates of a packed cell.
+#[inline]
+fn unpack(k: u64) -> (i64, i64) {
+    let v = |u: u64| ((u as u32) ^ 0x8000_0000) as i32 as i64;
+    (v(k >> 32), v(k))
+}
+
+#[inline]
+fn entry(cell: u64, i: u32) -> u128 {
+    ((cell as u128) << 32) | i as u128
+}
+
+#[inline]
+fn key(c: u128) -> u64 {
+    (c >> 32) as u64
+}
+
+#[inline]
+fn index(c: u128) -> u32 {
+    c as u32
 }
 
 /// `dx^2 + dy^2`, the one distance formula of this module.
@@ -377,43 +416,38 @@ impl EpsComponents {
         let mut next_col = 0usize;
         let mut b0 = 0usize;
         while b0 < cells.len() {
-            let (x, y, _) = cells[b0];
+            let k0 = key(cells[b0]);
+            let (x, y) = unpack(k0);
             let mut b1 = b0 + 1;
-            while b1 < cells.len() && (cells[b1].0, cells[b1].1) == (x, y) {
+            while b1 < cells.len() && key(cells[b1]) == k0 {
                 b1 += 1;
             }
             // within the cell
             for a in b0..b1 {
                 for b in a + 1..b1 {
-                    link(cells[a].2, cells[b].2);
+                    link(index(cells[a]), index(cells[b]));
                 }
             }
             // (x, y+1): the cell right after this one, if it is that
-            if let Some(y_up) = y.checked_add(1) {
-                let mut c = b1;
-                while c < cells.len() && (cells[c].0, cells[c].1) == (x, y_up) {
-                    for a in b0..b1 {
-                        link(cells[a].2, cells[c].2);
-                    }
-                    c += 1;
+            let up = pack(x, y + 1);
+            let mut c = b1;
+            while c < cells.len() && key(cells[c]) == up {
+                for a in b0..b1 {
+                    link(index(cells[a]), index(cells[c]));
                 }
+                c += 1;
             }
             // column x+1, rows y-1 ..= y+1
-            if let Some(x_next) = x.checked_add(1) {
-                let y_lo = y.saturating_sub(1);
-                let y_hi = y.saturating_add(1);
-                while next_col < cells.len()
-                    && (cells[next_col].0, cells[next_col].1) < (x_next, y_lo)
-                {
-                    next_col += 1;
+            let (lo, hi) = (pack(x + 1, y - 1), pack(x + 1, y + 1));
+            while next_col < cells.len() && key(cells[next_col]) < lo {
+                next_col += 1;
+            }
+            let mut c = next_col;
+            while c < cells.len() && key(cells[c]) <= hi {
+                for a in b0..b1 {
+                    link(index(cells[a]), index(cells[c]));
                 }
-                let mut c = next_col;
-                while c < cells.len() && cells[c].0 == x_next && cells[c].1 <= y_hi {
-                    for a in b0..b1 {
-                        link(cells[a].2, cells[c].2);
-                    }
-                    c += 1;
-                }
+                c += 1;
             }
             b0 = b1;
         }
@@ -1295,6 +1329,32 @@ mod tests {
         tables.insert(NAME.into(), table);
         let p: FdbscParams = parse_params(&tables, NAME).unwrap();
         assert_eq!((p.eps, p.adaptive, p.eps_scale), (250.0, false, 3.0));
+    }
+
+    /// Points beyond the clamped cell range (2^31 cells from the origin) share the edge
+    /// cells; the exact distance test keeps the components right.
+    #[test]
+    fn far_points_share_edge_cells_exactly() {
+        let points = [
+            Vec2::new(1e12, 0.0),
+            Vec2::new(1e12 + 0.5, 0.0),
+            Vec2::new(-1e12, 0.0),
+            Vec2::new(1e12, 3.0),
+            Vec2::new(2e12, 0.25),
+        ];
+        let mut grid = EpsGrid::default();
+        grid.rebuild(1.0, points.iter().copied());
+        let mut comps = EpsComponents::default();
+        comps.build(&grid);
+        let sets: Vec<Vec<u32>> = (0..comps.len())
+            .map(|c| comps.component(c).to_vec())
+            .collect();
+        assert_eq!(sets, vec![vec![0, 1], vec![2], vec![3], vec![4]]);
+        assert_eq!(brute_components(&points, 1.0), vec![0, 0, 2, 3, 4]);
+        let mut near = Vec::new();
+        grid.for_each_within(&Vec2::new(1e12 + 0.25, 0.0), |i, _| near.push(i));
+        near.sort_unstable();
+        assert_eq!(near, vec![0, 1]);
     }
 
     /// Brute-force connected components of the Eps graph: labels = smallest index.
