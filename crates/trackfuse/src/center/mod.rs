@@ -73,6 +73,26 @@ pub struct AssociationContext<'a> {
     pub labels: Option<&'a [Id]>,
 }
 
+impl AssociationContext<'_> {
+    /// Check that `predicted` holds one estimate per global track (the center builds it
+    /// so; a caller driving an associator directly may not). Every association method
+    /// calls this first; the error names `method`.
+    pub fn check_predictions(
+        &self,
+        method: &str,
+        globals: &[GlobalTrack],
+    ) -> Result<(), CenterError> {
+        if self.predicted.len() != globals.len() {
+            return Err(CenterError::Input(format!(
+                "{method}: {} predicted estimates for {} global tracks",
+                self.predicted.len(),
+                globals.len()
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// A group of local tracks the associator decided follow one target.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrackGroup {

@@ -698,13 +698,7 @@ impl TrackAssociator for Chi2Gnn {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError> {
-        if ctx.predicted.len() != globals.len() {
-            return Err(CenterError::Input(format!(
-                "chi2-gnn: {} predicted estimates for {} global tracks",
-                ctx.predicted.len(),
-                globals.len()
-            )));
-        }
+        ctx.check_predictions("chi2-gnn", globals)?;
         if tracks.len() >= NONE as usize || globals.len() + tracks.len() >= NONE as usize {
             return Err(CenterError::Input("chi2-gnn: too many tracks".to_string()));
         }

@@ -896,13 +896,7 @@ impl TrackAssociator for FdbscTa {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError> {
-        if ctx.predicted.len() != globals.len() {
-            return Err(CenterError::Input(format!(
-                "{NAME}: {} predicted estimates for {} global tracks",
-                ctx.predicted.len(),
-                globals.len()
-            )));
-        }
+        ctx.check_predictions(NAME, globals)?;
         if let Some(t) = tracks
             .iter()
             .find(|t| !(t.state[0].is_finite() && t.state[2].is_finite()))

@@ -792,13 +792,7 @@ impl TrackAssociator for Fdtta {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError> {
-        if ctx.predicted.len() != globals.len() {
-            return Err(CenterError::Input(format!(
-                "{NAME}: {} predicted estimates for {} global tracks",
-                ctx.predicted.len(),
-                globals.len()
-            )));
-        }
+        ctx.check_predictions(NAME, globals)?;
         if let Some(last) = self.last_scan {
             if ctx.scan <= last {
                 return Err(CenterError::Input(format!(

@@ -262,13 +262,7 @@ impl TrackAssociator for Fta {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError> {
-        if ctx.predicted.len() != globals.len() {
-            return Err(CenterError::Input(format!(
-                "{NAME}: {} predictions for {} global tracks",
-                ctx.predicted.len(),
-                globals.len()
-            )));
-        }
+        ctx.check_predictions(NAME, globals)?;
         self.find_previous_globals(tracks, globals);
         self.position_index
             .build(ctx.predicted.iter().map(|(x, _)| x[0]));

@@ -621,13 +621,7 @@ impl TrackAssociator for Ftta {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError> {
-        if ctx.predicted.len() != globals.len() {
-            return Err(CenterError::Input(format!(
-                "{NAME}: {} predicted estimates for {} global tracks",
-                ctx.predicted.len(),
-                globals.len()
-            )));
-        }
+        ctx.check_predictions(NAME, globals)?;
         self.reports.clear();
         for t in tracks {
             let r = Report::of_track(t, &self.model, ctx.sensors)?;

@@ -599,13 +599,7 @@ impl TrackAssociator for HtT2gt {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError> {
-        if ctx.predicted.len() != globals.len() {
-            return Err(CenterError::Input(format!(
-                "{NAME}: {} predictions for {} global tracks",
-                ctx.predicted.len(),
-                globals.len()
-            )));
-        }
+        ctx.check_predictions(NAME, globals)?;
         self.map_tracklets(tracks, ctx.scan);
         self.map_centres(ctx, globals);
         self.gate_tracklets(ctx, tracks);

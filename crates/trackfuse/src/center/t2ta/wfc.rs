@@ -502,13 +502,7 @@ impl TrackAssociator for Wfc {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError> {
-        if ctx.predicted.len() != globals.len() {
-            return Err(CenterError::Input(format!(
-                "{NAME}: {} predictions for {} global tracks",
-                ctx.predicted.len(),
-                globals.len()
-            )));
-        }
+        ctx.check_predictions(NAME, globals)?;
         self.record(ctx, tracks, globals);
         self.build_points(ctx, tracks, globals);
         self.gate(ctx, tracks);
