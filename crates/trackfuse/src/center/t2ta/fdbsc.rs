@@ -537,6 +537,7 @@ pub struct FdbscTa {
     weights: Vec<f64>,
     distances: Vec<f64>,
     // splitting
+    sensor_of: Vec<Id>,
     by_sensor: Vec<(Id, u32)>,
     cluster_globals: Vec<u32>,
     global_sub: Vec<u32>,
@@ -573,6 +574,7 @@ impl FdbscTa {
             group_global: Vec::new(),
             weights: Vec::new(),
             distances: Vec::new(),
+            sensor_of: Vec::new(),
             by_sensor: Vec::new(),
             cluster_globals: Vec::new(),
             global_sub: Vec::new(),
@@ -611,14 +613,14 @@ impl FdbscTa {
     /// Split one cluster with a repeated sensor (module doc, "Splitting") and push its
     /// groups. `sorted`: the tracks are sorted by sensor (so the cluster's members,
     /// ascending, come grouped by sensor).
-    fn split_cluster(&mut self, c: usize, tracks: &[LocalTrack], sorted: bool) {
+    fn split_cluster(&mut self, c: usize, sorted: bool) {
         self.cluster_globals.clear();
         self.sub_stamp.clear();
         self.sub_centre.clear();
         // one sensor at a time, ascending sensor id
         self.by_sensor.clear();
         for &i in self.components.component(c) {
-            self.by_sensor.push((tracks[i as usize].sensor_id, i));
+            self.by_sensor.push((self.sensor_of[i as usize], i));
             self.sub_of[i as usize] = NONE;
         }
         if !sorted {
@@ -896,6 +898,18 @@ impl TrackAssociator for FdbscTa {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError> {
+        let mut groups = Vec::new();
+        self.associate_into(ctx, tracks, globals, &mut groups)?;
+        Ok(groups)
+    }
+
+    fn associate_into(
+        &mut self,
+        ctx: &AssociationContext<'_>,
+        tracks: &[LocalTrack],
+        globals: &[GlobalTrack],
+        groups: &mut Vec<TrackGroup>,
+    ) -> Result<(), CenterError> {
         ctx.check_predictions(NAME, globals)?;
         if let Some(t) = tracks
             .iter()
@@ -936,21 +950,26 @@ impl TrackAssociator for FdbscTa {
         // the center sorts the tracks by sensor, so a cluster's members (ascending
         // indices) come grouped by sensor; any other order takes a sort per cluster
         let sorted = tracks.windows(2).all(|w| w[0].sensor_id <= w[1].sensor_id);
+        // the sensor ids in one compact array: the per-cluster checks below read them in
+        // cluster order, which would otherwise touch one whole local track each
+        self.sensor_of.clear();
+        self.sensor_of.extend(tracks.iter().map(|t| t.sensor_id));
         for c in 0..self.components.len() {
             let members = self.components.component(c);
+            let sensor_of = &self.sensor_of;
             let repeated = if sorted {
                 members
                     .windows(2)
-                    .any(|w| tracks[w[0] as usize].sensor_id == tracks[w[1] as usize].sensor_id)
+                    .any(|w| sensor_of[w[0] as usize] == sensor_of[w[1] as usize])
             } else {
                 self.by_sensor.clear();
                 self.by_sensor
-                    .extend(members.iter().map(|&i| (tracks[i as usize].sensor_id, i)));
+                    .extend(members.iter().map(|&i| (sensor_of[i as usize], i)));
                 self.by_sensor.sort_unstable();
                 self.by_sensor.windows(2).any(|w| w[0].0 == w[1].0)
             };
             if repeated {
-                self.split_cluster(c, tracks, sorted);
+                self.split_cluster(c, sorted);
             } else {
                 self.push_group();
                 let members = self.components.component(c);
@@ -963,23 +982,35 @@ impl TrackAssociator for FdbscTa {
         self.memberships();
         self.adapt_eps();
 
+        // the groups of the previous scan are overwritten in place, so their member and
+        // weight buffers are reused
         let n_groups = self.group_global.len();
-        let mut groups = Vec::with_capacity(n_groups);
+        groups.truncate(n_groups);
         for g in 0..n_groups {
             let range = self.group_start[g]..self.group_start[g + 1];
-            groups.push(TrackGroup {
-                members: self.group_members[range.clone()]
+            let global = match self.group_global[g] {
+                NONE => None,
+                k => Some(k as usize),
+            };
+            if g == groups.len() {
+                groups.push(TrackGroup {
+                    members: Vec::with_capacity(range.len()),
+                    weights: Vec::with_capacity(range.len()),
+                    global,
+                });
+            }
+            let out = &mut groups[g];
+            out.members.clear();
+            out.members.extend(
+                self.group_members[range.clone()]
                     .iter()
-                    .map(|&i| i as usize)
-                    .collect(),
-                weights: self.weights[range].to_vec(),
-                global: match self.group_global[g] {
-                    NONE => None,
-                    k => Some(k as usize),
-                },
-            });
+                    .map(|&i| i as usize),
+            );
+            out.weights.clear();
+            out.weights.extend_from_slice(&self.weights[range]);
+            out.global = global;
         }
-        Ok(groups)
+        Ok(())
     }
 }
 
