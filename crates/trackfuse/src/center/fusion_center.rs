@@ -61,6 +61,9 @@ pub struct FusionCenter {
     // reused buffers (a scan of 100 000 local tracks is 20 MB: fresh buffers each scan
     // would cost page faults)
     predicted: Vec<(StateVec, StateCov)>,
+    /// Time from each global track's last update to the scan (compact: the fusion loop
+    /// reads it in group order).
+    lags: Vec<f64>,
     buf_order: Vec<usize>,
     buf_sorted: Vec<LocalTrack>,
     buf_corrected: Vec<LocalTrack>,
@@ -69,6 +72,7 @@ pub struct FusionCenter {
     buf_continued: Vec<bool>,
     buf_ids: Vec<Id>,
     buf_seen: Vec<bool>,
+    buf_keys: Vec<(Id, Id)>,
 }
 
 impl FusionCenter {
@@ -124,6 +128,7 @@ impl FusionCenter {
             last: None,
             truth_globals: HashMap::new(),
             predicted: Vec::new(),
+            lags: Vec::new(),
             buf_order: Vec::new(),
             buf_sorted: Vec::new(),
             buf_corrected: Vec::new(),
@@ -132,6 +137,7 @@ impl FusionCenter {
             buf_continued: Vec::new(),
             buf_ids: Vec::new(),
             buf_seen: Vec::new(),
+            buf_keys: Vec::new(),
         })
     }
 
@@ -283,7 +289,9 @@ impl FusionCenter {
         };
         // 2. predict globals
         self.predicted.clear();
+        self.lags.clear();
         for g in &self.globals {
+            self.lags.push(time - g.time);
             let lag = (time - g.time).max(0.0);
             let f = cv_transition(lag);
             self.predicted.push((
@@ -352,13 +360,18 @@ impl FusionCenter {
         let mut fused_est = std::mem::take(&mut self.buf_fused_est);
         fused_est.clear();
         let mut members: Vec<&LocalTrack> = Vec::new();
+        // the members' (sensor_id, track_id), group after group, taken while the tracks
+        // are in the cache: the table update below reads them from here
+        let mut keys = std::mem::take(&mut self.buf_keys);
+        keys.clear();
         for g in &groups {
             members.clear();
             members.extend(g.members.iter().map(|&m| &sorted[m]));
+            keys.extend(members.iter().map(|t| (t.sensor_id, t.track_id)));
             let (prior, gdt) = match g.global {
                 Some(gi) => (
                     Some((&self.predicted[gi].0, &self.predicted[gi].1)),
-                    time - self.globals[gi].time,
+                    self.lags[gi],
                 ),
                 None => (None, 0.0),
             };
@@ -386,6 +399,7 @@ impl FusionCenter {
         fused_ids.clear();
         // the rows of `out` are overwritten in place, so their `sources` buffers are reused
         out.fused.truncate(groups.len());
+        let mut offset = 0;
         for (k, (g, (x, p))) in groups.iter().zip(&fused_est).enumerate() {
             if k == out.fused.len() {
                 out.fused.push(FusedTrack {
@@ -397,13 +411,11 @@ impl FusionCenter {
                     sources: Vec::with_capacity(g.members.len()),
                 });
             }
+            let src = &keys[offset..offset + g.members.len()];
+            offset += g.members.len();
             let row = &mut out.fused[k];
             row.sources.clear();
-            row.sources.extend(
-                g.members
-                    .iter()
-                    .map(|&m| (sorted[m].sensor_id, sorted[m].track_id)),
-            );
+            row.sources.extend_from_slice(src);
             row.sources.sort_unstable();
             let id = match g.global {
                 Some(gi) => {
@@ -439,11 +451,11 @@ impl FusionCenter {
                 }
             };
             fused_ids.push(id);
-            for &m in &g.members {
+            for &(sensor_id, track_id) in src {
                 out.associations.push(Association {
                     scan,
-                    sensor_id: sorted[m].sensor_id,
-                    track_id: sorted[m].track_id,
+                    sensor_id,
+                    track_id,
                     fused_id: id,
                 });
             }
@@ -472,6 +484,7 @@ impl FusionCenter {
         self.buf_fused_est = fused_est;
         self.buf_continued = continued;
         self.buf_ids = fused_ids;
+        self.buf_keys = keys;
         Ok(())
     }
 
