@@ -875,7 +875,7 @@ pub fn make(tables: &ParamTables) -> Result<Box<dyn TrackAssociator>, ParamError
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{check_groups, local};
+    use crate::center::testing::{self, check_groups, ctx, local, predicted};
 
     fn diag(px: f64, pv: f64) -> StateCov {
         StateCov::from_diagonal(&nalgebra::Vector4::new(px, pv, px, pv))
@@ -888,32 +888,7 @@ mod tests {
     }
 
     fn global(id: Id, x: [f64; 4], cov: StateCov) -> GlobalTrack {
-        GlobalTrack {
-            id,
-            scan: 0,
-            time: 0.0,
-            state: StateVec::from(x),
-            cov,
-            previous: None,
-            sources: Vec::new(),
-            updates: 1,
-            misses: 0,
-        }
-    }
-
-    fn ctx<'a>(scan: u32, predicted: &'a [(StateVec, StateCov)]) -> AssociationContext<'a> {
-        AssociationContext {
-            scan,
-            time: scan as f64,
-            sensors: None,
-            predicted,
-            dt: 1.0,
-            labels: None,
-        }
-    }
-
-    fn predicted(globals: &[GlobalTrack]) -> Vec<(StateVec, StateCov)> {
-        globals.iter().map(|g| (g.state, g.cov)).collect()
+        testing::global(id, StateVec::from(x), cov)
     }
 
     fn fixed(eps: f64) -> FdttaParams {

@@ -658,39 +658,13 @@ impl TrackAssociator for HtT2gt {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{check_groups, local};
+    use crate::center::testing::{self, at, check_groups, ctx, local, predicted};
     use crate::types::{StateCov, StateVec};
     use approx::assert_relative_eq;
 
-    fn ctx<'a>(scan: u32, predicted: &'a [(StateVec, StateCov)]) -> AssociationContext<'a> {
-        AssociationContext {
-            scan,
-            time: scan as f64,
-            sensors: None,
-            predicted,
-            dt: 1.0,
-            labels: None,
-        }
-    }
-
-    fn at(mut t: LocalTrack, scan: u32) -> LocalTrack {
-        t.scan = scan;
-        t.time = scan as f64;
-        t
-    }
-
+    /// A global track at scan 0 with covariance `I`.
     fn global(id: Id, state: StateVec) -> GlobalTrack {
-        GlobalTrack {
-            id,
-            scan: 0,
-            time: 0.0,
-            state,
-            cov: StateCov::identity(),
-            previous: None,
-            sources: Vec::new(),
-            updates: 1,
-            misses: 0,
-        }
+        testing::global(id, state, StateCov::identity())
     }
 
     fn params() -> HtT2gtParams {
@@ -750,7 +724,7 @@ mod tests {
             global(10, StateVec::new(0.0, 10.0, 0.0, 0.0)),
             global(11, StateVec::new(0.0, 0.0, 0.0, 10.0)),
         ];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let mut a = HtT2gt::new(HtT2gtParams {
             epsilon: eps,
             gate: 2.0,
@@ -793,7 +767,7 @@ mod tests {
         // normalised distance 1) is beyond the gate of 0.15 and starts a new global track;
         // a tracklet moving east along y = 50 m is within it.
         let g = [global(7, StateVec::new(0.0, 100.0, 0.0, 0.0))];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let mut a = HtT2gt::new(params()).unwrap();
         let prev = [
             local(0, 1, 0.0, 100.0, 50.0, 0.0, 1.0),
@@ -850,7 +824,7 @@ mod tests {
         assert_eq!(groups[1].members, vec![1, 2]);
         // two tracks of one sensor on the same line as one global: only one joins it
         let g = [global(1, StateVec::new(0.0, 100.0, 0.0, 0.0))];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let mut a = HtT2gt::new(params()).unwrap();
         let prev = [
             local(0, 1, 10.0, 100.0, 1.0, 0.0, 1.0),
@@ -879,7 +853,7 @@ mod tests {
         // identical tracks of three sensors, a standing target (degenerate tracklets),
         // a global exactly on them, with zero velocity
         let g = [global(3, StateVec::new(100.0, 0.0, 100.0, 0.0))];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let mut a = HtT2gt::new(HtT2gtParams::default()).unwrap();
         let t: Vec<_> = (0..3)
             .map(|s| local(s, 1, 100.0, 0.0, 100.0, 0.0, 0.0))
@@ -893,7 +867,7 @@ mod tests {
         }
         // moving coincident tracks on a moving global: tracklets at distance 0
         let g = [global(3, StateVec::new(0.0, 10.0, 0.0, 10.0))];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let mut a = HtT2gt::new(HtT2gtParams::default()).unwrap();
         for scan in 0..3 {
             let x = 10.0 * scan as f64;
@@ -919,7 +893,7 @@ mod tests {
             global(1, StateVec::new(0.0, 100.0, 0.0, 100.0)),
             global(2, StateVec::new(0.0, 100.0, 0.0, 0.0)),
         ];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let mut a = HtT2gt::new(HtT2gtParams {
             max_iterations: 10,
             ..params()
