@@ -1,6 +1,6 @@
 //! Helpers for the tests of every fusion-center method (compiled in tests only).
 
-use super::{AssociationContext, GlobalTrack, TrackGroup};
+use super::{AssociationContext, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::types::{Id, LocalTrack, StateCov, StateVec};
 
 /// A local track at scan 0 with position `(x, y)`, velocity `(vx, vy)` and covariance
@@ -68,6 +68,18 @@ pub fn ctx(scan: u32, predicted: &[(StateVec, StateCov)]) -> AssociationContext<
         dt: 1.0,
         labels: None,
     }
+}
+
+/// `a.associate(ctx, tracks, globals)`, unwrapped, after [`check_groups`] on the result.
+pub fn associate_checked(
+    a: &mut dyn TrackAssociator,
+    ctx: &AssociationContext<'_>,
+    tracks: &[LocalTrack],
+    globals: &[GlobalTrack],
+) -> Vec<TrackGroup> {
+    let groups = a.associate(ctx, tracks, globals).unwrap();
+    check_groups(tracks, &groups, globals.len());
+    groups
 }
 
 /// Check the invariants every associator keeps: every track in exactly one group, at

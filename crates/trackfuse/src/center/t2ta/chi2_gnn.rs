@@ -782,7 +782,7 @@ impl TrackAssociator for Chi2Gnn {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{check_groups, ctx, global, local, predicted};
+    use crate::center::testing::{associate_checked, check_groups, ctx, global, local, predicted};
     use crate::rng::stream;
     use crate::types::Id;
     use rand::RngExt;
@@ -834,8 +834,7 @@ mod tests {
     fn two_sensors_two_targets_pair_correctly() {
         let tracks = two_sensors_two_targets();
         let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
-        let groups = gnn.associate(&ctx(0, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(sorted_members(&groups), vec![vec![0, 3], vec![1, 2]]);
         assert!(groups.iter().all(|g| g.global.is_none()));
         assert!(groups.iter().all(|g| g.weights.iter().all(|&w| w == 1.0)));
@@ -844,8 +843,7 @@ mod tests {
         let mut three = tracks.to_vec();
         three.push(local(3, 7, 2.0, 10.5, -1.0, 0.0, 25.0));
         three.push(local(3, 8, 998.0, 0.0, 503.0, -7.5, 25.0));
-        let groups = gnn.associate(&ctx(0, &[]), &three, &[]).unwrap();
-        check_groups(&three, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &three, &[]);
         assert_eq!(sorted_members(&groups), vec![vec![0, 3, 4], vec![1, 2, 5]]);
     }
 
@@ -901,10 +899,7 @@ mod tests {
             local(3, 2, 61.0, 10.0, 1.0, 0.0, 25.0),
         ];
         let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
-        let groups = gnn
-            .associate(&ctx(0, &predicted), &tracks, &globals)
-            .unwrap();
-        check_groups(&tracks, &groups, 1);
+        let groups = associate_checked(&mut gnn, &ctx(0, &predicted), &tracks, &globals);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].members, vec![0, 2]);
         assert_eq!(groups[0].global, Some(0));
@@ -929,8 +924,7 @@ mod tests {
             ..Default::default()
         })
         .unwrap();
-        let groups = gnn.associate(&ctx(0, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(sorted_members(&groups), vec![vec![0, 2], vec![1, 3]]);
     }
 
@@ -943,8 +937,7 @@ mod tests {
             local(1, 1, 0.0, 0.0, 0.0, 0.0, 0.0),
             local(2, 1, 0.0, 0.0, 0.0, 0.0, 0.0),
         ];
-        let groups = gnn.associate(&ctx(0, &[]), &z, &[]).unwrap();
-        check_groups(&z, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &z, &[]);
         assert_eq!(groups.len(), 2);
         // coincident tracks with a covariance: one group
         let c = [
@@ -1131,8 +1124,7 @@ mod tests {
             all.push(noisy(&mut rng, 2, k as i64, x, 60.0, 6.0));
         }
         let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
-        let groups = gnn.associate(&ctx(0, &[]), &all, &[]).unwrap();
-        check_groups(&all, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &all, &[]);
         let refs: Vec<(StateVec, StateCov)> = sensor1.iter().map(|t| (t.state, t.cov)).collect();
         let expected = dense(&all[sensor1.len()..], &refs, gnn.gate());
         let n1 = sensor1.len();
@@ -1270,8 +1262,7 @@ mod tests {
             local(2, 1, 0.0, 0.0, 0.0, 0.0, 25.0),
         ];
         let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
-        let groups = gnn.associate(&ctx(0, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(groups.len(), 2);
         assert!(groups.iter().any(|g| g.members.len() == 2));
     }
@@ -1297,8 +1288,7 @@ mod tests {
             }
         }
         let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
-        let groups = gnn.associate(&ctx(0, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(groups.len(), 1000);
         for g in &groups {
             assert_eq!(g.members.len(), 4);

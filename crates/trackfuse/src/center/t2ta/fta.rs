@@ -369,7 +369,7 @@ impl TrackAssociator for Fta {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{self, check_groups, ctx, local, predicted};
+    use crate::center::testing::{self, associate_checked, ctx, local, predicted};
     use approx::assert_relative_eq;
 
     /// A global track at scan 0 fused from `sources`, covariance `100 I`.
@@ -439,8 +439,7 @@ mod tests {
             local(1, 5, 5.0, 100.0, 1003.0, 0.0, 100.0),
             local(1, 6, -8.0, 100.0, 4.0, 0.0, 100.0),
         ];
-        let groups = a.associate(&ctx(0, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut a, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].members, vec![0, 3]);
         assert_eq!(groups[1].members, vec![1, 2]);
@@ -476,8 +475,7 @@ mod tests {
         step(&mut g, 1);
         let pred = predicted(&g);
         let moved = advanced(&tracks, 1);
-        let groups = a.associate(&ctx(1, &pred), &moved, &g).unwrap();
-        check_groups(&moved, &groups, 2);
+        let groups = associate_checked(&mut a, &ctx(1, &pred), &moved, &g);
         assert_eq!(
             (groups[0].global, groups[0].members.clone()),
             (Some(0), vec![0, 3])
@@ -492,8 +490,7 @@ mod tests {
         let pred = predicted(&g);
         let mut later = advanced(&moved, 2);
         later[3].state[2] = 10.0;
-        let groups = a.associate(&ctx(2, &pred), &later, &g).unwrap();
-        check_groups(&later, &groups, 2);
+        let groups = associate_checked(&mut a, &ctx(2, &pred), &later, &g);
         assert_eq!(groups[0].members, vec![0, 3]);
         assert!(groups[0].weights.iter().all(|w| *w > 0.5 && *w <= 1.0));
         // a fixed pair that falls below the threshold is judged afresh: far away -> new
@@ -501,8 +498,7 @@ mod tests {
         let pred = predicted(&g);
         let mut lost = advanced(&later, 3);
         lost[3].state[2] = -3000.0;
-        let groups = a.associate(&ctx(3, &pred), &lost, &g).unwrap();
-        check_groups(&lost, &groups, 2);
+        let groups = associate_checked(&mut a, &ctx(3, &pred), &lost, &g);
         assert_eq!(groups.len(), 3);
         assert_eq!(groups[2].members, vec![3]);
         assert_eq!(groups[2].global, None);
@@ -527,8 +523,7 @@ mod tests {
         assert_eq!(groups[0].global, Some(0));
         // quality is now 1 (= m): fixed. Next scan the track is nearer global 1.
         let t1 = [local(0, 1, 0.0, 100.0, 12.0, 100.0, 100.0)];
-        let groups = fixed.associate(&ctx(1, &pred), &t1, &g).unwrap();
-        check_groups(&t1, &groups, 2);
+        let groups = associate_checked(&mut fixed, &ctx(1, &pred), &t1, &g);
         assert_eq!(groups[0].global, Some(0), "fixed pair kept");
         // a fresh associator (no quality) judges it into global 1
         let mut fresh = Fta::new(params).unwrap();

@@ -706,7 +706,7 @@ pub fn make(tables: &ParamTables) -> Result<Box<dyn TrackAssociator>, ParamError
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{self, check_groups, local, predicted};
+    use crate::center::testing::{self, associate_checked, local, predicted};
     use crate::types::{StateCov, StateVec};
 
     fn position_sensor(id: Id, sigma: f64) -> Sensor {
@@ -826,10 +826,7 @@ mod tests {
             assert_eq!(corr[(i, j)], 1, "({i},{j})");
         }
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta
-            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
-            .unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut ftta, &ctx(Some(&sensors), &[]), &tracks, &[]);
         assert_eq!(groups.len(), 1);
         assert_eq!(groups[0].members, vec![0, 1, 2]);
         // weights: the group matrix's diagonal, which here is the whole matrix's
@@ -884,8 +881,7 @@ mod tests {
             local(2, 1, 40.0, 0.0, 0.0, 0.0, 800.0),
         ];
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta.associate(&ctx(None, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut ftta, &ctx(None, &[]), &tracks, &[]);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].members, vec![0, 1]);
         assert_eq!(groups[1].members, vec![2]);
@@ -902,10 +898,7 @@ mod tests {
             local(3, 0, 170.0, 0.0, 0.0, 0.0, 1.0),
         ];
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta
-            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
-            .unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut ftta, &ctx(Some(&sensors), &[]), &tracks, &[]);
         // B-C (80) is closer than A-B (90): B joins C
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].members, vec![0]);
@@ -925,10 +918,7 @@ mod tests {
         let globals = [global(7, 1001.0, 2.0), global(9, 2.0, -1.0)];
         let predicted = predicted(&globals);
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta
-            .associate(&ctx(None, &predicted), &tracks, &globals)
-            .unwrap();
-        check_groups(&tracks, &groups, 2);
+        let groups = associate_checked(&mut ftta, &ctx(None, &predicted), &tracks, &globals);
         assert_eq!(groups.len(), 3);
         assert_eq!(
             (groups[0].members.clone(), groups[0].global),
@@ -956,10 +946,7 @@ mod tests {
             local(2, 0, 100.0, 0.0, 100.0, 0.0, 0.0),
         ];
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta
-            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
-            .unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut ftta, &ctx(Some(&sensors), &[]), &tracks, &[]);
         assert_eq!(groups.len(), 1);
         let w = &groups[0].weights;
         assert!(w.iter().all(|w| w.is_finite() && *w > 0.0), "{w:?}");
@@ -970,13 +957,9 @@ mod tests {
             local(1, 0, 0.0, 0.0, 0.0, 0.0, 0.0),
             local(3, 0, 0.0, 0.0, 0.0, 0.0, 0.0),
         ];
-        let groups = ftta
-            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
-            .unwrap();
-        check_groups(&tracks, &groups, 0);
+        associate_checked(&mut ftta, &ctx(Some(&sensors), &[]), &tracks, &[]);
         let mut cov_only = Ftta::new(FttaParams::default()).unwrap();
-        let groups = cov_only.associate(&ctx(None, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut cov_only, &ctx(None, &[]), &tracks, &[]);
         assert!(groups
             .iter()
             .all(|g| g.weights.iter().all(|w| w.is_finite())));
@@ -1076,8 +1059,7 @@ mod tests {
             }
         }
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta.associate(&ctx(None, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut ftta, &ctx(None, &[]), &tracks, &[]);
         // every group holds the tracks of one target
         for g in &groups {
             let t0 = tracks[g.members[0]].track_id;
@@ -1121,8 +1103,7 @@ mod tests {
                     }
                 }
                 let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-                let groups = ftta.associate(&ctx(None, &[]), &tracks, &[]).unwrap();
-                check_groups(&tracks, &groups, 0);
+                let groups = associate_checked(&mut ftta, &ctx(None, &[]), &tracks, &[]);
                 for g in &groups {
                     for &a in &g.members {
                         for &b in &g.members {

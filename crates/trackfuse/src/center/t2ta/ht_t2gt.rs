@@ -658,7 +658,9 @@ impl TrackAssociator for HtT2gt {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{self, at, check_groups, ctx, local, predicted};
+    use crate::center::testing::{
+        self, associate_checked, at, check_groups, ctx, local, predicted,
+    };
     use crate::types::{StateCov, StateVec};
     use approx::assert_relative_eq;
 
@@ -740,8 +742,7 @@ mod tests {
             at(local(0, 1, 1000.0, 0.0, 100.0, 0.0, 1.0), 1),
             at(local(0, 2, 100.0, 0.0, 1000.0, 0.0, 1.0), 1),
         ];
-        let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
-        check_groups(&cur, &groups, 2);
+        let groups = associate_checked(&mut a, &ctx(1, &pred), &cur, &g);
         let omega_a = -eps.ln() / da_east;
         let ua = 1.0 / (1.0 + (-omega_a * (da_north - da_east)).exp());
         assert_eq!(groups[0].global, Some(0));
@@ -798,8 +799,7 @@ mod tests {
             at(local(0, 1, 100.0, 100.0, 50.0, 0.0, 1.0), 1),
             at(local(1, 1, 500.0, 0.0, 100.0, 100.0, 1.0), 1),
         ];
-        let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
-        check_groups(&cur, &groups, 1);
+        let groups = associate_checked(&mut a, &ctx(1, &pred), &cur, &g);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].global, Some(0));
         assert_eq!(groups[0].members, vec![0]);
@@ -817,8 +817,7 @@ mod tests {
             local(1, 4, 5020.0, 10.0, 10.0, 0.0, 1.0),
             local(1, 5, 30.0, 10.0, -10.0, 0.0, 1.0),
         ];
-        let groups = a.associate(&ctx(0, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut a, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].members, vec![0, 3]);
         assert_eq!(groups[1].members, vec![1, 2]);
@@ -837,8 +836,7 @@ mod tests {
             at(local(0, 1, 110.0, 100.0, 1.0, 0.0, 1.0), 1),
             at(local(0, 2, 100.0, 100.0, 0.0, 0.0, 1.0), 1),
         ];
-        let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
-        check_groups(&cur, &groups, 1);
+        let groups = associate_checked(&mut a, &ctx(1, &pred), &cur, &g);
         assert_eq!(groups[0].global, Some(0));
         assert_eq!(
             groups[0].members,
@@ -860,8 +858,7 @@ mod tests {
             .collect();
         for scan in 0..3 {
             let tracks: Vec<_> = t.iter().map(|x| at(*x, scan)).collect();
-            let groups = a.associate(&ctx(scan, &pred), &tracks, &g).unwrap();
-            check_groups(&tracks, &groups, 1);
+            let groups = associate_checked(&mut a, &ctx(scan, &pred), &tracks, &g);
             assert_eq!(groups.len(), 1);
             assert!(groups[0].weights.iter().all(|w| w.is_finite()));
         }
@@ -874,8 +871,7 @@ mod tests {
             let tracks: Vec<_> = (0..3)
                 .map(|s| at(local(s, 1, x, 10.0, x, 10.0, 0.0), scan))
                 .collect();
-            let groups = a.associate(&ctx(scan, &pred), &tracks, &g).unwrap();
-            check_groups(&tracks, &groups, 1);
+            let groups = associate_checked(&mut a, &ctx(scan, &pred), &tracks, &g);
             assert_eq!(groups.len(), 1);
             assert!(groups[0].weights.iter().all(|w| w.is_finite() && *w > 0.0));
         }
@@ -912,8 +908,7 @@ mod tests {
             at(local(1, 7, 0.0, 100.0, 0.0, 0.0, 1.0), 1),
             at(local(1, 8, 0.0, 100.0, 0.0, 100.0, 1.0), 1),
         ];
-        let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
-        check_groups(&cur, &groups, 2);
+        let groups = associate_checked(&mut a, &ctx(1, &pred), &cur, &g);
         assert_eq!(groups.len(), 2);
         assert_eq!(
             (groups[0].global, groups[0].members.clone()),

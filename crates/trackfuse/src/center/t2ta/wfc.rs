@@ -545,7 +545,9 @@ impl TrackAssociator for Wfc {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{at, check_groups, ctx, global_at, local, predicted};
+    use crate::center::testing::{
+        associate_checked, at, check_groups, ctx, global_at, local, predicted,
+    };
     use crate::types::StateCov;
     use approx::assert_relative_eq;
 
@@ -575,8 +577,7 @@ mod tests {
         ];
         let pred = predicted(&g);
         let tracks = [track_at(100.0, 0.0, 0.0, 0.0, 0, 1, 1)];
-        let groups = a.associate(&ctx(1, &pred), &tracks, &g).unwrap();
-        check_groups(&tracks, &groups, 2);
+        let groups = associate_checked(&mut a, &ctx(1, &pred), &tracks, &g);
         // d_l = sum_f (1/2)^2 (z_f - v_lf)^2 = 0.25 * 100^2 and 0.25 * 300^2
         let (d1, d2): (f64, f64) = (0.25 * 1e4, 0.25 * 9e4);
         let u1 = 1.0 / (1.0 + d1 / d2);
@@ -655,8 +656,7 @@ mod tests {
             let tracks: Vec<_> = (0..3)
                 .map(|s| track_at(0.0, 0.0, 0.0, 0.0, s, 1, scan))
                 .collect();
-            let groups = a.associate(&ctx(scan, &pred), &tracks, &g).unwrap();
-            check_groups(&tracks, &groups, 1);
+            let groups = associate_checked(&mut a, &ctx(scan, &pred), &tracks, &g);
             assert_eq!(groups.len(), 1);
             assert!(groups[0].weights.iter().all(|w| w.is_finite()));
         }
