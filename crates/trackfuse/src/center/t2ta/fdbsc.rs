@@ -1039,7 +1039,7 @@ impl TrackAssociator for FdbscTa {
 mod tests {
     use super::*;
     use crate::center::fusion::fuzzy::FuzzyFusion;
-    use crate::center::testing::{check_groups, local};
+    use crate::center::testing::{self, check_groups, ctx, local, predicted};
     use crate::center::{FusionContext, FusionRule};
     use crate::rng::stream;
     use crate::types::{StateCov, StateVec};
@@ -1047,33 +1047,9 @@ mod tests {
     use rand::seq::SliceRandom;
     use rand::RngExt;
 
+    /// A global track at rest at `(x, y)`, covariance `I`.
     fn global(id: Id, x: f64, y: f64) -> GlobalTrack {
-        GlobalTrack {
-            id,
-            scan: 0,
-            time: 0.0,
-            state: StateVec::new(x, 0.0, y, 0.0),
-            cov: StateCov::identity(),
-            previous: None,
-            sources: Vec::new(),
-            updates: 1,
-            misses: 0,
-        }
-    }
-
-    fn predicted(globals: &[GlobalTrack]) -> Vec<(StateVec, StateCov)> {
-        globals.iter().map(|g| (g.state, g.cov)).collect()
-    }
-
-    fn ctx(pred: &[(StateVec, StateCov)]) -> AssociationContext<'_> {
-        AssociationContext {
-            scan: 1,
-            time: 1.0,
-            sensors: None,
-            predicted: pred,
-            dt: 1.0,
-            labels: None,
-        }
+        testing::global(id, StateVec::new(x, 0.0, y, 0.0), StateCov::identity())
     }
 
     fn fixed(eps: f64) -> FdbscTa {
@@ -1087,7 +1063,7 @@ mod tests {
 
     fn run(a: &mut FdbscTa, tracks: &[LocalTrack], globals: &[GlobalTrack]) -> Vec<TrackGroup> {
         let pred = predicted(globals);
-        let groups = a.associate(&ctx(&pred), tracks, globals).unwrap();
+        let groups = a.associate(&ctx(1, &pred), tracks, globals).unwrap();
         check_groups(tracks, &groups, globals.len());
         groups
     }
@@ -1332,10 +1308,10 @@ mod tests {
         let t = [local(0, 0, 0.0, 0.0, 0.0, 0.0, 1.0)];
         let g = [global(0, 0.0, 0.0)];
         // predicted estimates must match the globals
-        assert!(a.associate(&ctx(&[]), &t, &g).is_err());
+        assert!(a.associate(&ctx(1, &[]), &t, &g).is_err());
         let mut bad = t;
         bad[0].state[0] = f64::NAN;
-        assert!(a.associate(&ctx(&[]), &bad, &[]).is_err());
+        assert!(a.associate(&ctx(1, &[]), &bad, &[]).is_err());
     }
 
     #[test]
