@@ -10,7 +10,8 @@ use std::time::Instant;
 use trackfuse::center::FusionCenter;
 use trackfuse::local::track_sensors;
 use trackfuse::pipeline::known_targets;
-use trackfuse::types::{LocalTrack, StateCov, StateVec};
+use trackfuse::sim::synthetic_local_tracks;
+use trackfuse::types::LocalTrack;
 
 #[derive(Args, Debug)]
 pub struct BenchArgs {
@@ -161,57 +162,6 @@ fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32) -> Result<()> 
     Ok(())
 }
 
-/// Synthetic scans of local tracks: `targets` on a 1 km grid moving at 10-30 m/s, each
-/// seen by every sensor with N(0, 20 m) position and N(0, 5 m/s) velocity noise.
-fn synthetic_scans(targets: usize, sensors: usize, scans: u32) -> Vec<Vec<LocalTrack>> {
-    use rand::RngExt;
-    use rand_distr::{Distribution, StandardNormal};
-    let side = (targets as f64).sqrt().ceil() as usize;
-    let mut layout = trackfuse::rng::stream(1, 0, "bench-layout", 0);
-    let truth: Vec<StateVec> = (0..targets)
-        .map(|k| {
-            let h: f64 = layout.random::<f64>() * std::f64::consts::TAU;
-            let v = 10.0 + 20.0 * layout.random::<f64>();
-            StateVec::new(
-                (k % side) as f64 * 1000.0,
-                v * h.cos(),
-                (k / side) as f64 * 1000.0,
-                v * h.sin(),
-            )
-        })
-        .collect();
-    let cov = StateCov::from_diagonal(&StateVec::new(400.0, 25.0, 400.0, 25.0));
-    let mut noise = trackfuse::rng::stream(1, 0, "bench-noise", 0);
-    let mut n = |s: f64| -> f64 {
-        let z: f64 = StandardNormal.sample(&mut noise);
-        z * s
-    };
-    (0..scans)
-        .map(|scan| {
-            let t = scan as f64;
-            let mut out = Vec::with_capacity(targets * sensors);
-            for s in 0..sensors {
-                for (k, x) in truth.iter().enumerate() {
-                    let mut st = *x;
-                    st[0] += st[1] * t + n(20.0);
-                    st[2] += st[3] * t + n(20.0);
-                    st[1] += n(5.0);
-                    st[3] += n(5.0);
-                    out.push(LocalTrack {
-                        scan,
-                        time: t,
-                        sensor_id: s as i64,
-                        track_id: k as i64,
-                        state: st,
-                        cov,
-                    });
-                }
-            }
-            out
-        })
-        .collect()
-}
-
 fn time_center(flags: &FusionFlags, scans: &[Vec<LocalTrack>]) -> Result<ScanTimes> {
     let cfg = flags.apply(&trackfuse::center::FusionConfig::default())?;
     let mut center = FusionCenter::new(&cfg, None)?;
@@ -261,7 +211,7 @@ fn bench_fuse(
 ) -> Result<()> {
     let cfg = flags.apply(&trackfuse::center::FusionConfig::default())?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    let data = synthetic_scans(targets, sensors, scans.max(2) + 1);
+    let data = synthetic_local_tracks(targets, sensors, scans.max(2) + 1);
     let timed = pool.install(|| time_center(flags, &data))?;
     let (secs, n) = (timed.total(), timed.tracks);
     println!("fusion center               {} + {}", cfg.method, cfg.rule);
@@ -273,7 +223,7 @@ fn bench_fuse(
     for &m in sweep {
         let t = (m / sensors.max(1)).max(1);
         let reps = ((1_000_000 / m.max(1)) as u32).clamp(11, 200);
-        let data = synthetic_scans(t, sensors, reps + 1);
+        let data = synthetic_local_tracks(t, sensors, reps + 1);
         let timed = pool.install(|| time_center(flags, &data))?;
         let per_scan = timed.median();
         println!(
