@@ -135,3 +135,44 @@ fn evaluate_prints_table_and_writes_summary() {
     assert_eq!(s["fused_rmse"].as_f64(), Some(0.0));
     assert_eq!(s["gospa"]["mean"].as_f64(), Some(0.0));
 }
+
+/// Bad flags and parameters: non-zero exit, one clear line naming the flag or key, the
+/// reason given once.
+#[test]
+fn bad_flags_and_parameters_are_named_once() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let out = dir.path().join("o");
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["run", "--filter", "kf"],
+            "local tracking: tracker config: filter: filter \"kf\" cannot track the range_bearing sensor 0\n",
+        ),
+        (
+            &["run", "--associator", "fdb-daf", "--param", "k=abc"],
+            "tracker: params.fdb-daf.k: invalid type: string \"abc\", expected u32\n",
+        ),
+        (
+            &["run", "--method-param", "novalue"],
+            "--method-param novalue: novalue: expected key=value\n",
+        ),
+        (&["mc", "--runs", "0"], "--runs: must be at least 1\n"),
+        (
+            &["run", "--rule", "fuzy"],
+            "fusion: rule: unknown rule \"fuzy\" (known: ",
+        ),
+    ];
+    for (args, want) in cases {
+        let a = trackfuse()
+            .args(args)
+            .arg("--out")
+            .arg(&out)
+            .assert()
+            .failure();
+        let stderr = String::from_utf8(a.get_output().stderr.clone()).expect("utf8");
+        assert!(
+            stderr.starts_with(&format!("error: {want}")),
+            "{args:?}: {stderr}"
+        );
+        assert_eq!(stderr.lines().count(), 1, "{args:?}: {stderr}");
+    }
+}
