@@ -202,5 +202,10 @@ pub fn methods_text() -> String {
     for b in center_registry::BIAS_ESTIMATORS {
         s.push_str(&format!("  {:<10} {}\n", b.name, b.summary));
     }
+    s.push_str(
+        "\nParameters: --param (associator), --filter-param, --method-param, --rule-param, \
+         --bias-param KEY=VALUE,\nor [tracker.params.NAME] / [fusion.params.NAME] in a scenario \
+         file; an unknown key is an error listing the method's keys.\n",
+    );
     s
 }
