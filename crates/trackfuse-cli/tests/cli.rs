@@ -176,3 +176,35 @@ fn bad_flags_and_parameters_are_named_once() {
         assert_eq!(stderr.lines().count(), 1, "{args:?}: {stderr}");
     }
 }
+
+#[test]
+fn fuse_rejects_local_tracks_of_a_sensor_missing_from_sensors_csv() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let cov = "P00,P01,P02,P03,P10,P11,P12,P13,P20,P21,P22,P23,P30,P31,P32,P33";
+    let lt = dir.path().join("local_tracks.csv");
+    std::fs::write(
+        &lt,
+        format!(
+            "scan,time,sensor_id,track_id,x,vx,y,vy,{cov}\n0,0,5,1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1\n"
+        ),
+    )
+    .expect("write");
+    let sensors = dir.path().join("sensors.csv");
+    std::fs::write(
+        &sensors,
+        "sensor_id,x,y,sigma_r,sigma_theta,pd\n0,0,0,5,0.001,0.9\n",
+    )
+    .expect("write");
+    trackfuse()
+        .args(["fuse", "--local-tracks"])
+        .arg(&lt)
+        .arg("--sensors")
+        .arg(&sensors)
+        .arg("--out")
+        .arg(dir.path().join("o"))
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains(
+            "local_tracks.csv: sensor_id 5 (track 1, scan 0) is not in",
+        ));
+}
