@@ -30,18 +30,24 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Simulate -> track -> fuse -> evaluate in one go (default: the built-in scenario).
+    #[command(allow_negative_numbers = true)]
     Run(run::RunArgs),
     /// Simulate a scenario: sensors.csv, truth.csv, measurements.csv.
+    #[command(allow_negative_numbers = true)]
     Simulate(simulate::SimulateArgs),
     /// Local tracking: one tracker per sensor -> local_tracks.csv.
+    #[command(allow_negative_numbers = true)]
     Track(track::TrackArgs),
     /// Fusion center: track-to-track association and fusion -> fused_tracks.csv, associations.csv.
+    #[command(allow_negative_numbers = true)]
     Fuse(fuse::FuseArgs),
     /// Evaluate fused (and local) tracks against the truth; writes summary.json.
+    #[command(allow_negative_numbers = true)]
     Evaluate(evaluate::EvaluateArgs),
     /// SVG plots of a run directory: trajectories and RMSE per scan.
     Plot(plot::PlotArgs),
     /// Monte Carlo: N seeded runs of the whole chain, aggregated.
+    #[command(allow_negative_numbers = true)]
     Mc(mc::McArgs),
     /// Reproduce a paper's tables (docs/reproduction/).
     Reproduce(reproduce::ReproduceArgs),
@@ -78,8 +84,11 @@ fn render_error(e: &anyhow::Error) -> String {
 fn real_main() -> Result<()> {
     let cli = Cli::parse();
     if let Some(n) = cli.threads {
+        if n == 0 {
+            anyhow::bail!("--threads: must be at least 1");
+        }
         rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
+            .num_threads(n)
             .build_global()?;
     }
     match &cli.command {

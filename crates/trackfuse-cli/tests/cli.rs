@@ -142,7 +142,11 @@ fn evaluate_prints_table_and_writes_summary() {
 fn bad_flags_and_parameters_are_named_once() {
     let dir = tempfile::tempdir().expect("tmp");
     let out = dir.path().join("o");
-    let cases: [(&[&str], &str); 5] = [
+    let cases: [(&[&str], &str); 6] = [
+        (
+            &["run", "--process-noise", "-1"],
+            "tracker: process_noise[0]: -1 must be a finite number >= 0\n",
+        ),
         (
             &["run", "--filter", "kf"],
             "local tracking: tracker config: filter: filter \"kf\" cannot track the range_bearing sensor 0\n",
