@@ -64,6 +64,8 @@
 //! R. A. Singer, A. J. Kanyuck, "Computer control of multiple site track correlation",
 //! Automatica 7, 1971 (1970 report). Y. Bar-Shalom, "On the track-to-track correlation
 //! problem", IEEE Trans. AC 26(2), 1981.
+//! 000 cites the test as its references 14 and 15 (Sec. I). None of these sources is
+//! among the five seed papers, so their equation numbers are not cited.
 
 use crate::center::linalg::{chol_inverse4, cholesky4, solve_lower_vec4};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};

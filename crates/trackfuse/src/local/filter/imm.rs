@@ -66,6 +66,8 @@
 //! with Markovian switching coefficients", IEEE TAC 1988; A. Houles, Y. Bar-Shalom,
 //! "Multisensor tracking of a maneuvering target in clutter", IEEE TAES 1989;
 //! Bar-Shalom, Li, Kirubarajan 2001, Sec. 11.6-11.7.
+//! None of these is among the five seed papers (000 and 001 only name the manoeuvring
+//! scenarios an IMM must handle), so sections, not equation numbers, are cited.
 
 use super::common::{
     check_process_noise, ct_transition, log_likelihood, pda_update, predict_linear,
