@@ -299,6 +299,24 @@ impl FusionCenter {
                 symmetrize(&(f * g.cov * f.transpose() + process_noise(lag, q, q))),
             ));
         }
+        // a bias estimator needs the geometry of every sensor it sees
+        if let (Some(b), Some(s)) = (&self.bias, &self.sensors) {
+            let mut last = None;
+            for t in base {
+                if last != Some(t.sensor_id) {
+                    if !s.iter().any(|x| x.id == t.sensor_id) {
+                        return Err(CenterError::Needs {
+                            method: format!("bias estimator {}", b.name()),
+                            reason: format!(
+                                "local track {}:{} comes from sensor {}, which is not among the sensors given (sensors.csv)",
+                                t.sensor_id, t.track_id, t.sensor_id
+                            ),
+                        });
+                    }
+                    last = Some(t.sensor_id);
+                }
+            }
+        }
         // 3. bias correction: `raw` the tracks as given (the estimator learns from them),
         // `sorted` the corrected copy the center works with
         let mut corrected = std::mem::take(&mut self.buf_corrected);
@@ -885,6 +903,38 @@ mod tests {
         bad.push(bad[0]);
         assert!(b.process_scan_into(&bad, None, &mut out).is_err());
         assert_eq!(out, ScanOutput::default());
+    }
+
+    #[test]
+    fn bias_estimation_needs_every_sensor_it_sees() {
+        use crate::types::{Sensor, SensorKind};
+        let radar = |id: Id| Sensor {
+            id,
+            kind: SensorKind::RangeBearing,
+            x: 0.0,
+            y: -10_000.0 * (id + 1) as f64,
+            sigma_a: 10.0,
+            sigma_b: 0.001,
+            pd: 1.0,
+            bias_r: 0.0,
+            bias_theta: 0.0,
+            max_range: 100_000.0,
+            clutter_density: None,
+        };
+        let cfg = FusionConfig {
+            bias: Some("fdbsc".into()),
+            ..FusionConfig::default()
+        };
+        // sensors 0 and 1 report, only sensor 0 is known
+        let mut c = FusionCenter::new(&cfg, Some(&[radar(0)])).expect("center");
+        match c.process_scan(&two_targets(0), None) {
+            Err(CenterError::Needs { reason, .. }) => {
+                assert!(reason.contains("sensor 1"), "{reason}")
+            }
+            other => panic!("expected an error naming sensor 1, got {other:?}"),
+        }
+        let mut c = FusionCenter::new(&cfg, Some(&[radar(0), radar(1)])).expect("center");
+        assert!(c.process_scan(&two_targets(0), None).is_ok());
     }
 
     proptest! {
