@@ -10,9 +10,9 @@ use trackfuse::local::registry as local_registry;
 use trackfuse::local::{InitiationMethod, TrackerConfig};
 use trackfuse::params::{parse_cli_param, ParamTables};
 
-fn set_params(tables: &mut ParamTables, name: &str, params: &[String]) -> Result<()> {
+fn set_params(tables: &mut ParamTables, flag: &str, name: &str, params: &[String]) -> Result<()> {
     for p in params {
-        let (k, v) = parse_cli_param(p).map_err(|e| anyhow!("--param {p}: {e}"))?;
+        let (k, v) = parse_cli_param(p).map_err(|e| anyhow!("{flag} {p}: {e}"))?;
         tables.entry(name.to_string()).or_default().insert(k, v);
     }
     Ok(())
@@ -25,7 +25,7 @@ pub struct TrackerFlags {
     /// `trackfuse methods`). Default: the scenario's, else gnn.
     #[arg(long)]
     pub associator: Option<String>,
-    /// Filter (kf, ekf, cmkf, imm, ... or auto). Default: the scenario's, else auto (kf for
+    /// Filter (kf, ekf, cmkf, imm, mie, or auto; see `trackfuse methods`). Default: the scenario's, else auto (kf for
     /// position sensors, ekf for radars).
     #[arg(long)]
     pub filter: Option<String>,
@@ -73,13 +73,13 @@ impl TrackerFlags {
             c.filter = f.clone();
         }
         let assoc = c.associator.clone();
-        set_params(&mut c.params, &assoc, &self.params)?;
+        set_params(&mut c.params, "--param", &assoc, &self.params)?;
         if !self.filter_params.is_empty() {
             if c.filter == "auto" {
                 return Err(anyhow!("--filter-param needs --filter NAME (not auto)"));
             }
             let f = c.filter.clone();
-            set_params(&mut c.params, &f, &self.filter_params)?;
+            set_params(&mut c.params, "--filter-param", &f, &self.filter_params)?;
         }
         if let Some(i) = &self.init {
             c.initiation.method = match i.as_str() {
@@ -159,14 +159,14 @@ impl FusionFlags {
             c.bias = (b != "none").then(|| b.clone());
         }
         let (m, r) = (c.method.clone(), c.rule.clone());
-        set_params(&mut c.params, &m, &self.method_params)?;
-        set_params(&mut c.params, &r, &self.rule_params)?;
+        set_params(&mut c.params, "--method-param", &m, &self.method_params)?;
+        set_params(&mut c.params, "--rule-param", &r, &self.rule_params)?;
         if !self.bias_params.is_empty() {
             let b = c
                 .bias
                 .clone()
                 .ok_or_else(|| anyhow!("--bias-param needs --bias NAME"))?;
-            set_params(&mut c.params, &b, &self.bias_params)?;
+            set_params(&mut c.params, "--bias-param", &b, &self.bias_params)?;
         }
         if let Some(q) = self.center_process_noise {
             c.process_noise = q;
@@ -202,5 +202,10 @@ pub fn methods_text() -> String {
     for b in center_registry::BIAS_ESTIMATORS {
         s.push_str(&format!("  {:<10} {}\n", b.name, b.summary));
     }
+    s.push_str(
+        "\nParameters: --param (associator), --filter-param, --method-param, --rule-param, \
+         --bias-param KEY=VALUE,\nor [tracker.params.NAME] / [fusion.params.NAME] in a scenario \
+         file; an unknown key is an error listing the method's keys.\n",
+    );
     s
 }

@@ -3,14 +3,16 @@
 
 use crate::common::{load_scenario, out_dir};
 use crate::config::FusionFlags;
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use trackfuse::center::{fuse_all, fuse_all_two_pass, FusedRun, FusionConfig};
 use trackfuse::io::{
     read_local_tracks, read_sensors, read_truth, AssociationWriter, FusedTrackWriter,
 };
 use trackfuse::metrics::label_local_tracks;
+use trackfuse::{Id, LocalTrack, Sensor};
 
 #[derive(Args, Debug)]
 pub struct FuseArgs {
@@ -69,6 +71,33 @@ pub fn write_fused(dir: &Path, run: &FusedRun) -> Result<()> {
     Ok(())
 }
 
+/// Every local track's sensor must be in the given sensors.csv: a method or bias
+/// estimator that reads the sensors would otherwise skip or misread that sensor's tracks.
+fn check_sensors_cover(
+    local: &[LocalTrack],
+    sensors: &[Sensor],
+    local_path: &Path,
+    sensors_path: &Path,
+) -> Result<()> {
+    let known: BTreeSet<Id> = sensors.iter().map(|s| s.id).collect();
+    if let Some(t) = local.iter().find(|t| !known.contains(&t.sensor_id)) {
+        bail!(
+            "{}: sensor_id {} (track {}, scan {}) is not in {} (its sensors: {})",
+            local_path.display(),
+            t.sensor_id,
+            t.track_id,
+            t.scan,
+            sensors_path.display(),
+            known
+                .iter()
+                .map(|i| i.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(())
+}
+
 pub fn run(args: &FuseArgs) -> Result<()> {
     let base = match args.scenario.as_deref() {
         Some(s) => load_scenario(Some(s))?.0.fusion,
@@ -77,6 +106,9 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     let cfg = args.fusion.apply(&base)?;
     let local = read_local_tracks(&args.local_tracks)?;
     let sensors = args.sensors.as_deref().map(read_sensors).transpose()?;
+    if let (Some(sensors), Some(path)) = (&sensors, &args.sensors) {
+        check_sensors_cover(&local, sensors, &args.local_tracks, path)?;
+    }
     let labels = match &args.truth {
         Some(t) => Some(label_local_tracks(&read_truth(t)?, &local, args.label_gate)),
         None => None,

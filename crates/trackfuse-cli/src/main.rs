@@ -30,18 +30,24 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Simulate -> track -> fuse -> evaluate in one go (default: the built-in scenario).
+    #[command(allow_negative_numbers = true)]
     Run(run::RunArgs),
     /// Simulate a scenario: sensors.csv, truth.csv, measurements.csv.
+    #[command(allow_negative_numbers = true)]
     Simulate(simulate::SimulateArgs),
     /// Local tracking: one tracker per sensor -> local_tracks.csv.
+    #[command(allow_negative_numbers = true)]
     Track(track::TrackArgs),
     /// Fusion center: track-to-track association and fusion -> fused_tracks.csv, associations.csv.
+    #[command(allow_negative_numbers = true)]
     Fuse(fuse::FuseArgs),
     /// Evaluate fused (and local) tracks against the truth; writes summary.json.
+    #[command(allow_negative_numbers = true)]
     Evaluate(evaluate::EvaluateArgs),
     /// SVG plots of a run directory: trajectories and RMSE per scan.
     Plot(plot::PlotArgs),
     /// Monte Carlo: N seeded runs of the whole chain, aggregated.
+    #[command(allow_negative_numbers = true)]
     Mc(mc::McArgs),
     /// Reproduce a paper's tables (docs/reproduction/).
     Reproduce(reproduce::ReproduceArgs),
@@ -55,16 +61,34 @@ enum Command {
 
 fn main() {
     if let Err(e) = real_main() {
-        eprintln!("error: {e:#}");
+        eprintln!("error: {}", render_error(&e));
         std::process::exit(1);
     }
+}
+
+/// The error and its causes joined by ": ", each cause left out when the message so far
+/// already ends with it (library errors print their source in their own message, so
+/// anyhow's `{:#}` would repeat it).
+fn render_error(e: &anyhow::Error) -> String {
+    let mut msg = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !msg.ends_with(&c) {
+            msg.push_str(": ");
+            msg.push_str(&c);
+        }
+    }
+    msg
 }
 
 fn real_main() -> Result<()> {
     let cli = Cli::parse();
     if let Some(n) = cli.threads {
+        if n == 0 {
+            anyhow::bail!("--threads: must be at least 1");
+        }
         rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
+            .num_threads(n)
             .build_global()?;
     }
     match &cli.command {
@@ -90,5 +114,40 @@ fn real_main() -> Result<()> {
             }
             Ok(())
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::render_error;
+
+    #[derive(Debug)]
+    struct Outer(Inner);
+    #[derive(Debug)]
+    struct Inner;
+
+    impl std::fmt::Display for Outer {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "outer: {}", self.0)
+        }
+    }
+    impl std::fmt::Display for Inner {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "inner reason")
+        }
+    }
+    impl std::error::Error for Outer {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.0)
+        }
+    }
+    impl std::error::Error for Inner {}
+
+    #[test]
+    fn causes_already_in_the_message_are_not_repeated() {
+        let e = anyhow::Error::from(Outer(Inner));
+        assert_eq!(render_error(&e), "outer: inner reason");
+        let e = anyhow::Error::from(Inner).context("reading x.csv");
+        assert_eq!(render_error(&e), "reading x.csv: inner reason");
     }
 }

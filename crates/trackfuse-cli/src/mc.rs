@@ -4,7 +4,7 @@
 
 use crate::common::{load_scenario, out_dir, render_summary};
 use crate::config::{FusionFlags, TrackerFlags};
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -39,7 +39,10 @@ pub fn run(args: &McArgs) -> Result<()> {
     if let Some(seed) = args.seed {
         sc.seed = seed;
     }
-    let runs = args.runs.unwrap_or(sc.monte_carlo.runs).max(1);
+    let runs = args.runs.unwrap_or(sc.monte_carlo.runs);
+    if runs == 0 {
+        bail!("--runs: must be at least 1");
+    }
     let tracker = args.tracker.apply(&sc.tracker)?;
     let fusion = args.fusion.apply(&sc.fusion)?;
     let bar = if args.quiet {

@@ -27,14 +27,35 @@ impl ParamError {
 pub type ParamTables = BTreeMap<String, toml::Table>;
 
 /// Parse method `name`'s table (absent = all defaults) into `P`. Errors name
-/// `params.<name>.<key>`.
+/// `params.<name>.<key>` (`params.<name>` when no single key is at fault, e.g. a missing
+/// required one).
 pub fn parse_params<P: DeserializeOwned>(
     tables: &ParamTables,
     name: &str,
 ) -> Result<P, ParamError> {
     let table = tables.get(name).cloned().unwrap_or_default();
-    P::deserialize(toml::Value::Table(table))
-        .map_err(|e| ParamError::new(format!("params.{name}"), e.message().to_string()))
+    P::deserialize(toml::Value::Table(table.clone())).map_err(|e| {
+        let key = match offending_key::<P>(&table) {
+            Some(k) => format!("params.{name}.{k}"),
+            None => format!("params.{name}"),
+        };
+        ParamError::new(key, e.message().to_string())
+    })
+}
+
+/// The top-level key of `table` that `P` rejects: the table is written out as TOML text
+/// and parsed again, and the error's position in that text gives the key (a typed
+/// `toml::Value` carries no positions). `None` when the error has no position or it is
+/// not on a `key = value` line.
+fn offending_key<P: DeserializeOwned>(table: &toml::Table) -> Option<String> {
+    let text = toml::to_string(table).ok()?;
+    let err = toml::from_str::<P>(&text).err()?;
+    let start = err.span()?.start;
+    let line_start = text.get(..start)?.rfind('\n').map_or(0, |i| i + 1);
+    let line = text.get(line_start..)?.lines().next()?;
+    let (key, _) = line.split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    (!key.is_empty() && !key.starts_with('[')).then(|| key.to_string())
 }
 
 /// Require `value` to be finite and positive; error names `key`.
@@ -100,6 +121,13 @@ mod tests {
         t.insert("m".into(), table);
         let e = parse_params::<P>(&t, "m").expect_err("unknown key");
         assert!(e.to_string().contains("kk"), "{e}");
+        assert_eq!(e.key, "params.m.kk");
+        let mut table = toml::Table::new();
+        table.insert("k".into(), toml::Value::String("two".into()));
+        t.insert("m".into(), table);
+        let e = parse_params::<P>(&t, "m").expect_err("wrong type");
+        assert_eq!(e.key, "params.m.k", "{e}");
+        assert!(e.reason.contains("invalid type"), "{e}");
         assert_eq!(
             parse_cli_param("k=3").expect("int"),
             ("k".into(), toml::Value::Integer(3))

@@ -428,6 +428,9 @@ impl Scenario {
         }
         let mut sids = HashSet::new();
         finite_nonneg("clutter.density".into(), self.clutter.density)?;
+        if self.monte_carlo.runs == 0 {
+            return Err(bad("monte_carlo.runs".into(), "must be at least 1".into()));
+        }
         if let Some(r) = self.clutter.region {
             if r.iter().any(|v| !v.is_finite()) || r[0] >= r[1] || r[2] >= r[3] {
                 return Err(bad(
@@ -612,6 +615,9 @@ sigma_theta = 0.001
         let e = Scenario::from_toml(&format!("{MINIMAL}\n[clutter]\ndensity = 1.0\n"), "t")
             .unwrap_err();
         assert!(e.to_string().contains("max_range"), "{e}");
+        let e =
+            Scenario::from_toml(&format!("{MINIMAL}\n[monte_carlo]\nruns = 0\n"), "t").unwrap_err();
+        assert!(e.to_string().contains("monte_carlo.runs"), "{e}");
     }
 
     #[test]

@@ -344,3 +344,25 @@ fn foreign_files_with_optional_columns_and_any_order() {
     let fs = read_fused_tracks(&write(dir.path(), "f.csv", &f)).expect("ok");
     assert_eq!(fs[0].fused_id, 3);
 }
+
+#[test]
+fn a_duplicated_column_is_rejected_and_unknown_duplicates_ignored() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let p = write(
+        dir.path(),
+        "truth.csv",
+        "scan,time,target_id,x,vx,y,x,vy\n0,0,1,5,0,0,6,0\n",
+    );
+    let e = expect_err(read_truth(&p), Some(1), Some("x"), "appears twice");
+    assert_eq!(e.column, Some(7));
+    let cov_dup = format!("{},P00\n", local_header());
+    let p = write(dir.path(), "local_tracks.csv", &cov_dup);
+    expect_err(read_local_tracks(&p), Some(1), Some("P00"), "appears twice");
+    // extra columns are ignored, even when repeated
+    let p = write(
+        dir.path(),
+        "truth2.csv",
+        "scan,time,target_id,x,vx,y,vy,note,note\n0,0,1,5,0,0,0,a,b\n",
+    );
+    assert_eq!(read_truth(&p).expect("extra columns ignored").len(), 1);
+}

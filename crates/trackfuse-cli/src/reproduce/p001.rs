@@ -577,6 +577,127 @@ fn clutter_free(sc: &Scenario) -> Scenario {
     c
 }
 
+/// One scenario's outcomes: `methods` and `fdbs` (in their order) each on the lambda = 1
+/// and lambda = 2 files, and GNN and FDB-DAF (all) on the clutter-free copy of the
+/// lambda = 1 file.
+type ScenarioOutcomes = (Vec<[Outcome; 2]>, Vec<[Outcome; 2]>, [Outcome; 2]);
+
+/// Run `methods`, then `fdbs`, on both files `sc` of a scenario, then GNN and `fdb_all`
+/// on `free` (its clutter-free copy).
+fn run_scenario(
+    ctx: &Ctx,
+    sc: &[Scenario; 2],
+    free: &Scenario,
+    methods: &[&Variant],
+    fdbs: &[Variant],
+    fdb_all: &Variant,
+    runs: u32,
+) -> Result<ScenarioOutcomes> {
+    let both = |v: &Variant| -> Result<[Outcome; 2]> {
+        Ok([
+            run_variant(ctx, &sc[0], v, runs)?,
+            run_variant(ctx, &sc[1], v, runs)?,
+        ])
+    };
+    let methods = methods
+        .iter()
+        .map(|v| both(v))
+        .collect::<Result<Vec<_>>>()?;
+    let fdb = fdbs.iter().map(both).collect::<Result<Vec<_>>>()?;
+    let free = [
+        run_variant(ctx, free, &Variant::plain("GNN", "gnn"), runs)?,
+        run_variant(ctx, free, fdb_all, runs)?,
+    ];
+    Ok((methods, fdb, free))
+}
+
+/// Column heads: `lead`, then `{prefix}T<k> paper`, `{prefix}T<k> ours`, `diff` for each
+/// prefix and each of `n_targets` targets, then `tail`.
+fn rmse_header(lead: &[&str], prefixes: &[&str], n_targets: usize, tail: &[&str]) -> Vec<String> {
+    let mut h: Vec<String> = lead.iter().map(|c| (*c).to_string()).collect();
+    for prefix in prefixes {
+        for t in 1..=n_targets {
+            h.push(format!("{prefix}T{t} paper"));
+            h.push(format!("{prefix}T{t} ours"));
+            h.push("diff".into());
+        }
+    }
+    h.extend(tail.iter().map(|c| (*c).to_string()));
+    h
+}
+
+/// [`md_table`] with owned column heads.
+fn table(header: &[String], rows: &[Vec<String>]) -> String {
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    md_table(&header, rows)
+}
+
+/// `lead`, then paper / ours / difference for each of `n_targets` targets (the paper's
+/// value of target `t` from `paper(t)`), then `o`'s coverage.
+fn rmse_row(
+    mut lead: Vec<String>,
+    o: &Outcome,
+    n_targets: usize,
+    paper: impl Fn(usize) -> Option<f64>,
+) -> Vec<String> {
+    for t in 0..n_targets {
+        lead.extend(triple(paper(t), o.rmse.get(t).copied().flatten()));
+    }
+    lead.push(cov_cell(o));
+    lead
+}
+
+/// The rows of a compared-methods table (Tables 1 and 4): each method of `names` (the
+/// baselines first, then ours, FDB-DAF (all) last, as in [`run_scenario`]'s `methods`)
+/// at each lambda, with the paper's RMSE of target `t` from `paper(name, lambda, t)`
+/// (FDB-DAF (all)'s from the paper's `fdb_table`), then the `extra` rows
+/// `(label, lambda cell, outcome)`, which have no paper numbers.
+fn compared_rows<'a>(
+    names: &[&str],
+    lambdas: &[u32],
+    outcomes: &[[Outcome; 2]],
+    n_targets: usize,
+    fdb_table: &str,
+    paper: impl Fn(&str, u32, usize) -> Option<f64>,
+    extra: impl IntoIterator<Item = (&'a str, &'a str, &'a Outcome)>,
+) -> Vec<Vec<String>> {
+    let mut rows = Vec::new();
+    for (i, name) in names.iter().enumerate() {
+        for (li, &lambda) in lambdas.iter().enumerate() {
+            let tag = if i >= BASELINES.len() && *name != "FDB-DAF (all)" {
+                format!("{name} (ours)")
+            } else if *name == "FDB-DAF (all)" {
+                format!("{name} ({fdb_table})")
+            } else {
+                (*name).to_string()
+            };
+            rows.push(rmse_row(
+                vec![tag, lambda.to_string()],
+                &outcomes[i][li],
+                n_targets,
+                |t| paper(name, lambda, t),
+            ));
+        }
+    }
+    for (label, lambda, o) in extra {
+        rows.push(rmse_row(
+            vec![label.to_string(), lambda.into()],
+            o,
+            n_targets,
+            |_| None,
+        ));
+    }
+    rows
+}
+
+/// The clutter-free rows of Tables 1 and 4 (lambda 0).
+fn no_clutter_rows(free: &[Outcome; 2]) -> [(&'static str, &'static str, &Outcome); 2] {
+    [
+        ("GNN, no clutter (bound)", "0", &free[0]),
+        ("FDB-DAF (all), no clutter", "0", &free[1]),
+    ]
+}
+
 pub fn run(ctx: &Ctx) -> Result<String> {
     let runs = ctx.runs_or(PAPER_RUNS);
     let s1 = [scenario("001-s1")?, scenario("001-s1-l2")?];
@@ -591,55 +712,18 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     let fdbs = fdb_variants();
     let fdb_all = Variant::fdb("FDB-DAF (all)", vec![("selection", s("all"))]);
 
+    // baselines, extras, fdb_all: the rows of Tables 1 and 4
+    let methods: Vec<&Variant> = baselines
+        .iter()
+        .chain(&extras)
+        .chain(std::iter::once(&fdb_all))
+        .collect();
     // ---- scenario 1 ----
-    let mut r1: Vec<[Outcome; 2]> = Vec::new(); // baselines, extras, fdb_all
-    let mut f1: Vec<[Outcome; 2]> = Vec::new(); // fdb variants
-    for v in baselines
-        .iter()
-        .chain(&extras)
-        .chain(std::iter::once(&fdb_all))
-    {
-        r1.push([
-            run_variant(ctx, &s1[0], v, runs)?,
-            run_variant(ctx, &s1[1], v, runs)?,
-        ]);
-    }
-    for v in &fdbs {
-        f1.push([
-            run_variant(ctx, &s1[0], v, runs)?,
-            run_variant(ctx, &s1[1], v, runs)?,
-        ]);
-    }
     let s1_free = clutter_free(&s1[0]);
-    let free1 = [
-        run_variant(ctx, &s1_free, &Variant::plain("GNN", "gnn"), runs)?,
-        run_variant(ctx, &s1_free, &fdb_all, runs)?,
-    ];
-
+    let (r1, f1, free1) = run_scenario(ctx, &s1, &s1_free, &methods, &fdbs, &fdb_all, runs)?;
     // ---- scenario 2 ----
-    let mut r2: Vec<[Outcome; 2]> = Vec::new();
-    let mut f2: Vec<[Outcome; 2]> = Vec::new();
-    for v in baselines
-        .iter()
-        .chain(&extras)
-        .chain(std::iter::once(&fdb_all))
-    {
-        r2.push([
-            run_variant(ctx, &s2[0], v, runs)?,
-            run_variant(ctx, &s2[1], v, runs)?,
-        ]);
-    }
-    for v in &fdbs {
-        f2.push([
-            run_variant(ctx, &s2[0], v, runs)?,
-            run_variant(ctx, &s2[1], v, runs)?,
-        ]);
-    }
     let s2_free = clutter_free(&s2[0]);
-    let free2 = [
-        run_variant(ctx, &s2_free, &Variant::plain("GNN", "gnn"), runs)?,
-        run_variant(ctx, &s2_free, &fdb_all, runs)?,
-    ];
+    let (r2, f2, free2) = run_scenario(ctx, &s2, &s2_free, &methods, &fdbs, &fdb_all, runs)?;
     // filter / gate rows of scenario 2 (lambda = 1)
     let s2_rows: Vec<(String, Variant)> = vec![
         (
@@ -831,69 +915,33 @@ pub fn run(ctx: &Ctx) -> Result<String> {
 
     // ---- Table 1 ----
     writeln!(md, "## Table 1: scenario 1, compared methods\n")?;
-    let header1 = [
-        "method",
-        "lambda",
-        "T1 paper",
-        "T1 ours",
-        "diff",
-        "T2 paper",
-        "T2 ours",
-        "diff",
-        "T3 paper",
-        "T3 ours",
-        "diff",
-        "coverage T1/T2/T3",
-    ];
-    let mut rows = Vec::new();
+    let header1 = rmse_header(&["method", "lambda"], &[""], 3, &["coverage T1/T2/T3"]);
     let all_rows: Vec<&str> = BASELINES
         .iter()
         .map(|b| b.0)
         .chain(EXTRA.iter().map(|e| e.0))
         .chain(std::iter::once("FDB-DAF (all)"))
         .collect();
-    for (i, name) in all_rows.iter().enumerate() {
-        for (li, &lambda) in lambdas.iter().enumerate() {
-            let o = &r1[i][li];
-            let paper = TABLE1
+    let table1_paper = |name: &str, lambda: u32, t: usize| {
+        if name == "FDB-DAF (all)" && lambda == 1 {
+            Some(TABLE2[10][t])
+        } else {
+            TABLE1
                 .iter()
-                .find(|(n, l, _)| n == name && *l == lambda)
-                .map(|x| x.2);
-            let paper = if *name == "FDB-DAF (all)" && lambda == 1 {
-                Some(TABLE2[10])
-            } else {
-                paper
-            };
-            let tag = if i >= BASELINES.len() && *name != "FDB-DAF (all)" {
-                format!("{name} (ours)")
-            } else if *name == "FDB-DAF (all)" {
-                format!("{name} (Table 2)")
-            } else {
-                (*name).to_string()
-            };
-            let mut row = vec![tag, lambda.to_string()];
-            for t in 0..3 {
-                row.extend(triple(
-                    paper.map(|p| p[t]),
-                    o.rmse.get(t).copied().flatten(),
-                ));
-            }
-            row.push(cov_cell(o));
-            rows.push(row);
+                .find(|(n, l, _)| *n == name && *l == lambda)
+                .map(|x| x.2[t])
         }
-    }
-    for (label, o) in [
-        ("GNN, no clutter (bound)", &free1[0]),
-        ("FDB-DAF (all), no clutter", &free1[1]),
-    ] {
-        let mut row = vec![label.to_string(), "0".into()];
-        for t in 0..3 {
-            row.extend(triple(None, o.rmse.get(t).copied().flatten()));
-        }
-        row.push(cov_cell(o));
-        rows.push(row);
-    }
-    md.push_str(&md_table(&header1, &rows));
+    };
+    let rows = compared_rows(
+        &all_rows,
+        &lambdas,
+        &r1,
+        3,
+        "Table 2",
+        table1_paper,
+        no_clutter_rows(&free1),
+    );
+    md.push_str(&table(&header1, &rows));
     md.push('\n');
 
     // ratios and ranking
@@ -991,29 +1039,16 @@ pub fn run(ctx: &Ctx) -> Result<String> {
          increase of RMSE with xi, because for an isolated target every clustered measurement \
          has u = 1 and passes every threshold below 1.\n"
     )?;
-    let header2 = [
-        "variant",
-        "T1 paper",
-        "T1 ours",
-        "diff",
-        "T2 paper",
-        "T2 ours",
-        "diff",
-        "T3 paper",
-        "T3 ours",
-        "diff",
-        "coverage",
-        "ours lambda=2 T1/T2/T3",
-        "coverage lambda=2",
-    ];
+    let header2 = rmse_header(
+        &["variant"],
+        &[""],
+        3,
+        &["coverage", "ours lambda=2 T1/T2/T3", "coverage lambda=2"],
+    );
     let mut rows = Vec::new();
     for (i, v) in fdbs.iter().enumerate() {
         let [o1, o2] = &f1[i];
-        let mut row = vec![v.label.clone()];
-        for (t, &paper) in TABLE2[i].iter().enumerate() {
-            row.extend(triple(Some(paper), o1.rmse.get(t).copied().flatten()));
-        }
-        row.push(cov_cell(o1));
+        let mut row = rmse_row(vec![v.label.clone()], o1, 3, |t| Some(TABLE2[i][t]));
         row.push(
             o2.rmse
                 .iter()
@@ -1024,7 +1059,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         row.push(cov_cell(o2));
         rows.push(row);
     }
-    md.push_str(&md_table(&header2, &rows));
+    md.push_str(&table(&header2, &rows));
     md.push('\n');
     let k_trend: Vec<String> = (0..5).map(|i| m(avg(&f1[i][0]))).collect();
     let xi_trend: Vec<String> = (5..10).map(|i| m(avg(&f1[i][0]))).collect();
@@ -1047,69 +1082,25 @@ pub fn run(ctx: &Ctx) -> Result<String> {
 
     // ---- Table 4 ----
     writeln!(md, "## Table 4: scenario 2, compared methods\n")?;
-    let header4 = [
-        "method",
-        "lambda",
-        "T1 paper",
-        "T1 ours",
-        "diff",
-        "T2 paper",
-        "T2 ours",
-        "diff",
-        "coverage T1/T2",
-    ];
-    let mut rows = Vec::new();
-    for (i, name) in all_rows.iter().enumerate() {
-        for (li, &lambda) in lambdas.iter().enumerate() {
-            let o = &r2[i][li];
-            let paper: Option<[Option<f64>; 2]> = if *name == "FDB-DAF (all)" {
-                let r = TABLE5[10];
-                Some(if lambda == 1 {
-                    [r[0], r[1]]
-                } else {
-                    [r[2], r[3]]
-                })
-            } else {
-                TABLE4
-                    .iter()
-                    .find(|(n, l, _)| n == name && *l == lambda)
-                    .map(|x| [Some(x.2[0]), Some(x.2[1])])
-            };
-            let tag = if i >= BASELINES.len() && *name != "FDB-DAF (all)" {
-                format!("{name} (ours)")
-            } else if *name == "FDB-DAF (all)" {
-                format!("{name} (Table 5)")
-            } else {
-                (*name).to_string()
-            };
-            let mut row = vec![tag, lambda.to_string()];
-            for t in 0..2 {
-                row.extend(triple(
-                    paper.and_then(|p| p[t]),
-                    o.rmse.get(t).copied().flatten(),
-                ));
-            }
-            row.push(cov_cell(o));
-            rows.push(row);
-        }
-    }
-    for (label, o) in s2_extra.iter().map(|(l, o)| (l.as_str(), o)).chain([
-        ("GNN, no clutter (bound)", &free2[0]),
-        ("FDB-DAF (all), no clutter", &free2[1]),
-    ]) {
-        let lam = if label.contains("no clutter") {
-            "0"
+    let header4 = rmse_header(&["method", "lambda"], &[""], 2, &["coverage T1/T2"]);
+    // Table 5's FDB-DAF (all) row holds lambda = 1 then lambda = 2
+    let table4_paper = |name: &str, lambda: u32, t: usize| {
+        if name == "FDB-DAF (all)" {
+            TABLE5[10][if lambda == 1 { t } else { 2 + t }]
         } else {
-            "1"
-        };
-        let mut row = vec![label.to_string(), lam.into()];
-        for t in 0..2 {
-            row.extend(triple(None, o.rmse.get(t).copied().flatten()));
+            TABLE4
+                .iter()
+                .find(|(n, l, _)| *n == name && *l == lambda)
+                .map(|x| x.2[t])
         }
-        row.push(cov_cell(o));
-        rows.push(row);
-    }
-    md.push_str(&md_table(&header4, &rows));
+    };
+    // the filter / gate rows ran at lambda = 1
+    let extra4 = s2_extra
+        .iter()
+        .map(|(l, o)| (l.as_str(), "1", o))
+        .chain(no_clutter_rows(&free2));
+    let rows = compared_rows(&all_rows, &lambdas, &r2, 2, "Table 5", table4_paper, extra4);
+    md.push_str(&table(&header4, &rows));
     md.push('\n');
     let fdb2 = &r2[all_rows.len() - 1][0];
     writeln!(
@@ -1152,22 +1143,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
 
     // ---- Table 5 ----
     writeln!(md, "## Table 5: scenario 2, FDB-DAF variants\n")?;
-    let header5 = [
-        "variant",
-        "l=1 T1 paper",
-        "l=1 T1 ours",
-        "diff",
-        "l=1 T2 paper",
-        "l=1 T2 ours",
-        "diff",
-        "l=2 T1 paper",
-        "l=2 T1 ours",
-        "diff",
-        "l=2 T2 paper",
-        "l=2 T2 ours",
-        "diff",
-        "coverage l=1 / l=2",
-    ];
+    let header5 = rmse_header(&["variant"], &["l=1 ", "l=2 "], 2, &["coverage l=1 / l=2"]);
     let mut rows = Vec::new();
     for (i, v) in fdbs.iter().enumerate() {
         let mut row = vec![v.label.clone()];
@@ -1186,7 +1162,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         ));
         rows.push(row);
     }
-    md.push_str(&md_table(&header5, &rows));
+    md.push_str(&table(&header5, &rows));
     md.push('\n');
     writeln!(
         md,

@@ -116,6 +116,20 @@ pub trait TrackAssociator: Send {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError>;
+
+    /// As [`TrackAssociator::associate`], into `out` (its previous contents are replaced).
+    /// Methods override it to reuse `out`'s buffers from scan to scan (the fusion center
+    /// calls this one); the default calls `associate`.
+    fn associate_into(
+        &mut self,
+        ctx: &AssociationContext<'_>,
+        tracks: &[LocalTrack],
+        globals: &[GlobalTrack],
+        out: &mut Vec<TrackGroup>,
+    ) -> Result<(), CenterError> {
+        *out = self.associate(ctx, tracks, globals)?;
+        Ok(())
+    }
 }
 
 /// What a fusion rule may know when it fuses one group.

@@ -47,12 +47,12 @@ MethodInfo {
 },
 MethodInfo {
     name: "chi2-gnn",
-    summary: "chi-square test on the track difference + optimal assignment, sensor by sensor",
+    summary: "chi-square test on the track difference + optimal assignment, sensor by sensor (Singer & Kanyuck 1970; Bar-Shalom 1981)",
     make: |p| Ok(Box::new(Chi2Gnn::from_params(p)?)),
 },
     MethodInfo {
         name: super::t2ta::fdtta::NAME,
-        summary: "fuzzy double-threshold association, fixed or adaptive threshold (004)",
+        summary: "fuzzy double-threshold association (004): threshold = fixed (FT-FDTTA) | adaptive (AT-FDTTA, default; eps_0, eps_step, eps_min)",
         make: super::t2ta::fdtta::make,
     },
     MethodInfo {
@@ -72,7 +72,7 @@ MethodInfo {
     },
     MethodInfo {
         name: super::t2ta::fta::NAME,
-        summary: "002 baseline: fuzzy track association with association quality m (He, Wang, Guan 2010)",
+        summary: "002 baseline: fuzzy track association with association quality m (quality, default 6; He, Wang, Guan 2010)",
         make: |p| Ok(Box::new(super::t2ta::fta::Fta::from_params(p)?)),
     },
 ];
@@ -96,7 +96,7 @@ pub const RULES: &[RuleInfo] = &[
     },
     RuleInfo {
         name: "ci",
-        summary: "covariance intersection (Julier & Uhlmann), weights minimising det or trace",
+        summary: "covariance intersection (Julier & Uhlmann): criterion = det (default) | trace",
         make: |p| Ok(Box::new(CovarianceIntersection::from_params(p)?)),
     },
     RuleInfo {

@@ -1,7 +1,7 @@
 //! Helpers for the tests of every fusion-center method (compiled in tests only).
 
-use super::TrackGroup;
-use crate::types::{LocalTrack, StateCov, StateVec};
+use super::{AssociationContext, GlobalTrack, TrackAssociator, TrackGroup};
+use crate::types::{Id, LocalTrack, StateCov, StateVec};
 
 /// A local track at scan 0 with position `(x, y)`, velocity `(vx, vy)` and covariance
 /// `var * I`.
@@ -22,6 +22,64 @@ pub fn local(
         state: StateVec::new(x, vx, y, vy),
         cov: StateCov::identity() * var,
     }
+}
+
+/// `t` moved to scan `scan` at time `scan` seconds (state and covariance unchanged).
+pub fn at(mut t: LocalTrack, scan: u32) -> LocalTrack {
+    t.scan = scan;
+    t.time = scan as f64;
+    t
+}
+
+/// A global track last updated at scan 0 (time 0) with estimate `(state, cov)`: one
+/// update, no misses, no sources, no previous estimate.
+pub fn global(id: Id, state: StateVec, cov: StateCov) -> GlobalTrack {
+    global_at(id, state, cov, 0)
+}
+
+/// [`global`], last updated at scan `scan` (time `scan` seconds).
+pub fn global_at(id: Id, state: StateVec, cov: StateCov, scan: u32) -> GlobalTrack {
+    GlobalTrack {
+        id,
+        scan,
+        time: scan as f64,
+        state,
+        cov,
+        previous: None,
+        sources: Vec::new(),
+        updates: 1,
+        misses: 0,
+    }
+}
+
+/// The globals' estimates unchanged, as the `predicted` of an [`AssociationContext`].
+pub fn predicted(globals: &[GlobalTrack]) -> Vec<(StateVec, StateCov)> {
+    globals.iter().map(|g| (g.state, g.cov)).collect()
+}
+
+/// The context of scan `scan` at time `scan` seconds, 1 s after the previous scan, with
+/// the given predicted globals and no sensors or labels.
+pub fn ctx(scan: u32, predicted: &[(StateVec, StateCov)]) -> AssociationContext<'_> {
+    AssociationContext {
+        scan,
+        time: scan as f64,
+        sensors: None,
+        predicted,
+        dt: 1.0,
+        labels: None,
+    }
+}
+
+/// `a.associate(ctx, tracks, globals)`, unwrapped, after [`check_groups`] on the result.
+pub fn associate_checked(
+    a: &mut dyn TrackAssociator,
+    ctx: &AssociationContext<'_>,
+    tracks: &[LocalTrack],
+    globals: &[GlobalTrack],
+) -> Vec<TrackGroup> {
+    let groups = a.associate(ctx, tracks, globals).unwrap();
+    check_groups(tracks, &groups, globals.len());
+    groups
 }
 
 /// Check the invariants every associator keeps: every track in exactly one group, at

@@ -9,6 +9,34 @@ use crate::types::{
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
+/// Every column name a FORMATS.md reader looks up, besides the covariance cells.
+const FORMATS_COLUMNS: &[&str] = &[
+    "scan",
+    "time",
+    "sensor_id",
+    "track_id",
+    "fused_id",
+    "target_id",
+    "x",
+    "vx",
+    "y",
+    "vy",
+    "n_sources",
+    "sources",
+    "range",
+    "bearing",
+    "kind",
+    "sigma_r",
+    "sigma_theta",
+    "sigma_x",
+    "sigma_y",
+    "pd",
+    "bias_r",
+    "bias_theta",
+    "max_range",
+    "clutter_density",
+];
+
 /// File name and header of a table, for error reports.
 struct Meta {
     path: std::path::PathBuf,
@@ -45,6 +73,27 @@ impl Table {
             .collect::<Vec<_>>();
         if headers.iter().all(|h| h.is_empty()) {
             return Err(InputError::line(path, 1, "empty file or empty header row"));
+        }
+        // A column a reader looks up by name must be unambiguous; unknown extra columns
+        // are ignored, duplicated or not.
+        for (i, h) in headers.iter().enumerate() {
+            let known = FORMATS_COLUMNS.contains(&h.as_str()) || COV_COLUMNS.contains(&h.as_str());
+            if let Some(j) = known
+                .then(|| headers[..i].iter().position(|g| g == h))
+                .flatten()
+            {
+                return Err(InputError {
+                    file: path.to_path_buf(),
+                    line: Some(1),
+                    column: Some(i + 1),
+                    column_name: Some(h.clone()),
+                    reason: format!(
+                        "column appears twice in the header (columns {} and {})",
+                        j + 1,
+                        i + 1
+                    ),
+                });
+            }
         }
         Ok(Table {
             meta: Meta {

@@ -100,7 +100,8 @@ pub const ASSOCIATORS: &[AssociatorInfo] = &[
     AssociatorInfo {
         name: "fdb-daf",
         summary: "fuzzy density-based data association (001): density clustering seeded at \
-                  the predictions, maximum-entropy memberships, all / top-k / threshold",
+                  the predictions, maximum-entropy memberships; selection = all | top-k (k, \
+                  eq. 14) | threshold (xi, eq. 15)",
         make: super::association::fdb_daf::FdbDaf::from_settings,
     },
     AssociatorInfo {

@@ -15,6 +15,9 @@
 //! Clutter: Poisson count with mean `density * area_km2`, uniform over `clutter.region`
 //! if given, else over the sensor's coverage disc of radius `max_range`.
 
+pub mod synthetic;
+pub use synthetic::synthetic_local_tracks;
+
 use crate::models::motion::{acceleration_at, input_effect};
 use crate::models::AccelerationSegment;
 use crate::models::{cv_transition, noise_gain, range_bearing, wrap_angle};

@@ -15,6 +15,10 @@
 //!   dominates; the fused covariance is singular in its certain directions). Not an error,
 //!   and the same numbers as the information form whenever both exist.
 //! - The prior global state is not used.
+//!
+//! # Equation numbers
+//! 003 gives no equation for CC (Sec. 6 only cites its reference 33) and Bar-Shalom &
+//! Campo (1986) is not among the five seed papers, so no equation numbers are cited.
 
 use super::blue::{blue, canonical, validate};
 use crate::center::linalg::{chol_inverse4, cholesky4};

@@ -37,6 +37,8 @@
 //! # References
 //! S. J. Julier, J. K. Uhlmann, "A non-divergent estimation algorithm in the presence of
 //! unknown correlations", Proc. American Control Conference, 1997.
+//! Not among the five seed papers (ALGORITHMS.md names CI as a baseline only), so no
+//! equation numbers are cited.
 
 use super::blue::{canonical, validate};
 use crate::center::{CenterError, FusionContext, FusionRule};

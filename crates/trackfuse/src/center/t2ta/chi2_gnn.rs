@@ -64,6 +64,8 @@
 //! R. A. Singer, A. J. Kanyuck, "Computer control of multiple site track correlation",
 //! Automatica 7, 1971 (1970 report). Y. Bar-Shalom, "On the track-to-track correlation
 //! problem", IEEE Trans. AC 26(2), 1981.
+//! 000 cites the test as its references 14 and 15 (Sec. I). None of these sources is
+//! among the five seed papers, so their equation numbers are not cited.
 
 use crate::center::linalg::{chol_inverse4, cholesky4, solve_lower_vec4};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
@@ -782,34 +784,10 @@ impl TrackAssociator for Chi2Gnn {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{check_groups, local};
+    use crate::center::testing::{associate_checked, check_groups, ctx, global, local, predicted};
     use crate::rng::stream;
+    use crate::types::Id;
     use rand::RngExt;
-
-    fn ctx<'a>(predicted: &'a [(StateVec, StateCov)]) -> AssociationContext<'a> {
-        AssociationContext {
-            scan: 0,
-            time: 0.0,
-            sensors: None,
-            predicted,
-            dt: 1.0,
-            labels: None,
-        }
-    }
-
-    fn global(id: i64, state: StateVec, cov: StateCov) -> GlobalTrack {
-        GlobalTrack {
-            id,
-            scan: 0,
-            time: 0.0,
-            state,
-            cov,
-            previous: None,
-            sources: vec![],
-            updates: 1,
-            misses: 0,
-        }
-    }
 
     fn sorted_members(groups: &[TrackGroup]) -> Vec<Vec<usize>> {
         let mut m: Vec<Vec<usize>> = groups.iter().map(|g| g.members.clone()).collect();
@@ -843,18 +821,22 @@ mod tests {
         assert!(Chi2Gnn::from_params(&t).is_err());
     }
 
-    #[test]
-    fn two_sensors_two_targets_pair_correctly() {
-        // target A near (0, 0) moving +x, target B near (1000, 500) moving -y
-        let tracks = [
+    /// Sensors 1 and 2 each see target A near (0, 0) moving +x and target B near
+    /// (1000, 500) moving -y (sensor 1 in the order A, B; sensor 2 in the order B, A).
+    fn two_sensors_two_targets() -> [LocalTrack; 4] {
+        [
             local(1, 1, 0.0, 10.0, 0.0, 0.0, 25.0),
             local(1, 2, 1000.0, 0.0, 500.0, -8.0, 25.0),
             local(2, 1, 1004.0, 0.5, 497.0, -8.5, 25.0),
             local(2, 2, -3.0, 9.0, 2.0, 0.5, 25.0),
-        ];
+        ]
+    }
+
+    #[test]
+    fn two_sensors_two_targets_pair_correctly() {
+        let tracks = two_sensors_two_targets();
         let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
-        let groups = gnn.associate(&ctx(&[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(sorted_members(&groups), vec![vec![0, 3], vec![1, 2]]);
         assert!(groups.iter().all(|g| g.global.is_none()));
         assert!(groups.iter().all(|g| g.weights.iter().all(|&w| w == 1.0)));
@@ -863,8 +845,7 @@ mod tests {
         let mut three = tracks.to_vec();
         three.push(local(3, 7, 2.0, 10.5, -1.0, 0.0, 25.0));
         three.push(local(3, 8, 998.0, 0.0, 503.0, -7.5, 25.0));
-        let groups = gnn.associate(&ctx(&[]), &three, &[]).unwrap();
-        check_groups(&three, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &three, &[]);
         assert_eq!(sorted_members(&groups), vec![vec![0, 3, 4], vec![1, 2, 5]]);
     }
 
@@ -887,16 +868,12 @@ mod tests {
                 StateCov::identity() * 40.0,
             ),
         ];
-        let predicted: Vec<(StateVec, StateCov)> =
-            globals.iter().map(|g| (g.state, g.cov)).collect();
-        let tracks = [
-            local(1, 1, 0.0, 10.0, 0.0, 0.0, 25.0),
-            local(1, 2, 1000.0, 0.0, 500.0, -8.0, 25.0),
-            local(2, 1, 1004.0, 0.5, 497.0, -8.5, 25.0),
-            local(2, 2, -3.0, 9.0, 2.0, 0.5, 25.0),
-        ];
+        let predicted = predicted(&globals);
+        let tracks = two_sensors_two_targets();
         let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
-        let groups = gnn.associate(&ctx(&predicted), &tracks, &globals).unwrap();
+        let groups = gnn
+            .associate(&ctx(0, &predicted), &tracks, &globals)
+            .unwrap();
         check_groups(&tracks, &groups, globals.len());
         assert_eq!(groups.len(), 2);
         let of = |m: usize| groups.iter().find(|g| g.members.contains(&m)).unwrap();
@@ -924,8 +901,7 @@ mod tests {
             local(3, 2, 61.0, 10.0, 1.0, 0.0, 25.0),
         ];
         let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
-        let groups = gnn.associate(&ctx(&predicted), &tracks, &globals).unwrap();
-        check_groups(&tracks, &groups, 1);
+        let groups = associate_checked(&mut gnn, &ctx(0, &predicted), &tracks, &globals);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].members, vec![0, 2]);
         assert_eq!(groups[0].global, Some(0));
@@ -950,37 +926,35 @@ mod tests {
             ..Default::default()
         })
         .unwrap();
-        let groups = gnn.associate(&ctx(&[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(sorted_members(&groups), vec![vec![0, 2], vec![1, 3]]);
     }
 
     #[test]
     fn degenerate_input() {
         let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
-        assert!(gnn.associate(&ctx(&[]), &[], &[]).unwrap().is_empty());
+        assert!(gnn.associate(&ctx(0, &[]), &[], &[]).unwrap().is_empty());
         // coincident tracks with zero covariance cannot be tested: separate groups
         let z = [
             local(1, 1, 0.0, 0.0, 0.0, 0.0, 0.0),
             local(2, 1, 0.0, 0.0, 0.0, 0.0, 0.0),
         ];
-        let groups = gnn.associate(&ctx(&[]), &z, &[]).unwrap();
-        check_groups(&z, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &z, &[]);
         assert_eq!(groups.len(), 2);
         // coincident tracks with a covariance: one group
         let c = [
             local(1, 1, 0.0, 0.0, 0.0, 0.0, 1.0),
             local(2, 1, 0.0, 0.0, 0.0, 0.0, 1.0),
         ];
-        assert_eq!(gnn.associate(&ctx(&[]), &c, &[]).unwrap().len(), 1);
+        assert_eq!(gnn.associate(&ctx(0, &[]), &c, &[]).unwrap().len(), 1);
         // unsorted sensors, wrong predicted length, non-finite
         let u = [c[1], c[0]];
-        assert!(gnn.associate(&ctx(&[]), &u, &[]).is_err());
+        assert!(gnn.associate(&ctx(0, &[]), &u, &[]).is_err());
         let g = [global(1, StateVec::zeros(), StateCov::identity())];
-        assert!(gnn.associate(&ctx(&[]), &c, &g).is_err());
+        assert!(gnn.associate(&ctx(0, &[]), &c, &g).is_err());
         let mut bad = c;
         bad[0].cov[(1, 1)] = f64::NAN;
-        assert!(gnn.associate(&ctx(&[]), &bad, &[]).is_err());
+        assert!(gnn.associate(&ctx(0, &[]), &bad, &[]).is_err());
     }
 
     /// Dense brute force: every track against every reference, one lsap on min(d^2, gamma),
@@ -1032,6 +1006,37 @@ mod tests {
         p
     }
 
+    /// A state uniform over `[0, area)^2` with velocities in (-20, 20) m/s.
+    fn random_state(rng: &mut crate::rng::StreamRng, area: f64) -> StateVec {
+        StateVec::new(
+            rng.random_range(0.0..area),
+            rng.random_range(-20.0..20.0),
+            rng.random_range(0.0..area),
+            rng.random_range(-20.0..20.0),
+        )
+    }
+
+    /// A track of `sensor_id` estimating `x`: a random covariance (`random_cov` with
+    /// 400 m^2, 16 m^2/s^2), then `x` plus uniform errors within `pos` m and `vel` m/s.
+    fn noisy(
+        rng: &mut crate::rng::StreamRng,
+        sensor_id: Id,
+        track_id: Id,
+        x: &StateVec,
+        pos: f64,
+        vel: f64,
+    ) -> LocalTrack {
+        let mut t = local(sensor_id, track_id, 0.0, 0.0, 0.0, 0.0, 1.0);
+        t.cov = random_cov(rng, 400.0, 16.0);
+        t.state = x + StateVec::new(
+            rng.random_range(-pos..pos),
+            rng.random_range(-vel..vel),
+            rng.random_range(-pos..pos),
+            rng.random_range(-vel..vel),
+        );
+        t
+    }
+
     #[test]
     fn large_random_case_equals_a_dense_assignment() {
         let mut rng = stream(7, 0, "chi2-gnn-test", 0);
@@ -1040,12 +1045,7 @@ mod tests {
         let area = 2400.0;
         let predicted: Vec<(StateVec, StateCov)> = (0..n_globals)
             .map(|_| {
-                let x = StateVec::new(
-                    rng.random_range(0.0..area),
-                    rng.random_range(-20.0..20.0),
-                    rng.random_range(0.0..area),
-                    rng.random_range(-20.0..20.0),
-                );
+                let x = random_state(&mut rng, area);
                 (x, random_cov(&mut rng, 900.0, 25.0))
             })
             .collect();
@@ -1059,25 +1059,12 @@ mod tests {
             if k % 10 == 3 {
                 continue; // missed
             }
-            let mut t = local(1, k as i64, 0.0, 0.0, 0.0, 0.0, 1.0);
-            t.cov = random_cov(&mut rng, 400.0, 16.0);
-            t.state = x + StateVec::new(
-                rng.random_range(-60.0..60.0),
-                rng.random_range(-6.0..6.0),
-                rng.random_range(-60.0..60.0),
-                rng.random_range(-6.0..6.0),
-            );
-            tracks.push(t);
+            tracks.push(noisy(&mut rng, 1, k as i64, x, 60.0, 6.0));
         }
         for k in 0..15 {
             let mut t = local(1, 1000 + k, 0.0, 0.0, 0.0, 0.0, 1.0);
             t.cov = random_cov(&mut rng, 400.0, 16.0);
-            t.state = StateVec::new(
-                rng.random_range(0.0..area),
-                rng.random_range(-20.0..20.0),
-                rng.random_range(0.0..area),
-                rng.random_range(-20.0..20.0),
-            );
+            t.state = random_state(&mut rng, area);
             tracks.push(t);
         }
         for gate_on in [GateOn::State, GateOn::Position] {
@@ -1086,7 +1073,9 @@ mod tests {
                 ..Default::default()
             })
             .unwrap();
-            let groups = gnn.associate(&ctx(&predicted), &tracks, &globals).unwrap();
+            let groups = gnn
+                .associate(&ctx(0, &predicted), &tracks, &globals)
+                .unwrap();
             check_groups(&tracks, &groups, globals.len());
             let mut got = vec![None; tracks.len()];
             for g in &groups {
@@ -1134,19 +1123,10 @@ mod tests {
             .collect();
         let mut all = sensor1.clone();
         for (k, (x, _)) in predicted.iter().enumerate().take(110) {
-            let mut t = local(2, k as i64, 0.0, 0.0, 0.0, 0.0, 1.0);
-            t.cov = random_cov(&mut rng, 400.0, 16.0);
-            t.state = x + StateVec::new(
-                rng.random_range(-60.0..60.0),
-                rng.random_range(-6.0..6.0),
-                rng.random_range(-60.0..60.0),
-                rng.random_range(-6.0..6.0),
-            );
-            all.push(t);
+            all.push(noisy(&mut rng, 2, k as i64, x, 60.0, 6.0));
         }
         let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
-        let groups = gnn.associate(&ctx(&[]), &all, &[]).unwrap();
-        check_groups(&all, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &all, &[]);
         let refs: Vec<(StateVec, StateCov)> = sensor1.iter().map(|t| (t.state, t.cov)).collect();
         let expected = dense(&all[sensor1.len()..], &refs, gnn.gate());
         let n1 = sensor1.len();
@@ -1188,12 +1168,7 @@ mod tests {
                     _ => 400.0,
                 };
                 t.cov = random_cov(&mut rng, size, 16.0);
-                t.state = StateVec::new(
-                    rng.random_range(0.0..area),
-                    rng.random_range(-20.0..20.0),
-                    rng.random_range(0.0..area),
-                    rng.random_range(-20.0..20.0),
-                );
+                t.state = random_state(&mut rng, area);
                 t
             };
             let refs: Vec<LocalTrack> = (0..300).map(&mut estimate).collect();
@@ -1289,8 +1264,7 @@ mod tests {
             local(2, 1, 0.0, 0.0, 0.0, 0.0, 25.0),
         ];
         let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
-        let groups = gnn.associate(&ctx(&[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(groups.len(), 2);
         assert!(groups.iter().any(|g| g.members.len() == 2));
     }
@@ -1312,20 +1286,11 @@ mod tests {
         let mut tracks = Vec::new();
         for s in 1..=4 {
             for (k, x) in truth.iter().enumerate() {
-                let mut t = local(s, k as i64, 0.0, 0.0, 0.0, 0.0, 1.0);
-                t.cov = random_cov(&mut rng, 400.0, 16.0);
-                t.state = x + StateVec::new(
-                    rng.random_range(-10.0..10.0),
-                    rng.random_range(-1.0..1.0),
-                    rng.random_range(-10.0..10.0),
-                    rng.random_range(-1.0..1.0),
-                );
-                tracks.push(t);
+                tracks.push(noisy(&mut rng, s, k as i64, x, 10.0, 1.0));
             }
         }
         let mut gnn = Chi2Gnn::new(Chi2GnnParams::default()).unwrap();
-        let groups = gnn.associate(&ctx(&[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut gnn, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(groups.len(), 1000);
         for g in &groups {
             assert_eq!(g.members.len(), 4);

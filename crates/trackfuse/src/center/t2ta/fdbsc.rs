@@ -275,6 +275,11 @@ pub struct EpsGrid {
     /// `(cell x, cell y, index)`).
     cells: Vec<u128>,
     points: Vec<Vec2>,
+    /// The occupied cells, ascending, and where each starts in `cells` (one more entry):
+    /// the queries binary-search this short array of 8-byte keys, which stays in the
+    /// cache where `cells` (16 bytes a point) would not.
+    dir_keys: Vec<u64>,
+    dir_start: Vec<u32>,
 }
 
 impl EpsGrid {
@@ -292,6 +297,15 @@ impl EpsGrid {
             self.cells.push(entry(pack(cx, cy), i as u32));
         }
         self.cells.sort_unstable();
+        self.dir_keys.clear();
+        self.dir_start.clear();
+        for (k, &c) in self.cells.iter().enumerate() {
+            if self.dir_keys.last() != Some(&key(c)) {
+                self.dir_keys.push(key(c));
+                self.dir_start.push(k as u32);
+            }
+        }
+        self.dir_start.push(self.cells.len() as u32);
     }
 
     /// Number of points.
@@ -315,11 +329,18 @@ impl EpsGrid {
         let (cx, cy) = cell_of(p, self.inv_cell);
         for x in cx - 1..=cx + 1 {
             let (lo, hi) = (pack(x, cy - 1), pack(x, cy + 1));
-            let start = self.cells.partition_point(|&c| key(c) < lo);
-            for &c in &self.cells[start..] {
-                if key(c) > hi {
-                    break;
-                }
+            let first = self.dir_keys.partition_point(|&k| k < lo);
+            let last = first
+                + self.dir_keys[first..]
+                    .iter()
+                    .take(3)
+                    .take_while(|&&k| k <= hi)
+                    .count();
+            if first == last {
+                continue;
+            }
+            let (start, end) = (self.dir_start[first], self.dir_start[last]);
+            for &c in &self.cells[start as usize..end as usize] {
                 let i = index(c);
                 let q = self.points[i as usize];
                 let d2 = squared_distance(&q, p);
@@ -537,6 +558,7 @@ pub struct FdbscTa {
     weights: Vec<f64>,
     distances: Vec<f64>,
     // splitting
+    sensor_of: Vec<Id>,
     by_sensor: Vec<(Id, u32)>,
     cluster_globals: Vec<u32>,
     global_sub: Vec<u32>,
@@ -573,6 +595,7 @@ impl FdbscTa {
             group_global: Vec::new(),
             weights: Vec::new(),
             distances: Vec::new(),
+            sensor_of: Vec::new(),
             by_sensor: Vec::new(),
             cluster_globals: Vec::new(),
             global_sub: Vec::new(),
@@ -611,14 +634,14 @@ impl FdbscTa {
     /// Split one cluster with a repeated sensor (module doc, "Splitting") and push its
     /// groups. `sorted`: the tracks are sorted by sensor (so the cluster's members,
     /// ascending, come grouped by sensor).
-    fn split_cluster(&mut self, c: usize, tracks: &[LocalTrack], sorted: bool) {
+    fn split_cluster(&mut self, c: usize, sorted: bool) {
         self.cluster_globals.clear();
         self.sub_stamp.clear();
         self.sub_centre.clear();
         // one sensor at a time, ascending sensor id
         self.by_sensor.clear();
         for &i in self.components.component(c) {
-            self.by_sensor.push((tracks[i as usize].sensor_id, i));
+            self.by_sensor.push((self.sensor_of[i as usize], i));
             self.sub_of[i as usize] = NONE;
         }
         if !sorted {
@@ -896,6 +919,18 @@ impl TrackAssociator for FdbscTa {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError> {
+        let mut groups = Vec::new();
+        self.associate_into(ctx, tracks, globals, &mut groups)?;
+        Ok(groups)
+    }
+
+    fn associate_into(
+        &mut self,
+        ctx: &AssociationContext<'_>,
+        tracks: &[LocalTrack],
+        globals: &[GlobalTrack],
+        groups: &mut Vec<TrackGroup>,
+    ) -> Result<(), CenterError> {
         ctx.check_predictions(NAME, globals)?;
         if let Some(t) = tracks
             .iter()
@@ -936,21 +971,26 @@ impl TrackAssociator for FdbscTa {
         // the center sorts the tracks by sensor, so a cluster's members (ascending
         // indices) come grouped by sensor; any other order takes a sort per cluster
         let sorted = tracks.windows(2).all(|w| w[0].sensor_id <= w[1].sensor_id);
+        // the sensor ids in one compact array: the per-cluster checks below read them in
+        // cluster order, which would otherwise touch one whole local track each
+        self.sensor_of.clear();
+        self.sensor_of.extend(tracks.iter().map(|t| t.sensor_id));
         for c in 0..self.components.len() {
             let members = self.components.component(c);
+            let sensor_of = &self.sensor_of;
             let repeated = if sorted {
                 members
                     .windows(2)
-                    .any(|w| tracks[w[0] as usize].sensor_id == tracks[w[1] as usize].sensor_id)
+                    .any(|w| sensor_of[w[0] as usize] == sensor_of[w[1] as usize])
             } else {
                 self.by_sensor.clear();
                 self.by_sensor
-                    .extend(members.iter().map(|&i| (tracks[i as usize].sensor_id, i)));
+                    .extend(members.iter().map(|&i| (sensor_of[i as usize], i)));
                 self.by_sensor.sort_unstable();
                 self.by_sensor.windows(2).any(|w| w[0].0 == w[1].0)
             };
             if repeated {
-                self.split_cluster(c, tracks, sorted);
+                self.split_cluster(c, sorted);
             } else {
                 self.push_group();
                 let members = self.components.component(c);
@@ -963,23 +1003,35 @@ impl TrackAssociator for FdbscTa {
         self.memberships();
         self.adapt_eps();
 
+        // the groups of the previous scan are overwritten in place, so their member and
+        // weight buffers are reused
         let n_groups = self.group_global.len();
-        let mut groups = Vec::with_capacity(n_groups);
+        groups.truncate(n_groups);
         for g in 0..n_groups {
             let range = self.group_start[g]..self.group_start[g + 1];
-            groups.push(TrackGroup {
-                members: self.group_members[range.clone()]
+            let global = match self.group_global[g] {
+                NONE => None,
+                k => Some(k as usize),
+            };
+            if g == groups.len() {
+                groups.push(TrackGroup {
+                    members: Vec::with_capacity(range.len()),
+                    weights: Vec::with_capacity(range.len()),
+                    global,
+                });
+            }
+            let out = &mut groups[g];
+            out.members.clear();
+            out.members.extend(
+                self.group_members[range.clone()]
                     .iter()
-                    .map(|&i| i as usize)
-                    .collect(),
-                weights: self.weights[range].to_vec(),
-                global: match self.group_global[g] {
-                    NONE => None,
-                    k => Some(k as usize),
-                },
-            });
+                    .map(|&i| i as usize),
+            );
+            out.weights.clear();
+            out.weights.extend_from_slice(&self.weights[range]);
+            out.global = global;
         }
-        Ok(groups)
+        Ok(())
     }
 }
 
@@ -987,7 +1039,7 @@ impl TrackAssociator for FdbscTa {
 mod tests {
     use super::*;
     use crate::center::fusion::fuzzy::FuzzyFusion;
-    use crate::center::testing::{check_groups, local};
+    use crate::center::testing::{self, check_groups, ctx, local, predicted};
     use crate::center::{FusionContext, FusionRule};
     use crate::rng::stream;
     use crate::types::{StateCov, StateVec};
@@ -995,33 +1047,9 @@ mod tests {
     use rand::seq::SliceRandom;
     use rand::RngExt;
 
+    /// A global track at rest at `(x, y)`, covariance `I`.
     fn global(id: Id, x: f64, y: f64) -> GlobalTrack {
-        GlobalTrack {
-            id,
-            scan: 0,
-            time: 0.0,
-            state: StateVec::new(x, 0.0, y, 0.0),
-            cov: StateCov::identity(),
-            previous: None,
-            sources: Vec::new(),
-            updates: 1,
-            misses: 0,
-        }
-    }
-
-    fn predicted(globals: &[GlobalTrack]) -> Vec<(StateVec, StateCov)> {
-        globals.iter().map(|g| (g.state, g.cov)).collect()
-    }
-
-    fn ctx(pred: &[(StateVec, StateCov)]) -> AssociationContext<'_> {
-        AssociationContext {
-            scan: 1,
-            time: 1.0,
-            sensors: None,
-            predicted: pred,
-            dt: 1.0,
-            labels: None,
-        }
+        testing::global(id, StateVec::new(x, 0.0, y, 0.0), StateCov::identity())
     }
 
     fn fixed(eps: f64) -> FdbscTa {
@@ -1035,7 +1063,7 @@ mod tests {
 
     fn run(a: &mut FdbscTa, tracks: &[LocalTrack], globals: &[GlobalTrack]) -> Vec<TrackGroup> {
         let pred = predicted(globals);
-        let groups = a.associate(&ctx(&pred), tracks, globals).unwrap();
+        let groups = a.associate(&ctx(1, &pred), tracks, globals).unwrap();
         check_groups(tracks, &groups, globals.len());
         groups
     }
@@ -1280,10 +1308,10 @@ mod tests {
         let t = [local(0, 0, 0.0, 0.0, 0.0, 0.0, 1.0)];
         let g = [global(0, 0.0, 0.0)];
         // predicted estimates must match the globals
-        assert!(a.associate(&ctx(&[]), &t, &g).is_err());
+        assert!(a.associate(&ctx(1, &[]), &t, &g).is_err());
         let mut bad = t;
         bad[0].state[0] = f64::NAN;
-        assert!(a.associate(&ctx(&[]), &bad, &[]).is_err());
+        assert!(a.associate(&ctx(1, &[]), &bad, &[]).is_err());
     }
 
     #[test]

@@ -875,7 +875,7 @@ pub fn make(tables: &ParamTables) -> Result<Box<dyn TrackAssociator>, ParamError
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{check_groups, local};
+    use crate::center::testing::{self, associate_checked, check_groups, ctx, local, predicted};
 
     fn diag(px: f64, pv: f64) -> StateCov {
         StateCov::from_diagonal(&nalgebra::Vector4::new(px, pv, px, pv))
@@ -888,32 +888,7 @@ mod tests {
     }
 
     fn global(id: Id, x: [f64; 4], cov: StateCov) -> GlobalTrack {
-        GlobalTrack {
-            id,
-            scan: 0,
-            time: 0.0,
-            state: StateVec::from(x),
-            cov,
-            previous: None,
-            sources: Vec::new(),
-            updates: 1,
-            misses: 0,
-        }
-    }
-
-    fn ctx<'a>(scan: u32, predicted: &'a [(StateVec, StateCov)]) -> AssociationContext<'a> {
-        AssociationContext {
-            scan,
-            time: scan as f64,
-            sensors: None,
-            predicted,
-            dt: 1.0,
-            labels: None,
-        }
-    }
-
-    fn predicted(globals: &[GlobalTrack]) -> Vec<(StateVec, StateCov)> {
-        globals.iter().map(|g| (g.state, g.cov)).collect()
+        testing::global(id, StateVec::from(x), cov)
     }
 
     fn fixed(eps: f64) -> FdttaParams {
@@ -1006,13 +981,11 @@ mod tests {
         let t = [track(1, 0, [25.0, 10.0, 0.0, 0.0], diag(50.0, 1.0))];
         let expected = 0.45 + 0.55 * (-0.5f64 * 625.0 / 200.0).exp();
         let mut ft = Fdtta::new(fixed(0.6)).unwrap();
-        let groups = ft.associate(&ctx(0, &pred), &t, &g).unwrap();
-        check_groups(&t, &groups, 1);
+        let groups = associate_checked(&mut ft, &ctx(0, &pred), &t, &g);
         assert_eq!(groups[0].global, None);
         assert_eq!(ft.decisions()[0].similarity, None);
         let mut at = Fdtta::new(FdttaParams::default()).unwrap();
-        let groups = at.associate(&ctx(0, &pred), &t, &g).unwrap();
-        check_groups(&t, &groups, 1);
+        let groups = associate_checked(&mut at, &ctx(0, &pred), &t, &g);
         assert_eq!(groups[0].global, Some(0));
         let d = at.decisions()[0];
         assert!((d.similarity.unwrap() - expected).abs() < 1e-12);
@@ -1055,8 +1028,7 @@ mod tests {
             assert_eq!(unconfirmed.fixed_global(1, 5), None);
         }
         // the track jumps away: the fixed pair holds without a test
-        let groups = fd.associate(&ctx(3, &pred), &far, &g).unwrap();
-        check_groups(&far, &groups, 1);
+        let groups = associate_checked(&mut fd, &ctx(3, &pred), &far, &g);
         assert_eq!(groups[0].global, Some(0));
         assert!(fd.decisions()[0].fixed);
         assert!(fd.decisions()[0].similarity.unwrap() < 0.1);
@@ -1119,8 +1091,7 @@ mod tests {
         let pred1 = predicted(&one);
         let mut fd = Fdtta::new(params).unwrap();
         for scan in 0..2 {
-            let groups = fd.associate(&ctx(scan, &pred1), &two, &one).unwrap();
-            check_groups(&two, &groups, 1);
+            associate_checked(&mut fd, &ctx(scan, &pred1), &two, &one);
         }
         assert_eq!(fd.pass_count(1, 1, 1), 2);
         assert_eq!(fd.fixed_global(1, 0), Some(1));
@@ -1141,8 +1112,7 @@ mod tests {
             }
         }
         let mut fd = Fdtta::new(FdttaParams::default()).unwrap();
-        let groups = fd.associate(&ctx(0, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut fd, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(groups.len(), 12);
         for g in &groups {
             let target = tracks[g.members[0]].track_id % 100;
@@ -1191,8 +1161,7 @@ mod tests {
             track(1, 0, [5.0, 0.0, 5.0, 0.0], zero),
         ];
         let mut fd = Fdtta::new(p).unwrap();
-        let groups = fd.associate(&ctx(0, &pred), &t, &g).unwrap();
-        check_groups(&t, &groups, 1);
+        let groups = associate_checked(&mut fd, &ctx(0, &pred), &t, &g);
         assert_eq!(groups.len(), 1);
         assert_eq!(groups[0].global, Some(0));
         assert!(fd.associate(&ctx(1, &[]), &[], &[]).unwrap().is_empty());

@@ -369,32 +369,28 @@ impl TrackAssociator for Fta {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{check_groups, local};
+    use crate::center::testing::{self, associate_checked, ctx, local, predicted};
     use approx::assert_relative_eq;
 
-    fn ctx<'a>(scan: u32, predicted: &'a [(StateVec, StateCov)]) -> AssociationContext<'a> {
-        AssociationContext {
-            scan,
-            time: scan as f64,
-            sensors: None,
-            predicted,
-            dt: 1.0,
-            labels: None,
+    /// A global track at scan 0 fused from `sources`, covariance `100 I`.
+    fn global(id: Id, state: StateVec, sources: Vec<(Id, Id)>) -> GlobalTrack {
+        GlobalTrack {
+            sources,
+            ..testing::global(id, state, StateCov::identity() * 100.0)
         }
     }
 
-    fn global(id: Id, state: StateVec, scan: u32, sources: Vec<(Id, Id)>) -> GlobalTrack {
-        GlobalTrack {
-            id,
-            scan,
-            time: scan as f64,
-            state,
-            cov: StateCov::identity() * 100.0,
-            previous: None,
-            sources,
-            updates: 1,
-            misses: 0,
-        }
+    /// `tracks` 100 m further east, at scan `scan` (time unchanged).
+    fn advanced(tracks: &[LocalTrack], scan: u32) -> Vec<LocalTrack> {
+        tracks
+            .iter()
+            .map(|t| {
+                let mut t = *t;
+                t.state[0] += 100.0;
+                t.scan = scan;
+                t
+            })
+            .collect()
     }
 
     #[test]
@@ -443,8 +439,7 @@ mod tests {
             local(1, 5, 5.0, 100.0, 1003.0, 0.0, 100.0),
             local(1, 6, -8.0, 100.0, 4.0, 0.0, 100.0),
         ];
-        let groups = a.associate(&ctx(0, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut a, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].members, vec![0, 3]);
         assert_eq!(groups[1].members, vec![1, 2]);
@@ -463,13 +458,11 @@ mod tests {
             global(
                 20,
                 StateVec::new(0.0, 100.0, 0.0, 0.0),
-                0,
                 vec![(0, 1), (1, 6)],
             ),
             global(
                 21,
                 StateVec::new(0.0, 100.0, 1000.0, 0.0),
-                0,
                 vec![(0, 2), (1, 5)],
             ),
         ];
@@ -480,18 +473,9 @@ mod tests {
             }
         };
         step(&mut g, 1);
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
-        let moved: Vec<LocalTrack> = tracks
-            .iter()
-            .map(|t| {
-                let mut t = *t;
-                t.state[0] += 100.0;
-                t.scan = 1;
-                t
-            })
-            .collect();
-        let groups = a.associate(&ctx(1, &pred), &moved, &g).unwrap();
-        check_groups(&moved, &groups, 2);
+        let pred = predicted(&g);
+        let moved = advanced(&tracks, 1);
+        let groups = associate_checked(&mut a, &ctx(1, &pred), &moved, &g);
         assert_eq!(
             (groups[0].global, groups[0].members.clone()),
             (Some(0), vec![0, 3])
@@ -503,32 +487,18 @@ mod tests {
         // now every track has quality 2 = m: fixed pairs, kept while above the threshold,
         // with their similarities as weights.
         step(&mut g, 2);
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
-        let mut later: Vec<LocalTrack> = moved
-            .iter()
-            .map(|t| {
-                let mut t = *t;
-                t.state[0] += 100.0;
-                t.scan = 2;
-                t
-            })
-            .collect();
+        let pred = predicted(&g);
+        let mut later = advanced(&moved, 2);
         later[3].state[2] = 10.0;
-        let groups = a.associate(&ctx(2, &pred), &later, &g).unwrap();
-        check_groups(&later, &groups, 2);
+        let groups = associate_checked(&mut a, &ctx(2, &pred), &later, &g);
         assert_eq!(groups[0].members, vec![0, 3]);
         assert!(groups[0].weights.iter().all(|w| *w > 0.5 && *w <= 1.0));
         // a fixed pair that falls below the threshold is judged afresh: far away -> new
         step(&mut g, 3);
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
-        let mut lost = later.clone();
-        for t in lost.iter_mut() {
-            t.state[0] += 100.0;
-            t.scan = 3;
-        }
+        let pred = predicted(&g);
+        let mut lost = advanced(&later, 3);
         lost[3].state[2] = -3000.0;
-        let groups = a.associate(&ctx(3, &pred), &lost, &g).unwrap();
-        check_groups(&lost, &groups, 2);
+        let groups = associate_checked(&mut a, &ctx(3, &pred), &lost, &g);
         assert_eq!(groups.len(), 3);
         assert_eq!(groups[2].members, vec![3]);
         assert_eq!(groups[2].global, None);
@@ -544,17 +514,16 @@ mod tests {
         };
         let mut fixed = Fta::new(params.clone()).unwrap();
         let g = vec![
-            global(1, StateVec::new(0.0, 100.0, 0.0, 100.0), 0, vec![(0, 1)]),
-            global(2, StateVec::new(0.0, 100.0, 15.0, 100.0), 0, vec![(9, 9)]),
+            global(1, StateVec::new(0.0, 100.0, 0.0, 100.0), vec![(0, 1)]),
+            global(2, StateVec::new(0.0, 100.0, 15.0, 100.0), vec![(9, 9)]),
         ];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let t0 = [local(0, 1, 0.0, 100.0, 0.0, 100.0, 100.0)];
         let groups = fixed.associate(&ctx(0, &pred), &t0, &g).unwrap();
         assert_eq!(groups[0].global, Some(0));
         // quality is now 1 (= m): fixed. Next scan the track is nearer global 1.
         let t1 = [local(0, 1, 0.0, 100.0, 12.0, 100.0, 100.0)];
-        let groups = fixed.associate(&ctx(1, &pred), &t1, &g).unwrap();
-        check_groups(&t1, &groups, 2);
+        let groups = associate_checked(&mut fixed, &ctx(1, &pred), &t1, &g);
         assert_eq!(groups[0].global, Some(0), "fixed pair kept");
         // a fresh associator (no quality) judges it into global 1
         let mut fresh = Fta::new(params).unwrap();

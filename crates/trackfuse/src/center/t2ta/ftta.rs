@@ -706,7 +706,7 @@ pub fn make(tables: &ParamTables) -> Result<Box<dyn TrackAssociator>, ParamError
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{check_groups, local};
+    use crate::center::testing::{self, associate_checked, local, predicted};
     use crate::types::{StateCov, StateVec};
 
     fn position_sensor(id: Id, sigma: f64) -> Sensor {
@@ -725,17 +725,19 @@ mod tests {
         }
     }
 
+    /// Position sensors 1, 2 and 3 with resolutions `r` (sigma = r / sqrt 2).
+    fn with_resolutions(r: [f64; 3]) -> [Sensor; 3] {
+        std::array::from_fn(|k| position_sensor(k as Id + 1, r[k] / 2f64.sqrt()))
+    }
+
     fn ctx<'a>(
         sensors: Option<&'a [Sensor]>,
         predicted: &'a [(StateVec, StateCov)],
     ) -> AssociationContext<'a> {
         AssociationContext {
-            scan: 0,
-            time: 0.0,
             sensors,
-            predicted,
             dt: 0.0,
-            labels: None,
+            ..testing::ctx(0, predicted)
         }
     }
 
@@ -747,18 +749,13 @@ mod tests {
         }
     }
 
+    /// A global track at rest at `(x, y)`, covariance `100 I`.
     fn global(id: Id, x: f64, y: f64) -> GlobalTrack {
-        GlobalTrack {
+        testing::global(
             id,
-            scan: 0,
-            time: 0.0,
-            state: StateVec::new(x, 0.0, y, 0.0),
-            cov: StateCov::identity() * 100.0,
-            previous: None,
-            sources: Vec::new(),
-            updates: 1,
-            misses: 0,
-        }
+            StateVec::new(x, 0.0, y, 0.0),
+            StateCov::identity() * 100.0,
+        )
     }
 
     /// Two reports, eq. 4.6-4.16 by hand with m = 2: Delta_1 = (30, 40) (norm 50),
@@ -795,11 +792,7 @@ mod tests {
     #[test]
     fn three_reports_by_hand() {
         // sensors 1, 2, 3 with resolutions 50, 100, 150 (sigma = r / sqrt 2)
-        let sensors = [
-            position_sensor(1, 50.0 / 2f64.sqrt()),
-            position_sensor(2, 100.0 / 2f64.sqrt()),
-            position_sensor(3, 150.0 / 2f64.sqrt()),
-        ];
+        let sensors = with_resolutions([50.0, 100.0, 150.0]);
         let tracks = [
             local(1, 0, 0.0, 0.0, 0.0, 0.0, 1.0),
             local(2, 0, 60.0, 0.0, 0.0, 0.0, 1.0),
@@ -833,10 +826,7 @@ mod tests {
             assert_eq!(corr[(i, j)], 1, "({i},{j})");
         }
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta
-            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
-            .unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut ftta, &ctx(Some(&sensors), &[]), &tracks, &[]);
         assert_eq!(groups.len(), 1);
         assert_eq!(groups[0].members, vec![0, 1, 2]);
         // weights: the group matrix's diagonal, which here is the whole matrix's
@@ -891,8 +881,7 @@ mod tests {
             local(2, 1, 40.0, 0.0, 0.0, 0.0, 800.0),
         ];
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta.associate(&ctx(None, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut ftta, &ctx(None, &[]), &tracks, &[]);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].members, vec![0, 1]);
         assert_eq!(groups[1].members, vec![2]);
@@ -902,21 +891,14 @@ mod tests {
     #[test]
     fn non_transitive_chain_is_not_one_group() {
         // A-B and B-C correlated, A-C not (all resolutions 100): two groups.
-        let sensors = [
-            position_sensor(1, 100.0 / 2f64.sqrt()),
-            position_sensor(2, 100.0 / 2f64.sqrt()),
-            position_sensor(3, 100.0 / 2f64.sqrt()),
-        ];
+        let sensors = with_resolutions([100.0; 3]);
         let tracks = [
             local(1, 0, 0.0, 0.0, 0.0, 0.0, 1.0),
             local(2, 0, 90.0, 0.0, 0.0, 0.0, 1.0),
             local(3, 0, 170.0, 0.0, 0.0, 0.0, 1.0),
         ];
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta
-            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
-            .unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut ftta, &ctx(Some(&sensors), &[]), &tracks, &[]);
         // B-C (80) is closer than A-B (90): B joins C
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].members, vec![0]);
@@ -934,13 +916,9 @@ mod tests {
         ];
         // globals in another order than the groups
         let globals = [global(7, 1001.0, 2.0), global(9, 2.0, -1.0)];
-        let predicted: Vec<(StateVec, StateCov)> =
-            globals.iter().map(|g| (g.state, g.cov)).collect();
+        let predicted = predicted(&globals);
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta
-            .associate(&ctx(None, &predicted), &tracks, &globals)
-            .unwrap();
-        check_groups(&tracks, &groups, 2);
+        let groups = associate_checked(&mut ftta, &ctx(None, &predicted), &tracks, &globals);
         assert_eq!(groups.len(), 3);
         assert_eq!(
             (groups[0].members.clone(), groups[0].global),
@@ -968,10 +946,7 @@ mod tests {
             local(2, 0, 100.0, 0.0, 100.0, 0.0, 0.0),
         ];
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta
-            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
-            .unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut ftta, &ctx(Some(&sensors), &[]), &tracks, &[]);
         assert_eq!(groups.len(), 1);
         let w = &groups[0].weights;
         assert!(w.iter().all(|w| w.is_finite() && *w > 0.0), "{w:?}");
@@ -982,13 +957,9 @@ mod tests {
             local(1, 0, 0.0, 0.0, 0.0, 0.0, 0.0),
             local(3, 0, 0.0, 0.0, 0.0, 0.0, 0.0),
         ];
-        let groups = ftta
-            .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
-            .unwrap();
-        check_groups(&tracks, &groups, 0);
+        associate_checked(&mut ftta, &ctx(Some(&sensors), &[]), &tracks, &[]);
         let mut cov_only = Ftta::new(FttaParams::default()).unwrap();
-        let groups = cov_only.associate(&ctx(None, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut cov_only, &ctx(None, &[]), &tracks, &[]);
         assert!(groups
             .iter()
             .all(|g| g.weights.iter().all(|w| w.is_finite())));
@@ -1088,8 +1059,7 @@ mod tests {
             }
         }
         let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-        let groups = ftta.associate(&ctx(None, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut ftta, &ctx(None, &[]), &tracks, &[]);
         // every group holds the tracks of one target
         for g in &groups {
             let t0 = tracks[g.members[0]].track_id;
@@ -1133,8 +1103,7 @@ mod tests {
                     }
                 }
                 let mut ftta = Ftta::new(FttaParams::default()).unwrap();
-                let groups = ftta.associate(&ctx(None, &[]), &tracks, &[]).unwrap();
-                check_groups(&tracks, &groups, 0);
+                let groups = associate_checked(&mut ftta, &ctx(None, &[]), &tracks, &[]);
                 for g in &groups {
                     for &a in &g.members {
                         for &b in &g.members {

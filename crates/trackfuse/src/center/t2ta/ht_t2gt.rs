@@ -658,39 +658,15 @@ impl TrackAssociator for HtT2gt {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{check_groups, local};
+    use crate::center::testing::{
+        self, associate_checked, at, check_groups, ctx, local, predicted,
+    };
     use crate::types::{StateCov, StateVec};
     use approx::assert_relative_eq;
 
-    fn ctx<'a>(scan: u32, predicted: &'a [(StateVec, StateCov)]) -> AssociationContext<'a> {
-        AssociationContext {
-            scan,
-            time: scan as f64,
-            sensors: None,
-            predicted,
-            dt: 1.0,
-            labels: None,
-        }
-    }
-
-    fn at(mut t: LocalTrack, scan: u32) -> LocalTrack {
-        t.scan = scan;
-        t.time = scan as f64;
-        t
-    }
-
+    /// A global track at scan 0 with covariance `I`.
     fn global(id: Id, state: StateVec) -> GlobalTrack {
-        GlobalTrack {
-            id,
-            scan: 0,
-            time: 0.0,
-            state,
-            cov: StateCov::identity(),
-            previous: None,
-            sources: Vec::new(),
-            updates: 1,
-            misses: 0,
-        }
+        testing::global(id, state, StateCov::identity())
     }
 
     fn params() -> HtT2gtParams {
@@ -750,7 +726,7 @@ mod tests {
             global(10, StateVec::new(0.0, 10.0, 0.0, 0.0)),
             global(11, StateVec::new(0.0, 0.0, 0.0, 10.0)),
         ];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let mut a = HtT2gt::new(HtT2gtParams {
             epsilon: eps,
             gate: 2.0,
@@ -766,8 +742,7 @@ mod tests {
             at(local(0, 1, 1000.0, 0.0, 100.0, 0.0, 1.0), 1),
             at(local(0, 2, 100.0, 0.0, 1000.0, 0.0, 1.0), 1),
         ];
-        let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
-        check_groups(&cur, &groups, 2);
+        let groups = associate_checked(&mut a, &ctx(1, &pred), &cur, &g);
         let omega_a = -eps.ln() / da_east;
         let ua = 1.0 / (1.0 + (-omega_a * (da_north - da_east)).exp());
         assert_eq!(groups[0].global, Some(0));
@@ -793,7 +768,7 @@ mod tests {
         // normalised distance 1) is beyond the gate of 0.15 and starts a new global track;
         // a tracklet moving east along y = 50 m is within it.
         let g = [global(7, StateVec::new(0.0, 100.0, 0.0, 0.0))];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let mut a = HtT2gt::new(params()).unwrap();
         let prev = [
             local(0, 1, 0.0, 100.0, 50.0, 0.0, 1.0),
@@ -824,8 +799,7 @@ mod tests {
             at(local(0, 1, 100.0, 100.0, 50.0, 0.0, 1.0), 1),
             at(local(1, 1, 500.0, 0.0, 100.0, 100.0, 1.0), 1),
         ];
-        let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
-        check_groups(&cur, &groups, 1);
+        let groups = associate_checked(&mut a, &ctx(1, &pred), &cur, &g);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].global, Some(0));
         assert_eq!(groups[0].members, vec![0]);
@@ -843,14 +817,13 @@ mod tests {
             local(1, 4, 5020.0, 10.0, 10.0, 0.0, 1.0),
             local(1, 5, 30.0, 10.0, -10.0, 0.0, 1.0),
         ];
-        let groups = a.associate(&ctx(0, &[]), &tracks, &[]).unwrap();
-        check_groups(&tracks, &groups, 0);
+        let groups = associate_checked(&mut a, &ctx(0, &[]), &tracks, &[]);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].members, vec![0, 3]);
         assert_eq!(groups[1].members, vec![1, 2]);
         // two tracks of one sensor on the same line as one global: only one joins it
         let g = [global(1, StateVec::new(0.0, 100.0, 0.0, 0.0))];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let mut a = HtT2gt::new(params()).unwrap();
         let prev = [
             local(0, 1, 10.0, 100.0, 1.0, 0.0, 1.0),
@@ -863,8 +836,7 @@ mod tests {
             at(local(0, 1, 110.0, 100.0, 1.0, 0.0, 1.0), 1),
             at(local(0, 2, 100.0, 100.0, 0.0, 0.0, 1.0), 1),
         ];
-        let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
-        check_groups(&cur, &groups, 1);
+        let groups = associate_checked(&mut a, &ctx(1, &pred), &cur, &g);
         assert_eq!(groups[0].global, Some(0));
         assert_eq!(
             groups[0].members,
@@ -879,29 +851,27 @@ mod tests {
         // identical tracks of three sensors, a standing target (degenerate tracklets),
         // a global exactly on them, with zero velocity
         let g = [global(3, StateVec::new(100.0, 0.0, 100.0, 0.0))];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let mut a = HtT2gt::new(HtT2gtParams::default()).unwrap();
         let t: Vec<_> = (0..3)
             .map(|s| local(s, 1, 100.0, 0.0, 100.0, 0.0, 0.0))
             .collect();
         for scan in 0..3 {
             let tracks: Vec<_> = t.iter().map(|x| at(*x, scan)).collect();
-            let groups = a.associate(&ctx(scan, &pred), &tracks, &g).unwrap();
-            check_groups(&tracks, &groups, 1);
+            let groups = associate_checked(&mut a, &ctx(scan, &pred), &tracks, &g);
             assert_eq!(groups.len(), 1);
             assert!(groups[0].weights.iter().all(|w| w.is_finite()));
         }
         // moving coincident tracks on a moving global: tracklets at distance 0
         let g = [global(3, StateVec::new(0.0, 10.0, 0.0, 10.0))];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let mut a = HtT2gt::new(HtT2gtParams::default()).unwrap();
         for scan in 0..3 {
             let x = 10.0 * scan as f64;
             let tracks: Vec<_> = (0..3)
                 .map(|s| at(local(s, 1, x, 10.0, x, 10.0, 0.0), scan))
                 .collect();
-            let groups = a.associate(&ctx(scan, &pred), &tracks, &g).unwrap();
-            check_groups(&tracks, &groups, 1);
+            let groups = associate_checked(&mut a, &ctx(scan, &pred), &tracks, &g);
             assert_eq!(groups.len(), 1);
             assert!(groups[0].weights.iter().all(|w| w.is_finite() && *w > 0.0));
         }
@@ -919,7 +889,7 @@ mod tests {
             global(1, StateVec::new(0.0, 100.0, 0.0, 100.0)),
             global(2, StateVec::new(0.0, 100.0, 0.0, 0.0)),
         ];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         let mut a = HtT2gt::new(HtT2gtParams {
             max_iterations: 10,
             ..params()
@@ -938,8 +908,7 @@ mod tests {
             at(local(1, 7, 0.0, 100.0, 0.0, 0.0, 1.0), 1),
             at(local(1, 8, 0.0, 100.0, 0.0, 100.0, 1.0), 1),
         ];
-        let groups = a.associate(&ctx(1, &pred), &cur, &g).unwrap();
-        check_groups(&cur, &groups, 2);
+        let groups = associate_checked(&mut a, &ctx(1, &pred), &cur, &g);
         assert_eq!(groups.len(), 2);
         assert_eq!(
             (groups[0].global, groups[0].members.clone()),

@@ -545,40 +545,20 @@ impl TrackAssociator for Wfc {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::{check_groups, local};
+    use crate::center::testing::{
+        associate_checked, at, check_groups, ctx, global_at, local, predicted,
+    };
     use crate::types::StateCov;
     use approx::assert_relative_eq;
 
-    fn ctx<'a>(scan: u32, predicted: &'a [(StateVec, StateCov)]) -> AssociationContext<'a> {
-        AssociationContext {
-            scan,
-            time: scan as f64,
-            sensors: None,
-            predicted,
-            dt: 1.0,
-            labels: None,
-        }
-    }
-
+    /// A global track last updated at `scan`, covariance `I`.
     fn global(id: Id, state: StateVec, scan: u32) -> GlobalTrack {
-        GlobalTrack {
-            id,
-            scan,
-            time: scan as f64,
-            state,
-            cov: StateCov::identity(),
-            previous: None,
-            sources: Vec::new(),
-            updates: 1,
-            misses: 0,
-        }
+        global_at(id, state, StateCov::identity(), scan)
     }
 
-    fn at(x: f64, vx: f64, y: f64, vy: f64, sensor: Id, track: Id, scan: u32) -> LocalTrack {
-        let mut t = local(sensor, track, x, vx, y, vy, 1.0);
-        t.scan = scan;
-        t.time = scan as f64;
-        t
+    /// A local track at `scan` with covariance `I`.
+    fn track_at(x: f64, vx: f64, y: f64, vy: f64, sensor: Id, track: Id, scan: u32) -> LocalTrack {
+        at(local(sensor, track, x, vx, y, vy, 1.0), scan)
     }
 
     #[test]
@@ -595,10 +575,9 @@ mod tests {
             global(1, StateVec::new(0.0, 0.0, 0.0, 0.0), 0),
             global(2, StateVec::new(400.0, 0.0, 0.0, 0.0), 0),
         ];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
-        let tracks = [at(100.0, 0.0, 0.0, 0.0, 0, 1, 1)];
-        let groups = a.associate(&ctx(1, &pred), &tracks, &g).unwrap();
-        check_groups(&tracks, &groups, 2);
+        let pred = predicted(&g);
+        let tracks = [track_at(100.0, 0.0, 0.0, 0.0, 0, 1, 1)];
+        let groups = associate_checked(&mut a, &ctx(1, &pred), &tracks, &g);
         // d_l = sum_f (1/2)^2 (z_f - v_lf)^2 = 0.25 * 100^2 and 0.25 * 300^2
         let (d1, d2): (f64, f64) = (0.25 * 1e4, 0.25 * 9e4);
         let u1 = 1.0 / (1.0 + d1 / d2);
@@ -643,10 +622,10 @@ mod tests {
             // sensor 0 sees A as track 1 and B as track 2; sensor 1 the other way round,
             // each 10 m off
             let tracks = [
-                at(sa[0] + 10.0, 100.0, sa[2], 0.0, 0, 1, k),
-                at(sb[0], 100.0, sb[2] + 10.0, 100.0, 0, 2, k),
-                at(sb[0] - 10.0, 100.0, sb[2], 100.0, 1, 1, k),
-                at(sa[0], 100.0, sa[2] - 10.0, 0.0, 1, 2, k),
+                track_at(sa[0] + 10.0, 100.0, sa[2], 0.0, 0, 1, k),
+                track_at(sb[0], 100.0, sb[2] + 10.0, 100.0, 0, 2, k),
+                track_at(sb[0] - 10.0, 100.0, sb[2], 100.0, 1, 1, k),
+                track_at(sa[0], 100.0, sa[2] - 10.0, 0.0, 1, 2, k),
             ];
             let groups = a.associate(&ctx(k, &pred), &tracks, &globals).unwrap();
             check_groups(&tracks, &groups, globals.len());
@@ -672,11 +651,12 @@ mod tests {
     fn coincident_and_degenerate_inputs_are_defined() {
         let mut a = Wfc::new(WfcParams::default()).unwrap();
         let g = [global(1, StateVec::new(0.0, 0.0, 0.0, 0.0), 0)];
-        let pred: Vec<_> = g.iter().map(|g| (g.state, g.cov)).collect();
+        let pred = predicted(&g);
         for scan in 0..3 {
-            let tracks: Vec<_> = (0..3).map(|s| at(0.0, 0.0, 0.0, 0.0, s, 1, scan)).collect();
-            let groups = a.associate(&ctx(scan, &pred), &tracks, &g).unwrap();
-            check_groups(&tracks, &groups, 1);
+            let tracks: Vec<_> = (0..3)
+                .map(|s| track_at(0.0, 0.0, 0.0, 0.0, s, 1, scan))
+                .collect();
+            let groups = associate_checked(&mut a, &ctx(scan, &pred), &tracks, &g);
             assert_eq!(groups.len(), 1);
             assert!(groups[0].weights.iter().all(|w| w.is_finite()));
         }

@@ -1,6 +1,15 @@
 //! `fnn`: fuzzy nearest neighbour association (Aziz 2013, "A new nearest-neighbor
 //! association approach based on fuzzy clustering", Aerosp. Sci. Technol. 26(1); a
 //! baseline of paper 001, Tables 1 and 4).
+//!
+//! # Equations
+//! The membership is the fuzzy c-means form that 003 writes out for two tracks in eq.
+//! 4.10-4.13 (`u = (1/d^2)^(1/(m-1)) / sum (1/d^2)^(1/(m-1))`), here between the
+//! tracks' predicted measurements and the validated measurements, with `d^2` the
+//! squared Mahalanobis distance of the innovation (001 eq. 9, 11 for the linear
+//! filter); the chosen measurement updates the track by the Kalman update of 001 eq.
+//! 7-8, 10 (Joseph-form covariance). Aziz (2013) is not among the five seed papers, so
+//! its own equation numbers are not cited.
 
 use super::membership::PairTable;
 use super::{AssociationProblem, AssociationWeights, DataAssociator};

@@ -1,6 +1,14 @@
 //! `gnn`: global nearest-neighbour data association — the optimal 2-D assignment of
 //! measurements to tracks (ALGORITHMS.md section 2; Blackman, *Multiple-Target Tracking
 //! with Radar Applications*, 1986; Bar-Shalom & Fortmann 1988).
+//!
+//! # Equations
+//! The distance is the squared Mahalanobis norm `d^2 = nu^T S^-1 nu` of the filter's
+//! innovation `nu` and innovation covariance `S` (001 eq. 9 and 11 for the linear
+//! filter; the EKF's linearisation of 000 eq. 14 for a radar), and the tracker updates
+//! each track with its assigned measurement by the Kalman update of 001 eq. 7-8, 10
+//! (Joseph-form covariance). The sources' own equation numbers are not cited: neither
+//! is among the five seed papers.
 
 use super::clusters::{
     gated, greedy_assign, nearest, ClusterMeasurements, GateClusters, Marks, NONE,

@@ -4,6 +4,14 @@
 //! multiple targets using joint probabilistic data association", IEEE J. Oceanic Eng. 8(3),
 //! 1983; Bar-Shalom & Fortmann 1988; Williams & Lau, "Approximate evaluation of marginal
 //! association probabilities with belief propagation", IEEE Trans. AES 50(4), 2014).
+//!
+//! # Equations
+//! The distance is the squared Mahalanobis norm `d^2 = nu^T S^-1 nu` of the filter's
+//! innovation `nu` and innovation covariance `S` (001 eq. 9 and 11 for the linear
+//! filter; the EKF's linearisation of 000 eq. 14 for a radar), and the tracker updates
+//! each track with the association-weighted combined innovation of 001 eq. 7, 9 and the
+//! PDA covariance with the spread-of-innovations term (`local/filter/common.rs`). The
+//! sources' own equation numbers are not cited: none is among the five seed papers.
 
 use super::clusters::{gated, ClusterMeasurements, GateClusters, NONE};
 use super::pda::{clutter_density, ln_likelihood_ratio, ln_miss};

@@ -1,6 +1,14 @@
 //! `nn`: nearest-neighbour data association (ALGORITHMS.md section 2; the "nearest
 //! neighbor standard filter" of Bar-Shalom & Fortmann, *Tracking and Data Association*,
 //! 1988).
+//!
+//! # Equations
+//! The distance is the squared Mahalanobis norm `d^2 = nu^T S^-1 nu` of the filter's
+//! innovation `nu` and innovation covariance `S` (001 eq. 9 and 11 for the linear
+//! filter; the EKF's linearisation of 000 eq. 14 for a radar), and the tracker updates
+//! each track with its measurement by the Kalman update of 001 eq. 7-8, 10 (Joseph-form
+//! covariance). The book's own equation numbers are not cited: it is not among the five
+//! seed papers.
 
 use super::clusters::{gated, greedy_assign, nearest, Marks, NONE};
 use super::{AssociationProblem, AssociationWeights, DataAssociator};

@@ -49,7 +49,7 @@
 //! # Parameters `[tracker.params.cmkf]`
 //! - `conversion = "additive"` (default) or `"multiplicative"`.
 
-use super::common::{check_process_noise, linear_prediction, pda_update, predict_cv};
+use super::common::{check_process_noise, linear_prediction, pda_update_state, predict_cv};
 use super::{Filter, FilterState, PredictedMeasurement};
 use crate::local::registry::FilterSettings;
 use crate::models::{range_bearing, POSITION_H};
@@ -196,14 +196,7 @@ impl Filter for ConvertedMeasurementKalmanFilter {
         sensor: &Sensor,
     ) -> bool {
         let r = self.measurement_noise(&state.mean, sensor);
-        pda_update(
-            &mut state.mean,
-            &mut state.cov,
-            predicted,
-            &r,
-            measurements,
-            weights,
-        )
+        pda_update_state(state, predicted, &r, measurements, weights)
     }
 }
 
@@ -212,7 +205,7 @@ mod tests {
     use super::*;
     use crate::local::filter::kalman::KalmanFilter;
     use crate::local::filter::testing::{
-        assert_nees_in_band, position_sensor, radar, Motion, NeesSetup,
+        assert_nees_in_band, make_with, position_sensor, radar, Motion, NeesSetup,
     };
     use crate::rng::stream;
     use rand_distr::{Distribution, StandardNormal};
@@ -333,26 +326,10 @@ mod tests {
 
     #[test]
     fn unknown_conversion_is_an_error() {
-        let mut tables = crate::params::ParamTables::new();
-        let mut t = toml::Table::new();
-        t.insert("conversion".into(), toml::Value::String("exact".into()));
-        tables.insert("cmkf".into(), t);
-        let s = FilterSettings {
-            process_noise: [1.0, 1.0],
-            params: &tables,
-        };
-        assert!(ConvertedMeasurementKalmanFilter::make(&s).is_err());
-        let mut t = toml::Table::new();
-        t.insert(
-            "conversion".into(),
-            toml::Value::String("multiplicative".into()),
-        );
-        tables.insert("cmkf".into(), t);
-        let s = FilterSettings {
-            process_noise: [1.0, 1.0],
-            params: &tables,
-        };
-        assert!(ConvertedMeasurementKalmanFilter::make(&s).is_ok());
+        let conversion = |c: &str| [("conversion", toml::Value::String(c.into()))];
+        let make = ConvertedMeasurementKalmanFilter::make;
+        assert!(make_with(make, "cmkf", &conversion("exact")).is_err());
+        assert!(make_with(make, "cmkf", &conversion("multiplicative")).is_ok());
     }
 
     /// Consistency on a range-bearing sensor with a large bearing error (20 mrad at ~7 km:

@@ -2,7 +2,8 @@
 //! nearly-constant-velocity prediction, the innovation covariance `S = H P H^T + R`, the
 //! Kalman gain `K = P H^T S^-1`, the Joseph-form covariance, the predicted measurement of
 //! a linear (position) or linearised (range-bearing) model, and the probabilistic data
-//! association (PDA) update from weighted measurements.
+//! association (PDA) update from weighted measurements, with the frame every weighted
+//! update shares ([`update_with_combined`]).
 //!
 //! # PDA update (Bar-Shalom & Fortmann 1988, Sec. 6.4)
 //! With weights `beta_i` (sum at most 1) and `beta_0 = 1 - sum beta_i`:
@@ -20,12 +21,12 @@
 //! associator: the update returns `false` and leaves the state unchanged (a sum above 1
 //! within the tolerance, from rounding, is treated as 1).
 
-use super::PredictedMeasurement;
+use super::{FilterState, PredictedMeasurement};
 use crate::models::{
     cv_transition, process_noise, range_bearing, range_bearing_jacobian, POSITION_H,
 };
 use crate::params::ParamError;
-use crate::types::{symmetrize, Mat2, Sensor, StateCov, StateVec, Vec2};
+use crate::types::{symmetrize, Mat2, Sensor, SensorKind, StateCov, StateVec, Vec2};
 use nalgebra::SMatrix;
 
 /// A measurement matrix or Jacobian `H` (2x4).
@@ -160,6 +161,20 @@ pub fn range_bearing_prediction(
     )
 }
 
+/// Predicted measurement in the sensor's own space: [`position_prediction`] for a
+/// position sensor, [`range_bearing_prediction`] (linearised) for a range-bearing one.
+#[inline]
+pub fn sensor_prediction(
+    mean: &StateVec,
+    cov: &StateCov,
+    sensor: &Sensor,
+) -> Option<PredictedMeasurement> {
+    match sensor.kind {
+        SensorKind::Position => position_prediction(mean, cov, sensor),
+        SensorKind::RangeBearing => range_bearing_prediction(mean, cov, sensor),
+    }
+}
+
 /// Log of the Gaussian likelihood `N(nu; 0, S)` of an innovation under `predicted`.
 #[inline]
 pub fn log_likelihood(predicted: &PredictedMeasurement, nu: &Vec2) -> f64 {
@@ -240,6 +255,25 @@ pub fn pda_update_combined(
     true
 }
 
+/// The frame of every weighted [`super::Filter::update`]: empty weights are no update
+/// (`true`); weights [`combined_innovation`] rejects are a failure (`false`); otherwise
+/// the result of `update` with the combined innovation.
+#[inline]
+pub fn update_with_combined(
+    predicted: &PredictedMeasurement,
+    measurements: &[Vec2],
+    weights: &[(u32, f64)],
+    update: impl FnOnce(CombinedInnovation) -> bool,
+) -> bool {
+    if weights.is_empty() {
+        return true;
+    }
+    match combined_innovation(predicted, measurements, weights) {
+        Some(c) => update(c),
+        None => false,
+    }
+}
+
 /// PDA update of `mean` / `cov` with weighted measurements (module doc). Empty weights (or
 /// all zero): no update, `true`. Invalid weights or a non-finite result: `false`, state
 /// unchanged.
@@ -251,13 +285,29 @@ pub fn pda_update(
     measurements: &[Vec2],
     weights: &[(u32, f64)],
 ) -> bool {
-    if weights.is_empty() {
-        return true;
-    }
-    match combined_innovation(predicted, measurements, weights) {
-        Some(c) => pda_update_combined(mean, cov, predicted, r, &c),
-        None => false,
-    }
+    update_with_combined(predicted, measurements, weights, |c| {
+        pda_update_combined(mean, cov, predicted, r, &c)
+    })
+}
+
+/// [`pda_update`] of a single-model state's mean and covariance, with measurement noise
+/// `r`.
+#[inline]
+pub fn pda_update_state(
+    state: &mut FilterState,
+    predicted: &PredictedMeasurement,
+    r: &Mat2,
+    measurements: &[Vec2],
+    weights: &[(u32, f64)],
+) -> bool {
+    pda_update(
+        &mut state.mean,
+        &mut state.cov,
+        predicted,
+        r,
+        measurements,
+        weights,
+    )
 }
 
 #[cfg(test)]

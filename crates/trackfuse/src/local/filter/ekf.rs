@@ -23,13 +23,11 @@
 //! Y. Bar-Shalom, X. R. Li, T. Kirubarajan, *Estimation with Applications to Tracking and
 //! Navigation*, 2001, Sec. 10.3.
 
-use super::common::{
-    check_process_noise, pda_update, position_prediction, predict_cv, range_bearing_prediction,
-};
+use super::common::{check_process_noise, pda_update_state, predict_cv, sensor_prediction};
 use super::{Filter, FilterState, PredictedMeasurement};
 use crate::local::registry::FilterSettings;
 use crate::params::{parse_params, ParamError};
-use crate::types::{Sensor, SensorKind, StateCov, StateVec, Vec2};
+use crate::types::{Sensor, StateCov, StateVec, Vec2};
 use serde::Deserialize;
 
 /// Parameters of `ekf`: none.
@@ -79,10 +77,7 @@ impl Filter for ExtendedKalmanFilter {
         state: &FilterState,
         sensor: &Sensor,
     ) -> Option<PredictedMeasurement> {
-        match sensor.kind {
-            SensorKind::RangeBearing => range_bearing_prediction(&state.mean, &state.cov, sensor),
-            SensorKind::Position => position_prediction(&state.mean, &state.cov, sensor),
-        }
+        sensor_prediction(&state.mean, &state.cov, sensor)
     }
 
     fn update(
@@ -93,14 +88,8 @@ impl Filter for ExtendedKalmanFilter {
         weights: &[(u32, f64)],
         sensor: &Sensor,
     ) -> bool {
-        pda_update(
-            &mut state.mean,
-            &mut state.cov,
-            predicted,
-            &sensor.measurement_noise(),
-            measurements,
-            weights,
-        )
+        let r = sensor.measurement_noise();
+        pda_update_state(state, predicted, &r, measurements, weights)
     }
 }
 

@@ -66,16 +66,18 @@
 //! with Markovian switching coefficients", IEEE TAC 1988; A. Houles, Y. Bar-Shalom,
 //! "Multisensor tracking of a maneuvering target in clutter", IEEE TAES 1989;
 //! Bar-Shalom, Li, Kirubarajan 2001, Sec. 11.6-11.7.
+//! None of these is among the five seed papers (000 and 001 only name the manoeuvring
+//! scenarios an IMM must handle), so sections, not equation numbers, are cited.
 
 use super::common::{
-    check_process_noise, combined_innovation, ct_transition, log_likelihood, pda_update,
-    position_prediction, predict_linear, range_bearing_prediction, valid_dt,
+    check_process_noise, ct_transition, log_likelihood, pda_update, predict_linear,
+    sensor_prediction, update_with_combined, valid_dt,
 };
 use super::{Filter, FilterState, ModeEstimate, PredictedMeasurement};
 use crate::local::registry::FilterSettings;
 use crate::models::process_noise;
 use crate::params::{in_range, parse_params, ParamError};
-use crate::types::{symmetrize, Sensor, SensorKind, StateCov, StateVec, Vec2};
+use crate::types::{symmetrize, Sensor, StateCov, StateVec, Vec2};
 use serde::Deserialize;
 
 /// Most modes an IMM of this crate has (CV, CT+, CT-).
@@ -258,17 +260,6 @@ impl ImmFilter {
             });
         }
     }
-
-    fn prediction(
-        mean: &StateVec,
-        cov: &StateCov,
-        sensor: &Sensor,
-    ) -> Option<PredictedMeasurement> {
-        match sensor.kind {
-            SensorKind::Position => position_prediction(mean, cov, sensor),
-            SensorKind::RangeBearing => range_bearing_prediction(mean, cov, sensor),
-        }
-    }
 }
 
 /// Streaming `ln(sum_i exp(t_i))` without overflow.
@@ -399,7 +390,7 @@ impl Filter for ImmFilter {
         state: &FilterState,
         sensor: &Sensor,
     ) -> Option<PredictedMeasurement> {
-        Self::prediction(&state.mean, &state.cov, sensor)
+        sensor_prediction(&state.mean, &state.cov, sensor)
     }
 
     fn update(
@@ -411,85 +402,83 @@ impl Filter for ImmFilter {
         sensor: &Sensor,
     ) -> bool {
         self.ensure_modes(state);
-        if weights.is_empty() {
-            return true;
-        }
-        let Some(combined) = combined_innovation(predicted, measurements, weights) else {
-            return false;
-        };
-        let beta0 = (1.0 - combined.weight).max(0.0);
-        let r = sensor.measurement_noise();
-        let n = self.models.len();
-        let mut updated = [(StateVec::zeros(), StateCov::zeros()); MAX_MODES];
-        let mut log_post = [f64::NEG_INFINITY; MAX_MODES];
-        for j in 0..n {
-            let mode = &state.modes[j];
-            let Some(pred_j) = Self::prediction(&mode.mean, &mode.cov, sensor) else {
-                return false;
-            };
-            // log L_j = log(beta_0 + sum_i beta_i N_ij / N_i), by log-sum-exp
-            let mut log_l = LogSumExp::default();
-            if beta0 > 0.0 {
-                log_l.add(beta0.ln());
+        update_with_combined(predicted, measurements, weights, |combined| {
+            let beta0 = (1.0 - combined.weight).max(0.0);
+            let r = sensor.measurement_noise();
+            let n = self.models.len();
+            let mut updated = [(StateVec::zeros(), StateCov::zeros()); MAX_MODES];
+            let mut log_post = [f64::NEG_INFINITY; MAX_MODES];
+            for j in 0..n {
+                let mode = &state.modes[j];
+                let Some(pred_j) = sensor_prediction(&mode.mean, &mode.cov, sensor) else {
+                    return false;
+                };
+                // log L_j = log(beta_0 + sum_i beta_i N_ij / N_i), by log-sum-exp
+                let mut log_l = LogSumExp::default();
+                if beta0 > 0.0 {
+                    log_l.add(beta0.ln());
+                }
+                for &(i, beta) in weights {
+                    if beta > 0.0 {
+                        let z = &measurements[i as usize];
+                        log_l.add(
+                            beta.ln() + log_likelihood(&pred_j, &pred_j.innovation(z))
+                                - log_likelihood(predicted, &predicted.innovation(z)),
+                        );
+                    }
+                }
+                let log_l = log_l.value();
+                log_post[j] = mode.probability.ln() + log_l;
+                let (mut x, mut p) = (mode.mean, mode.cov);
+                if !pda_update(&mut x, &mut p, &pred_j, &r, measurements, weights) {
+                    return false;
+                }
+                updated[j] = (x, p);
             }
-            for &(i, beta) in weights {
-                if beta > 0.0 {
-                    let z = &measurements[i as usize];
-                    log_l.add(
-                        beta.ln() + log_likelihood(&pred_j, &pred_j.innovation(z))
-                            - log_likelihood(predicted, &predicted.innovation(z)),
-                    );
+            let max = log_post[..n]
+                .iter()
+                .cloned()
+                .fold(f64::NEG_INFINITY, f64::max);
+            let mut post = [0.0; MAX_MODES];
+            if max.is_finite() {
+                let mut total = 0.0;
+                for j in 0..n {
+                    post[j] = (log_post[j] - max).exp();
+                    total += post[j];
+                }
+                for p in post.iter_mut().take(n) {
+                    *p /= total;
+                }
+            } else {
+                // every mode likelihood vanished: keep the predicted probabilities
+                for (j, p) in post.iter_mut().enumerate().take(n) {
+                    *p = state.modes[j].probability;
                 }
             }
-            let log_l = log_l.value();
-            log_post[j] = mode.probability.ln() + log_l;
-            let (mut x, mut p) = (mode.mean, mode.cov);
-            if !pda_update(&mut x, &mut p, &pred_j, &r, measurements, weights) {
-                return false;
-            }
-            updated[j] = (x, p);
-        }
-        let max = log_post[..n]
-            .iter()
-            .cloned()
-            .fold(f64::NEG_INFINITY, f64::max);
-        let mut post = [0.0; MAX_MODES];
-        if max.is_finite() {
-            let mut total = 0.0;
             for j in 0..n {
-                post[j] = (log_post[j] - max).exp();
-                total += post[j];
+                let m = &mut state.modes[j];
+                m.mean = updated[j].0;
+                m.cov = updated[j].1;
+                m.probability = post[j];
             }
-            for p in post.iter_mut().take(n) {
-                *p /= total;
-            }
-        } else {
-            // every mode likelihood vanished: keep the predicted probabilities
-            for (j, p) in post.iter_mut().enumerate().take(n) {
-                *p = state.modes[j].probability;
-            }
-        }
-        for j in 0..n {
-            let m = &mut state.modes[j];
-            m.mean = updated[j].0;
-            m.cov = updated[j].1;
-            m.probability = post[j];
-        }
-        combine(state);
-        true
+            combine(state);
+            true
+        })
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::local::filter::common::position_prediction;
     use crate::local::filter::ekf::ExtendedKalmanFilter;
     use crate::local::filter::kalman::KalmanFilter;
     use crate::local::filter::testing::{
-        assert_nees_in_band, measure, position_sensor, radar, Motion, NeesSetup,
+        assert_nees_in_band, make_with, measure, position_sensor, radar, Motion, NeesSetup,
     };
     use crate::models::cv_transition;
     use crate::rng::stream;
+    use crate::types::SensorKind;
     use rand_distr::{Distribution, StandardNormal};
 
     fn imm(omega: f64) -> ImmFilter {
@@ -689,16 +678,11 @@ mod tests {
         for p in bad {
             assert!(ImmFilter::new([1.0, 1.0], &p).is_err(), "{p:?}");
         }
-        let mut tables = crate::params::ParamTables::new();
-        let mut t = toml::Table::new();
-        t.insert("omega".into(), toml::Value::Float(0.05));
-        t.insert("p_stay".into(), toml::Value::Float(0.9));
-        tables.insert("imm".into(), t);
-        let settings = FilterSettings {
-            process_noise: [1.0, 1.0],
-            params: &tables,
-        };
-        assert!(ImmFilter::make(&settings).is_ok());
+        let keys = [
+            ("omega", toml::Value::Float(0.05)),
+            ("p_stay", toml::Value::Float(0.9)),
+        ];
+        assert!(make_with(ImmFilter::make, "imm", &keys).is_ok());
     }
 
     /// A state without modes, invalid weights, and a singular prediction are defined.

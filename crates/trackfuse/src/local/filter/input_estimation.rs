@@ -87,14 +87,14 @@
 //! tracking. Part IV: decision-based methods", SPIE 4728, 2002.
 
 use super::common::{
-    check_process_noise, combined_innovation, kalman_gain, pda_update_combined,
-    position_prediction, range_bearing_prediction, valid_dt, Gain,
+    check_process_noise, kalman_gain, pda_update_combined, sensor_prediction, update_with_combined,
+    valid_dt, Gain,
 };
 use super::{Filter, FilterState, PredictedMeasurement};
 use crate::local::registry::FilterSettings;
 use crate::models::{cv_transition, noise_gain, process_noise};
 use crate::params::{parse_params, ParamError};
-use crate::types::{symmetrize, Mat2, Sensor, SensorKind, StateCov, StateVec, Vec2};
+use crate::types::{symmetrize, Mat2, Sensor, StateCov, StateVec, Vec2};
 use nalgebra::SMatrix;
 use serde::Deserialize;
 
@@ -349,17 +349,6 @@ impl InputEstimationFilter {
         Layout::set_count(&mut state.aux, 0);
         true
     }
-
-    fn prediction(
-        mean: &StateVec,
-        cov: &StateCov,
-        sensor: &Sensor,
-    ) -> Option<PredictedMeasurement> {
-        match sensor.kind {
-            SensorKind::Position => position_prediction(mean, cov, sensor),
-            SensorKind::RangeBearing => range_bearing_prediction(mean, cov, sensor),
-        }
-    }
 }
 
 impl Filter for InputEstimationFilter {
@@ -401,7 +390,7 @@ impl Filter for InputEstimationFilter {
         state: &FilterState,
         sensor: &Sensor,
     ) -> Option<PredictedMeasurement> {
-        Self::prediction(&state.mean, &state.cov, sensor)
+        sensor_prediction(&state.mean, &state.cov, sensor)
     }
 
     fn update(
@@ -413,39 +402,35 @@ impl Filter for InputEstimationFilter {
         sensor: &Sensor,
     ) -> bool {
         self.ensure_aux(state);
-        if weights.is_empty() {
-            return true;
-        }
-        let Some(combined) = combined_innovation(predicted, measurements, weights) else {
-            return false;
-        };
-        if combined.weight <= 0.0 {
-            return true;
-        }
-        let k: Gain = kalman_gain(&state.cov, &predicted.h, &predicted.s_inv);
-        let (mut mean, mut cov) = (state.mean, state.cov);
-        let r = sensor.measurement_noise();
-        if !pda_update_combined(&mut mean, &mut cov, predicted, &r, &combined) {
-            return false;
-        }
-        state.mean = mean;
-        state.cov = cov;
-        // accumulate the window of every candidate
-        let w = combined.weight;
-        let a = StateCov::identity() - w * k * predicted.h;
-        for i in 0..Layout::count(&state.aux) {
-            let mut c = Layout::get(&state.aux, i);
-            let psi = predicted.h * c.d;
-            let psi_t_s_inv = psi.transpose() * predicted.s_inv;
-            c.l += w * psi_t_s_inv * psi;
-            c.b += psi_t_s_inv * combined.nu;
-            c.d = a * c.d;
-            c.age += 1.0;
-            Layout::put(&mut state.aux, i, &c);
-        }
-        self.detect(state);
-        Layout::push_new(&mut state.aux, self.window);
-        true
+        update_with_combined(predicted, measurements, weights, |combined| {
+            if combined.weight <= 0.0 {
+                return true;
+            }
+            let k: Gain = kalman_gain(&state.cov, &predicted.h, &predicted.s_inv);
+            let (mut mean, mut cov) = (state.mean, state.cov);
+            let r = sensor.measurement_noise();
+            if !pda_update_combined(&mut mean, &mut cov, predicted, &r, &combined) {
+                return false;
+            }
+            state.mean = mean;
+            state.cov = cov;
+            // accumulate the window of every candidate
+            let w = combined.weight;
+            let a = StateCov::identity() - w * k * predicted.h;
+            for i in 0..Layout::count(&state.aux) {
+                let mut c = Layout::get(&state.aux, i);
+                let psi = predicted.h * c.d;
+                let psi_t_s_inv = psi.transpose() * predicted.s_inv;
+                c.l += w * psi_t_s_inv * psi;
+                c.b += psi_t_s_inv * combined.nu;
+                c.d = a * c.d;
+                c.age += 1.0;
+                Layout::put(&mut state.aux, i, &c);
+            }
+            self.detect(state);
+            Layout::push_new(&mut state.aux, self.window);
+            true
+        })
     }
 }
 

@@ -22,7 +22,7 @@
 //! R. E. Kalman, "A new approach to linear filtering and prediction problems", 1960;
 //! Y. Bar-Shalom, T. E. Fortmann, *Tracking and Data Association*, 1988.
 
-use super::common::{check_process_noise, pda_update, position_prediction, predict_cv};
+use super::common::{check_process_noise, pda_update_state, position_prediction, predict_cv};
 use super::{Filter, FilterState, PredictedMeasurement};
 use crate::local::registry::FilterSettings;
 use crate::params::{parse_params, ParamError};
@@ -97,22 +97,17 @@ impl Filter for KalmanFilter {
         if sensor.kind != SensorKind::Position {
             return false;
         }
-        pda_update(
-            &mut state.mean,
-            &mut state.cov,
-            predicted,
-            &sensor.measurement_noise(),
-            measurements,
-            weights,
-        )
+        let r = sensor.measurement_noise();
+        pda_update_state(state, predicted, &r, measurements, weights)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::local::filter::testing::{assert_nees_in_band, position_sensor, Motion, NeesSetup};
-    use crate::params::ParamTables;
+    use crate::local::filter::testing::{
+        assert_nees_in_band, make_with, position_sensor, Motion, NeesSetup,
+    };
 
     /// One predict + update step, the expected numbers worked out by hand per axis (the
     /// x and y blocks decouple: diagonal P0 and R).
@@ -169,15 +164,8 @@ mod tests {
         );
         assert!(f.predict_measurement(&s, &radar).is_none());
         assert!(KalmanFilter::new([f64::INFINITY, 1.0]).is_err());
-        let mut tables = ParamTables::new();
-        let mut t = toml::Table::new();
-        t.insert("omega".into(), toml::Value::Float(0.1));
-        tables.insert("kf".into(), t);
-        let settings = FilterSettings {
-            process_noise: [1.0, 1.0],
-            params: &tables,
-        };
-        assert!(KalmanFilter::make(&settings).is_err());
+        let omega = [("omega", toml::Value::Float(0.1))];
+        assert!(make_with(KalmanFilter::make, "kf", &omega).is_err());
     }
 
     #[test]

@@ -18,10 +18,33 @@
 
 use super::common::ct_transition;
 use super::Filter;
+use crate::local::registry::FilterSettings;
 use crate::models::{cv_transition, noise_gain, range_bearing, wrap_angle};
+use crate::params::{ParamError, ParamTables};
 use crate::rng::stream;
 use crate::types::{Sensor, SensorKind, StateCov, StateVec, Vec2};
 use rand_distr::{Distribution, StandardNormal};
+
+/// A filter's registry constructor.
+pub(crate) type MakeFilter = fn(&FilterSettings<'_>) -> Result<Box<dyn Filter>, ParamError>;
+
+/// `make` with process noise `[1, 1]` m/s^2 and `[tracker.params.<name>]` holding `keys`.
+pub(crate) fn make_with(
+    make: MakeFilter,
+    name: &str,
+    keys: &[(&str, toml::Value)],
+) -> Result<Box<dyn Filter>, ParamError> {
+    let mut table = toml::Table::new();
+    for (key, value) in keys {
+        table.insert((*key).into(), value.clone());
+    }
+    let mut tables = ParamTables::new();
+    tables.insert(name.into(), table);
+    make(&FilterSettings {
+        process_noise: [1.0, 1.0],
+        params: &tables,
+    })
+}
 
 /// Runs of the consistency experiment.
 pub(crate) const RUNS: usize = 50;
