@@ -580,8 +580,8 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     writeln!(
         md,
         "- **Ranking** over the run: ours {}; from scan {SETTLED_FROM}: {}; the paper's: \
-         MMSE < FDBSC-TA < FTF. The whole-run ranking is decided by the first scans (table \
-         above): there the tracks are still uncorrected or partly corrected, and the rules \
+         MMSE < FDBSC-TA < FTF. The whole-run ranking is decided by the first scans (first \
+         table above): there the tracks are still uncorrected or partly corrected, and the rules \
          that average a group's members by their covariances (`mmse`, `ci`, `bc`) average \
          the three radars' displacements, while the sharp maximum-entropy memberships of \
          the fuzzy rule follow the member nearest the prediction. Once the biases are \

@@ -139,7 +139,7 @@
 //!    pairing takes over, but the wrong groups stayed: at the next scan the set was half
 //!    wrong, the median residual that scales the gate was huge, nothing was gated out,
 //!    and the estimate ran off to kilometres and up to 0.18 rad, recovering only 2-3
-//!    scans later (4 of 100 runs, correction errors up to 2.7 km at scan 8). A pair
+//!    scans later (4 of 100 runs, correction errors up to 2.7 km at scans 8-9). A pair
 //!    that held for a full history and is then contradicted (tracks swapped at a
 //!    crossing) keeps its groups: they were right when made.
 //!
@@ -201,9 +201,11 @@
 //! Per scan: pairing is grid queries over each sensor pair's tracks (`O(m log m)` at
 //! bounded density) and, in the steady state, one pass over the candidates' histories;
 //! in acquisition the gates are wide (at most 8 candidates per track) and the consensus
-//! scores at most `1 + 40 + 40^2 / 2` hypotheses over the candidates; the re-solve is `iterations` passes over the stored
-//! groups (at most `max_groups`) plus a Cholesky factorisation of the `2 n x 2 n` normal
-//! matrix of `n` sensors. All buffers are reused.
+//! scores at most `1 + 40 + 40^2 / 2` hypotheses over the candidates; revocation looks
+//! back over the last 8 scans' groups only when a young pair is contradicted; the
+//! re-solve is `iterations` passes (up to 4 more while the linearisation settles) over
+//! the stored groups (at most `max_groups`) plus a Cholesky factorisation of the
+//! `2 n x 2 n` normal matrix of `n` sensors. All buffers are reused.
 //!
 //! # References
 //! 000: Nazari et al., IEEE Access 7 (2019), eq. 3, 14, 15, Table 3.
@@ -2393,7 +2395,7 @@ mod tests {
     fn contradicted_young_pairs_are_revoked() {
         let mut est = FdbscBias::new(FdbscBiasParams::default()).unwrap();
         let (a, b, c) = (((0, 1), (1, 0)), ((0, 2), (1, 5)), ((0, 3), (1, 7)));
-        let mut store = |est: &mut FdbscBias, pk: PairKey, stamp: u64| {
+        let store = |est: &mut FdbscBias, pk: PairKey, stamp: u64| {
             let start = est.observations.len();
             for key in [pk.0, pk.1] {
                 est.observations.push(Observation {
