@@ -7,7 +7,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use trackfuse::center::{fuse_all, FusedRun, FusionConfig};
+use trackfuse::center::{fuse_all, fuse_all_two_pass, FusedRun, FusionConfig};
 use trackfuse::io::{
     read_local_tracks, read_sensors, read_truth, AssociationWriter, FusedTrackWriter,
 };
@@ -35,6 +35,11 @@ pub struct FuseArgs {
     pub scenario: Option<String>,
     #[command(flatten)]
     pub fusion: FusionFlags,
+    /// Offline, with a bias estimator: fuse the whole file once to estimate the biases,
+    /// then fuse again from the first scan with the local tracks corrected by the final
+    /// estimates (not what a streaming center can do).
+    #[arg(long)]
+    pub two_pass: bool,
     /// Output directory (fused_tracks.csv, associations.csv).
     #[arg(long, default_value = "out/fuse")]
     pub out: PathBuf,
@@ -109,7 +114,11 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         None => None,
     };
     let t0 = std::time::Instant::now();
-    let run = fuse_all(&local, &cfg, sensors.as_deref(), labels.as_ref())?;
+    let run = if args.two_pass {
+        fuse_all_two_pass(&local, &cfg, sensors.as_deref(), labels.as_ref())?
+    } else {
+        fuse_all(&local, &cfg, sensors.as_deref(), labels.as_ref())?
+    };
     let elapsed = t0.elapsed();
     let dir = out_dir(&args.out)?;
     write_fused(&dir, &run)?;

@@ -21,4 +21,10 @@ fn reproduce_000_s2_smoke() {
         md.contains("| FDBSC-TA |") && md.contains("| MMSE |"),
         "{md}"
     );
+    // the offline two-pass row, in Table 4 and in both per-scan tables
+    assert_eq!(
+        md.matches("| FDBSC-TA, offline two-pass (extra) |").count(),
+        3,
+        "{md}"
+    );
 }

@@ -26,7 +26,7 @@ use std::fmt::Write;
 use trackfuse::center::bias::BiasEstimate;
 use trackfuse::center::bias_estimation::polar_shift_position;
 use trackfuse::center::registry::make_rule;
-use trackfuse::center::{fuse_all, FusionConfig};
+use trackfuse::center::{fuse_all, fuse_all_two_pass, FusionConfig};
 use trackfuse::metrics::{evaluate_run, gated_assignment, EvalInput, RunMetrics, Summary};
 use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::track_run;
@@ -66,6 +66,8 @@ const VARIANTS: [(&str, &str, &str); 5] = [
 ];
 /// Index of FDBSC-TA in [`VARIANTS`].
 const FDBSC: usize = 1;
+/// Label of the offline two-pass row (FDBSC-TA with the final estimates from scan 0).
+const TWO_PASS: &str = "FDBSC-TA, offline two-pass (extra)";
 
 /// The biased image of `p` in sensor `s`'s frame (what its local tracker follows).
 fn image_of(p: Vec2, s: &Sensor) -> Vec2 {
@@ -159,6 +161,8 @@ fn local_errors(
 /// local errors.
 struct RunResult {
     variants: Vec<(RunMetrics, Vec<BiasEstimate>)>,
+    /// FDBSC-TA fused offline in two passes (`fuse_all_two_pass`).
+    two_pass: RunMetrics,
     local_raw: LocalErrors,
     local_corrected: LocalErrors,
 }
@@ -241,6 +245,16 @@ pub fn run(ctx: &Ctx) -> Result<String> {
                 );
                 variants.push((metrics, fused.bias));
             }
+            let fused = fuse_all_two_pass(&local, &fusions[FDBSC], Some(&sim.sensors), None)?;
+            let two_pass = evaluate_run(
+                &EvalInput {
+                    truth: &sim.truth,
+                    fused: &fused.fused,
+                    associations: Some(&fused.associations),
+                    local: Some(&local),
+                },
+                &sc.evaluation,
+            );
             let local_raw = local_errors(&sim.truth, &local, &sim.sensors, &labels, None);
             let local_corrected = local_errors(
                 &sim.truth,
@@ -251,6 +265,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             );
             Ok(RunResult {
                 variants,
+                two_pass,
                 local_raw,
                 local_corrected,
             })
@@ -266,6 +281,13 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         }
         summaries.push(m.summary(&sc.evaluation));
     }
+    let two_pass = {
+        let mut m = RunMetrics::default();
+        for r in &results {
+            m.merge(&r.two_pass);
+        }
+        m.summary(&sc.evaluation)
+    };
     let (mut raw, mut corrected) = (LocalErrors::new(), LocalErrors::new());
     for r in &results {
         merge(&mut raw, &r.local_raw);
@@ -383,6 +405,22 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         ]);
         rows.push(r);
     }
+    {
+        let mut r = vec![TWO_PASS.to_string()];
+        for t in 0..3 {
+            r.extend([
+                "-".into(),
+                num(target_rmse(&two_pass, t as Id), 1),
+                "-".into(),
+            ]);
+        }
+        r.extend([
+            num(settled(&two_pass), 1),
+            num(two_pass.probability_correct_association, 3),
+            num(two_pass.track_coverage, 3),
+        ]);
+        rows.push(r);
+    }
     md.push_str(&md_table(
         &[
             "",
@@ -408,7 +446,11 @@ pub fn run(ctx: &Ctx) -> Result<String> {
          is the root mean of the per-scan mean squared errors from that scan on. Local \
          rows: `raw` are the local tracks as reported (biased); `bias-corrected` the same \
          tracks corrected with the run's final FDBSC-TA estimates, the reading under which \
-         the paper's local rows (about 23 m) make sense.\n",
+         the paper's local rows (about 23 m) make sense. The two-pass row is not a streaming \
+         center and not the paper's method: FDBSC-TA over the whole run once, then again \
+         from the first scan on the local tracks corrected with that pass's final \
+         estimates (`trackfuse fuse --two-pass`, \
+         `trackfuse::center::fuse_all_two_pass`).\n",
         sc.evaluation.gospa_c
     )?;
 
@@ -435,29 +477,45 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     late.sort_by(|a, b| a.0.total_cmp(&b.0));
     let paper_fd = TABLE4[FDBSC].1.iter().sum::<f64>() / 3.0;
     let fd_settled = settled(fd).unwrap_or(f64::NAN);
-    // the first scans of every variant
+    // per-scan RMSE of every variant (and the two-pass row) at the given scans
+    let per_scan = |scans: &[u32]| {
+        let at = |s: &Summary, scan: u32| {
+            s.fused_rmse_per_scan
+                .iter()
+                .find(|(k, _)| *k == scan)
+                .map(|(_, v)| *v)
+        };
+        let mut rows = Vec::new();
+        let all = VARIANTS
+            .iter()
+            .enumerate()
+            .map(|(k, v)| (v.0, &summaries[k]))
+            .chain(std::iter::once((TWO_PASS, &two_pass)));
+        for (label, s) in all {
+            let mut r = vec![label.to_string()];
+            r.extend(scans.iter().map(|&k| num(at(s, k), 0)));
+            rows.push(r);
+        }
+        let mut header = vec!["fused RMSE (m) at scan".to_string()];
+        header.extend(scans.iter().map(|s| s.to_string()));
+        md_table(
+            &header.iter().map(|s| s.as_str()).collect::<Vec<_>>(),
+            &rows,
+        )
+    };
+    // the first scans with tracks, and the later ones
     let first: Vec<u32> = fd
         .fused_rmse_per_scan
         .iter()
         .take(6)
         .map(|(s, _)| *s)
         .collect();
-    let mut rows = Vec::new();
-    for (k, (label, _, _)) in VARIANTS.iter().enumerate() {
-        let mut r = vec![label.to_string()];
-        for sc_ in &first {
-            let v = summaries[k]
-                .fused_rmse_per_scan
-                .iter()
-                .find(|(s, _)| s == sc_)
-                .map(|(_, v)| *v);
-            r.push(num(v, 0));
-        }
-        rows.push(r);
-    }
-    let mut header = vec!["fused RMSE (m) at scan".to_string()];
-    header.extend(first.iter().map(|s| s.to_string()));
-    let header: Vec<&str> = header.iter().map(|s| s.as_str()).collect();
+    let last_scan = fd.fused_rmse_per_scan.last().map_or(0, |(s, _)| *s);
+    let later: Vec<u32> = [SETTLED_FROM, 15, 20, 25, 30, 40, 50, 60, 80]
+        .into_iter()
+        .filter(|&k| k < last_scan)
+        .chain(std::iter::once(last_scan))
+        .collect();
     writeln!(
         md,
         "## Where we differ, and why
@@ -477,7 +535,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
          average). Most of the excess is in the first scans, whose per-scan RMSE is:\n",
         num(fd.fused_rmse, 1),
     )?;
-    md.push_str(&md_table(&header, &rows));
+    md.push_str(&per_scan(&first));
     writeln!(
         md,
         "\n  Our trackers know nothing at the start (M-of-N, first tracks at scan 3; known \
@@ -487,7 +545,8 @@ pub fn run(ctx: &Ctx) -> Result<String> {
          (`confirm_scans = 2`), and while a radar has confirmed only two of the three \
          equally spaced targets a pairing shifted by one spacing fits a scan as well as the \
          right one, so the estimator waits for the targets' relative motion (20 m/s) to \
-         tell them apart. The paper does not say how its trackers start or from which scan \
+         tell them apart (a shifted pairing accepted meanwhile is revoked when the right \
+         one takes over). The paper does not say how its trackers start or from which scan \
          its RMSE counts. From scan {SETTLED_FROM} on ours is {} the paper's.",
         if fd_settled <= paper_fd {
             "below"
@@ -497,9 +556,32 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     )?;
     writeln!(
         md,
+        "- **After the first scans** the fused error is what the estimates have not yet \
+         learnt, and it falls over the run:\n"
+    )?;
+    md.push_str(&per_scan(&later));
+    writeln!(
+        md,
+        "\n  Corrected, the three radars' tracks of a target agree to a metre or two; what \
+         the fused tracks still carry is the part of the biases the geometry shows worst, \
+         a common translation of all three radars' tracks (two of the six unknowns: 9-11 km \
+         from the radars, over the 1 km the targets span, the three radars' bias \
+         displacement fields differ from a common shift by only a few per cent). The \
+         estimator's uncertainty in those two directions falls as the targets travel, not \
+         scan by scan, and in a single run the fused error can rise again for 10-20 scans \
+         while every pair is right (the estimator's module doc, \"What is identifiable\", \
+         has the figures, run 0's among them). The final \
+         estimates are within a few metres (Table 3): fused from the first scan with them, \
+         the offline two-pass row is at {} m over the run and {} m from scan \
+         {SETTLED_FROM} on, what a streaming center approaches only at the end of the run.",
+        num(two_pass.fused_rmse, 1),
+        num(settled(&two_pass), 1)
+    )?;
+    writeln!(
+        md,
         "- **Ranking** over the run: ours {}; from scan {SETTLED_FROM}: {}; the paper's: \
-         MMSE < FDBSC-TA < FTF. The whole-run ranking is decided by the first scans (table \
-         above): there the tracks are still uncorrected or partly corrected, and the rules \
+         MMSE < FDBSC-TA < FTF. The whole-run ranking is decided by the first scans (first \
+         table above): there the tracks are still uncorrected or partly corrected, and the rules \
          that average a group's members by their covariances (`mmse`, `ci`, `bc`) average \
          the three radars' displacements, while the sharp maximum-entropy memberships of \
          the fuzzy rule follow the member nearest the prediction. Once the biases are \

@@ -44,9 +44,10 @@
 //! position of the member's *raw* (uncorrected) track about its sensor, `dp = p - p_hat`
 //! the unknown error of `p_hat` (one per group), `H_s` the range-bearing Jacobian at
 //! `p_hat` and `v_s` the local track's error, with the polar covariance of its reported
-//! position covariance plus an isotropic model error of `model_sigma` (the biased image
-//! of a straight path is not exactly what a constant-velocity filter follows, and local
-//! covariances tend to be optimistic). Members from position sensors and reference
+//! position covariance plus an isotropic model error of `model_sigma` (default 1 m: a
+//! floor under local covariances that may be optimistic, kept small against the local
+//! tracks' own anisotropic covariance, see the parameter's documentation). Members from
+//! position sensors and reference
 //! sensors give `y = H dp + v` (no bias): they anchor the frame. `dp` is eliminated per
 //! group (Schur complement of the normal equations) and the normal equations of all
 //! groups are summed: a least-squares estimate joint over all sensors and all scans.
@@ -55,16 +56,27 @@
 //! applied while the data came in, only on the linearisation point `p_hat`.
 //!
 //! **Relinearisation and robustness.** The last `max_groups` groups are kept as raw
-//! observations and the whole estimate is re-solved each scan by `iterations`
-//! Gauss-Newton passes: `p_hat` is the information-weighted mean of the members'
-//! positions corrected with the current estimate (so early groups, seen while the
-//! estimate was still far off, are relinearised and leave no trace of the early
-//! linearisation error), and from the second pass on every group whose chi-square
-//! residual at the current estimate exceeds the `gate_probability` quantile
-//! (with `2 members - 2` degrees of freedom, scaled up by the median normalised
-//! chi-square when the residuals are larger than the covariances say) is left out of
-//! that pass: a wrong pairing that got through is rejected once the majority of correct
-//! ones has fixed the estimate. Groups older than the last `max_groups` are folded into
+//! observations and the whole estimate is re-solved each scan by Gauss-Newton passes:
+//! `p_hat` is the information-weighted mean of the members' positions corrected with the
+//! current estimate (so early groups, seen while the estimate was still far off, are
+//! relinearised and leave no trace of the early linearisation error). The first passes
+//! use every group, until the linearisation has settled: until a pass moves the
+//! estimate by at most one standard deviation of its new covariance (Mahalanobis length
+//! of the step at most 1), at most 4 passes beyond the first. Then `iterations - 1`
+//! passes leave out every group whose chi-square residual at the current estimate
+//! exceeds the `gate_probability` quantile (with `2 members - 2` degrees of freedom,
+//! scaled up by the median normalised chi-square when the residuals are larger than the
+//! covariances say): a wrong pairing that got through is rejected once the majority of
+//! correct ones has fixed the estimate. Gating right after the first pass (this
+//! estimator's earlier schedule) rejected the first groups of a sensor that joins late:
+//! they were linearised with that sensor uncorrected, its images up to 1 km off, so the
+//! first pass fits them only to the linearisation error (metres, against a gate of a few
+//! metres for 000's precise radars), while the older groups, which do not contain that
+//! sensor, fit whatever its estimate is; the sensor was then left uncorrected for
+//! another scan (on 000-s2 with `model_sigma = 1`, 3 of 20 runs lost a scan at 600 m
+//! error that way). In the steady state the first pass already moves by far less than
+//! a standard deviation, so the schedule is the earlier one (`iterations` passes).
+//! Groups older than the last `max_groups` are folded into
 //! a fixed information matrix at the estimate of the time (those failing the gate are
 //! dropped). With `forgetting < 1` every group's information decays by that factor per
 //! scan.
@@ -117,6 +129,19 @@
 //! 5. **Assignment.** The winner, refitted on all the candidates it explains, takes them
 //!    one-to-one: pairs accepted at the previous scan first (a pair carries through a
 //!    crossing), then by chi-square.
+//! 6. **Revocation.** A pair that was learnt from but accepted for fewer than 8
+//!    consecutive scans (never tested over a full history), and that within 8 scans of
+//!    its last acceptance is contradicted by the pairing (one of its two tracks accepted
+//!    with another track of the other one's sensor), has its stored groups taken out of
+//!    the estimate. On 000-s2 a radar that has confirmed two of the three equally spaced
+//!    targets can have a pairing shifted by one spacing accepted for two or three scans
+//!    (no rival explains as many pairs yet); when the third track arrives the right
+//!    pairing takes over, but the wrong groups stayed: at the next scan the set was half
+//!    wrong, the median residual that scales the gate was huge, nothing was gated out,
+//!    and the estimate ran off to kilometres and up to 0.18 rad, recovering only 2-3
+//!    scans later (4 of 100 runs, correction errors up to 2.7 km at scans 8-9). A pair
+//!    that held for a full history and is then contradicted (tracks swapped at a
+//!    crossing) keeps its groups: they were right when made.
 //!
 //! A pair is learnt from once accepted in `confirm_scans` consecutive scans. The pairs of
 //! all sensor pairs are joined into groups (connected components); a group in which one
@@ -150,13 +175,37 @@
 //! registered (`reference_sensors`) and position sensors are not estimated and fix the
 //! frame.
 //!
+//! On 000 scenario II (three radars 9-11 km from targets spread over 1 km) two of the
+//! six directions of the estimate are that weak, and they are a common translation of
+//! all three radars' tracks (in x and in y: each moves every radar's tracks at the
+//! targets by the same vector). On run 0 their standard deviations are about 120 and
+//! 55 m at scan 5, 35 and 20 m at scan 10, 9 and 7 m at scan 25 and 2 m at scan 60,
+//! against 0.1-3.5 m for the other four, and they shrink as the targets travel (6 km in
+//! x over the run), which the data of one scan cannot show. Since the fusion center
+//! averages the corrected tracks, the fused error after correction is almost exactly
+//! the error in these two directions. It is not monotone in a run: on run 0 the mean
+//! correction error of a track is 3.5 m at scan 25, 11 m at scan 40 and 1 m at scan 60
+//! (3, 16 and 4 m with the earlier `model_sigma = 5`), all of it in the weaker of the two
+//! directions, while no stored pair is wrong (checked against the truth over 20 runs)
+//! and no group is gated out: the data of scans 25-40 pull that direction by more than
+//! its standard deviation says, as errors of the local tracks that persist over many
+//! scans can (they are counted as independent from scan to scan). Averaged over runs the
+//! error falls steadily. With `model_sigma = 1` the normalised squared error in these
+//! two directions is 2-10 for 2 degrees of freedom from scan 10 on over 20 runs (0.5-2
+//! with 5 m): the covariance is optimistic there by a factor of up to about 2 in
+//! standard deviation. A prior
+//! cannot help: zero biases are as far off in the common translation as the uncorrected
+//! tracks.
+//!
 //! # Cost
 //! Per scan: pairing is grid queries over each sensor pair's tracks (`O(m log m)` at
 //! bounded density) and, in the steady state, one pass over the candidates' histories;
 //! in acquisition the gates are wide (at most 8 candidates per track) and the consensus
-//! scores at most `1 + 40 + 40^2 / 2` hypotheses over the candidates; the re-solve is `iterations` passes over the stored
-//! groups (at most `max_groups`) plus a Cholesky factorisation of the `2 n x 2 n` normal
-//! matrix of `n` sensors. All buffers are reused.
+//! scores at most `1 + 40 + 40^2 / 2` hypotheses over the candidates; revocation looks
+//! back over the last 8 scans' groups only when a young pair is contradicted; the
+//! re-solve is `iterations` passes (up to 4 more while the linearisation settles) over
+//! the stored groups (at most `max_groups`) plus a Cholesky factorisation of the
+//! `2 n x 2 n` normal matrix of `n` sensors. All buffers are reused.
 //!
 //! # References
 //! 000: Nazari et al., IEEE Access 7 (2019), eq. 3, 14, 15, Table 3.
@@ -191,6 +240,9 @@ const MAX_PARTNERS: usize = 8;
 const MAX_SAMPLED: usize = 40;
 /// Gauss-Newton steps of a pairing hypothesis fit.
 const GN_STEPS: usize = 5;
+/// Extra ungated Gauss-Newton passes of the joint solve while its linearisation settles
+/// (module doc, "Relinearisation and robustness").
+const MAX_RELINEARISATIONS: u32 = 4;
 /// Scans of each local track's history the pairing tests a hypothesis on.
 const HISTORY: usize = 8;
 
@@ -299,11 +351,29 @@ pub enum Pairing {
 ///   scans even for radars as precise as 000's).
 /// - `gate_probability = 0.999`: the chi-square gate on a group's residual; 1 turns the
 ///   gate off (every stored group is used).
-/// - `model_sigma = 5` m: isotropic model error added to every member's position
-///   covariance.
+/// - `model_sigma = 1` m: isotropic model error added to every member's position
+///   covariance, a floor for local covariances that may be optimistic. It was 5 m,
+///   which for 000's radars (5 m and 0.1 mrad, i.e. 1 m across at 10 km; their local
+///   tracks' covariances are about 3 m x 0.7 m) made every member's error isotropic
+///   and threw away the precise cross-range (bearing) information; the local tracks
+///   there are consistent with their covariances (mean position NEES 1.0-2.5 per scan
+///   for 2 degrees of freedom on 000-s2, measured against the truth), so no larger model
+///   error is called for. What the residuals tell is the part of the biases the
+///   geometry determines worst (module doc, "What is identifiable"), and that part gains
+///   most from the bearing information: on 000-s2 (estimator alone on the runs' local
+///   tracks, 20 runs) the RMS correction error of a track from scan 10 on is 9.2 m at
+///   5 m, 7.1 m at 1 m, 6.2 m at 0 (the last with only the 0.1 m / 1 urad floors).
+///   Not 0: the estimate's covariance treats scans as independent while a local
+///   track's errors are correlated over scans, so it is optimistic, and the less model
+///   error the more (NEES of the six biases after 90 scans, 6 degrees of freedom: 9 at
+///   5 m, 40 at 1 m, 48 at 0); 1 m keeps a floor under trackers with optimistic
+///   covariances at little cost. Radars with covariances of tens of metres (the
+///   `bias-radars` scenario) see no difference.
 /// - `max_groups = 2000`: groups kept as raw observations (relinearised each scan);
 ///   older ones are folded into fixed information.
-/// - `iterations = 3`: Gauss-Newton passes per scan (the first without the residual gate).
+/// - `iterations = 3`: Gauss-Newton passes per scan: the first without the residual
+///   gate (followed by up to 4 more while the linearisation settles, module doc), the
+///   other two with it; 1 = one pass without the gate.
 /// - `confirm_scans = 2`: a pair of tracks is learnt from once the pairing has accepted it
 ///   in two consecutive scans (a wrong pairing forced by the targets one sensor happens
 ///   to have confirmed rarely survives the next scan).
@@ -347,7 +417,7 @@ impl Default for FdbscBiasParams {
             pair_gate_probability: 0.9999,
             pair_tolerance: 10.0,
             gate_probability: 0.999,
-            model_sigma: 5.0,
+            model_sigma: 1.0,
             max_groups: 2000,
             iterations: 3,
             confirm_scans: 2,
@@ -566,6 +636,8 @@ struct SensorInfo {
 #[derive(Debug, Clone, Copy)]
 struct Observation {
     sensor_id: Id,
+    /// The local track's id (for revoking the groups of a contradicted pair).
+    track_id: Id,
     q: Vec2,
     p: Mat2,
 }
@@ -682,6 +754,11 @@ pub struct FdbscBias {
     used: Vec<bool>,
     parent: Vec<u32>,
     new_memory: Vec<(PairKey, u32)>,
+    /// This scan's pairs as `(second track, first track)`, sorted (revocation).
+    by_second: Vec<((Id, Id), (Id, Id))>,
+    /// Pairs learnt from that ended within the last [`HISTORY`] scans before a full
+    /// history validated them: `(pair, streak, last scan accepted)` (revocation).
+    ended: Vec<(PairKey, u32, u64)>,
     component: Vec<(u32, u32)>,
 }
 
@@ -733,6 +810,8 @@ impl FdbscBias {
             used: Vec::new(),
             parent: Vec::new(),
             new_memory: Vec::new(),
+            by_second: Vec::new(),
+            ended: Vec::new(),
             component: Vec::new(),
         })
     }
@@ -758,7 +837,7 @@ impl FdbscBias {
 
     /// Number of groups currently stored for relinearisation.
     pub fn stored_groups(&self) -> usize {
-        self.groups.len()
+        self.groups.iter().filter(|g| g.len > 0).count()
     }
 
     fn estimated(&self, s: &Sensor) -> bool {
@@ -1078,9 +1157,14 @@ impl FdbscBias {
         let pr = 1.0 / (self.params.prior_range_sigma * self.params.prior_range_sigma);
         let pb = 1.0 / (self.params.prior_bearing_sigma * self.params.prior_bearing_sigma);
         let mut b = self.estimate.clone();
-        for pass in 0..self.params.iterations {
+        // ungated passes until the linearisation has settled (step within one standard
+        // deviation of the new estimate, at most MAX_RELINEARISATIONS extra passes), then
+        // the remaining `iterations - 1` passes with the residual gate
+        let gated_wanted = self.params.iterations - 1;
+        let mut gated = false;
+        let (mut gated_done, mut relinearised) = (0, 0);
+        for _ in 0..self.params.iterations + MAX_RELINEARISATIONS {
             self.evaluate_all(&b);
-            let gated = pass > 0;
             if gated {
                 // scale: the median normalised chi-square, when above 1
                 self.ratios.clear();
@@ -1116,15 +1200,30 @@ impl FdbscBias {
                 info[(2 * i + 1, 2 * i + 1)] += pb;
             }
             let m = (&info + info.transpose()) * 0.5;
+            let step_metric = if gated { None } else { Some(m.clone()) };
             let Some(ch) = m.cholesky() else { break };
             let x = ch.solve(&vector);
             if !x.iter().all(|v| v.is_finite()) {
                 break;
             }
+            let step = &x - &b;
+            let moved = step_metric.map_or(0.0, |m| step.dot(&(m * &step)));
             b = x;
             let c = ch.inverse();
             if c.iter().all(|v| v.is_finite()) {
                 self.cov = c;
+            }
+            if gated {
+                gated_done += 1;
+                if gated_done >= gated_wanted {
+                    break;
+                }
+            } else if gated_wanted == 0 {
+                break;
+            } else if moved <= 1.0 || relinearised >= MAX_RELINEARISATIONS {
+                gated = true;
+            } else {
+                relinearised += 1;
             }
         }
         self.estimate = b;
@@ -1690,6 +1789,76 @@ impl FdbscBias {
         (ni.min(nj), cost)
     }
 
+    /// Revocation (module doc, "Pairing", step 6): the stored groups of every pair that
+    /// was learnt from, accepted for fewer than [`HISTORY`] consecutive scans, ended within
+    /// the last [`HISTORY`] scans, and is now contradicted (one of its tracks accepted with
+    /// another track of the other one's sensor) are taken out of the estimate.
+    /// `new_memory` holds this scan's pairs, sorted; `memory` the last scan's.
+    fn revoke_contradicted(&mut self) {
+        let confirm = self.params.confirm_scans;
+        let now = self.scans;
+        // pairs that ended at the last scan, once learnt from and never fully validated
+        for &(pk, streak) in &self.memory {
+            if streak >= confirm
+                && streak < HISTORY as u32
+                && self.new_memory.binary_search_by(|x| x.0.cmp(&pk)).is_err()
+            {
+                self.ended.push((pk, streak, now - 1));
+            }
+        }
+        if self.ended.is_empty() {
+            return;
+        }
+        self.by_second.clear();
+        self.by_second
+            .extend(self.new_memory.iter().map(|&((a, b), _)| (b, a)));
+        self.by_second.sort_unstable();
+        let mut k = 0;
+        while k < self.ended.len() {
+            let ((ka, kb), streak, last) = self.ended[k];
+            let resumed = self
+                .new_memory
+                .binary_search_by(|x| x.0.cmp(&(ka, kb)))
+                .is_ok();
+            if resumed || last + (HISTORY as u64) < now {
+                self.ended.swap_remove(k);
+                continue;
+            }
+            // ka's pairs this scan (sorted by ka first), and kb's
+            let from = self.new_memory.partition_point(|x| x.0 .0 < ka);
+            let a_elsewhere = self.new_memory[from..]
+                .iter()
+                .take_while(|x| x.0 .0 == ka)
+                .any(|x| x.0 .1 .0 == kb.0 && x.0 .1 != kb);
+            let from = self.by_second.partition_point(|x| x.0 < kb);
+            let b_elsewhere = self.by_second[from..]
+                .iter()
+                .take_while(|x| x.0 == kb)
+                .any(|x| x.1 .0 == ka.0 && x.1 != ka);
+            if !(a_elsewhere || b_elsewhere) {
+                k += 1;
+                continue;
+            }
+            // its groups were stored at the last `streak - confirm + 1` scans it was
+            // accepted in, up to `last`
+            let oldest = last.saturating_sub(u64::from(streak - confirm));
+            for g in self.groups.iter_mut().rev() {
+                if g.stamp < oldest {
+                    break;
+                }
+                if g.stamp > last || g.len == 0 {
+                    continue;
+                }
+                let obs = &self.observations[g.start..g.start + g.len];
+                let has = |k: (Id, Id)| obs.iter().any(|o| (o.sensor_id, o.track_id) == k);
+                if has(ka) && has(kb) {
+                    g.len = 0;
+                }
+            }
+            self.ended.swap_remove(k);
+        }
+    }
+
     /// The consensus pairing of one scan: store the groups it finds.
     fn pair_consensus(&mut self, raw: &[LocalTrack]) {
         self.collect_scan(raw);
@@ -1710,6 +1879,7 @@ impl FdbscBias {
             }
         }
         self.new_memory.sort_unstable_by_key(|x| x.0);
+        self.revoke_contradicted();
         std::mem::swap(&mut self.memory, &mut self.new_memory);
         // components of the accepted pairs: (root, track)
         self.component.clear();
@@ -1740,6 +1910,7 @@ impl FdbscBias {
                     let t = &self.scan_tracks[i as usize];
                     self.observations.push(Observation {
                         sensor_id: self.lookup[t.sensor].id,
+                        track_id: t.key.1,
                         q: t.q,
                         p: t.p,
                     });
@@ -1772,6 +1943,7 @@ impl FdbscBias {
                 }
                 self.observations.push(Observation {
                     sensor_id: t.sensor_id,
+                    track_id: t.track_id,
                     q,
                     p: position_cov_of(&t.cov),
                 });
@@ -2166,6 +2338,157 @@ mod tests {
         assert_eq!(est.estimates().len(), 3);
     }
 
+    /// A sensor whose tracks reach the center after the others' (000 scenario II's
+    /// geometry; sensor 1's tracks start at scan 6). Its first groups are all new and
+    /// were linearised with it uncorrected (its biased images 1 km off), so the first
+    /// pass of the solve leaves linearisation residuals far above the gate of precise
+    /// tracks (0.2 m, `model_sigma` 0.5 m), while the older groups of sensors 0 and 2 fit
+    /// whatever sensor 1's estimate is. Gated from the second pass on (the earlier solve),
+    /// all of sensor 1's groups were rejected and it stayed at the prior's zero for that
+    /// scan; relinearised until the step settles, the gate sees them at a converged
+    /// estimate and keeps them.
+    #[test]
+    fn a_sensor_entering_late_is_not_gated_out_by_its_linearisation() {
+        let (sensors, biases, targets) = scenario_two();
+        let params = FdbscBiasParams {
+            model_sigma: 0.5,
+            ..FdbscBiasParams::default()
+        };
+        let mut est = FdbscBias::new(params).unwrap();
+        for scan in 0..8 {
+            let mut raw = scan_tracks(&sensors, &biases, &targets, scan, 0.3);
+            if scan < 6 {
+                raw.retain(|t| t.sensor_id != 1);
+            }
+            for t in &mut raw {
+                t.cov = StateCov::identity() * 0.04;
+            }
+            est.observe(&raw, &sensors);
+            if scan == 5 {
+                // sensors 0 and 2 estimated, sensor 1 at its prior
+                assert_eq!(est.estimate_of(1), Some((0.0, 0.0)));
+            }
+        }
+        // sensor 1's pairs were first accepted at scan 6 and confirmed at scan 7, the
+        // scan just learnt (three groups a scan from scan 1): its groups are in the estimate
+        assert_eq!(est.stored_groups(), 7 * 3);
+        for (s, &(br, bt)) in sensors.iter().zip(&biases) {
+            let (r, b) = est.estimate_of(s.id).unwrap();
+            // gated out, sensor 1 would be at zero, 500 m and 80 mrad off
+            assert!((r - br).abs() < 10.0, "sensor {}: range {r} vs {br}", s.id);
+            assert!(
+                (b - bt).abs() < 1e-3,
+                "sensor {}: bearing {b} vs {bt}",
+                s.id
+            );
+        }
+    }
+
+    /// Revocation on a hand-made state (confirm_scans = 2; at scan 10). Pair A (tracks
+    /// (0,1)-(1,0)) and pair B ((0,2)-(1,5)) were accepted at scans 7-9 and learnt from at
+    /// 8 and 9; pair C ((0,3)-(1,7)) at scans 2-9, a full history. At scan 10 track (0,1)
+    /// is accepted with (1,4): A is contradicted and its groups go; (0,3) with (1,9): C
+    /// is contradicted too but was validated over a full history (a swap at a crossing,
+    /// say), so its groups stay; B is not accepted and nothing contradicts it, so its
+    /// groups stay, until scan 11 accepts (1,5) with (0,6).
+    #[test]
+    fn contradicted_young_pairs_are_revoked() {
+        let mut est = FdbscBias::new(FdbscBiasParams::default()).unwrap();
+        let (a, b, c) = (((0, 1), (1, 0)), ((0, 2), (1, 5)), ((0, 3), (1, 7)));
+        let store = |est: &mut FdbscBias, pk: PairKey, stamp: u64| {
+            let start = est.observations.len();
+            for key in [pk.0, pk.1] {
+                est.observations.push(Observation {
+                    sensor_id: key.0,
+                    track_id: key.1,
+                    q: Vec2::new(1000.0, 2000.0),
+                    p: Mat2::identity(),
+                });
+            }
+            est.groups.push_back(StoredGroup {
+                start,
+                len: 2,
+                stamp,
+                weight: 1.0,
+            });
+        };
+        for stamp in 2..10 {
+            store(&mut est, c, stamp);
+            if stamp >= 8 {
+                store(&mut est, a, stamp);
+                store(&mut est, b, stamp);
+            }
+        }
+        assert_eq!(est.stored_groups(), 8 + 2 + 2);
+        let live = |est: &FdbscBias, pk: PairKey| {
+            est.groups
+                .iter()
+                .filter(|g| {
+                    let o = &est.observations[g.start..g.start + g.len];
+                    g.len == 2
+                        && (o[0].sensor_id, o[0].track_id) == pk.0
+                        && (o[1].sensor_id, o[1].track_id) == pk.1
+                })
+                .count()
+        };
+        est.scans = 10;
+        est.memory = vec![(a, 3), (b, 3), (c, 8)];
+        est.new_memory = vec![(((0, 1), (1, 4)), 1), (((0, 3), (1, 9)), 1)];
+        est.revoke_contradicted();
+        assert_eq!((live(&est, a), live(&est, b), live(&est, c)), (0, 2, 8));
+        // scan 11: B's track (1,5) is now paired with (0,6)
+        est.scans = 11;
+        est.memory = std::mem::take(&mut est.new_memory);
+        est.new_memory = vec![(((0, 6), (1, 5)), 1)];
+        est.revoke_contradicted();
+        assert_eq!((live(&est, a), live(&est, b), live(&est, c)), (0, 0, 8));
+        assert_eq!(est.stored_groups(), 8);
+        // the revoked groups carry no information: a solve is defined and finite
+        est.sync_sensors(&[radar(0, 0.0, 0.0), radar(1, 15000.0, 0.0)]);
+        est.solve();
+        assert!(est.estimate.iter().all(|v| v.is_finite()));
+    }
+
+    /// Runs 21 and 83 of 000-s2 (its own trackers): sensors 1 and 2 each confirm two of
+    /// the three targets first, and a pairing shifted by one target spacing is accepted
+    /// at scans 4-6 and learnt from; at scans 7-8 the right pairing takes over. Without
+    /// revocation the wrong groups stayed, outnumbered the right ones only slowly, and at
+    /// scan 8 the estimate (every group within the gate, scaled by the median residual of
+    /// a half-wrong set) ran off to 1.8-2 km and 80-180 mrad (correction errors of 2 km);
+    /// with it the wrong groups are dropped when contradicted.
+    #[test]
+    fn wrong_early_pairs_are_revoked_on_scenario_000_s2() {
+        let mut sc = crate::Scenario::builtin("000-s2").unwrap();
+        sc.scans = 9;
+        for run in [21u64, 83] {
+            let sim = crate::sim::simulate(&sc, run);
+            let local = crate::pipeline::track_run(&sc, &sc.tracker, &sim, run).unwrap();
+            let mut sensors = sim.sensors.clone();
+            for s in &mut sensors {
+                s.bias_r = 0.0;
+                s.bias_theta = 0.0;
+            }
+            let mut est = FdbscBias::new(FdbscBiasParams::default()).unwrap();
+            let mut scans: std::collections::BTreeMap<u32, Vec<LocalTrack>> =
+                std::collections::BTreeMap::new();
+            for t in &local {
+                scans.entry(t.scan).or_default().push(*t);
+            }
+            for ts in scans.values_mut() {
+                ts.sort_by_key(|t| (t.sensor_id, t.track_id));
+                est.observe(ts, &sensors);
+            }
+            for s in &sim.sensors {
+                let (r, b) = est.estimate_of(s.id).unwrap();
+                assert!(
+                    (r - s.bias_r).abs() < 100.0 && (b - s.bias_theta).abs() < 1e-2,
+                    "run {run} sensor {}: ({r}, {b})",
+                    s.id
+                );
+            }
+        }
+    }
+
     /// 000 scenario II's three equally spaced targets, two sensors each missing a
     /// different one for the first scans: a pairing shifted by one target spacing then
     /// fits a scan as well as the right one (across all three sensors). The targets'
@@ -2279,6 +2602,59 @@ mod tests {
                 .fold(f64::INFINITY, f64::min);
             assert!(nearest < 15.0, "{f:?}: {nearest}");
         }
+    }
+
+    /// The offline two-pass fusion (`fuse_all_two_pass`) on 000 scenario II's geometry:
+    /// the same final estimates as one pass, and the first scans, which one pass fuses
+    /// uncorrected (the estimator has nothing at scan 0), fused from corrected tracks.
+    #[test]
+    fn two_pass_fusion_corrects_from_the_first_scan() {
+        let (sensors, biases, targets) = scenario_two();
+        let cfg = FusionConfig {
+            bias: Some(NAME.into()),
+            ..FusionConfig::default()
+        };
+        let mut tracks = Vec::new();
+        for scan in 0..30 {
+            tracks.extend(scan_tracks(&sensors, &biases, &targets, scan, 3.0));
+        }
+        let one = crate::center::fuse_all(&tracks, &cfg, Some(&sensors), None).unwrap();
+        let two = crate::center::fuse_all_two_pass(&tracks, &cfg, Some(&sensors), None).unwrap();
+        assert_eq!(one.bias, two.bias);
+        let error_at = |run: &crate::center::FusedRun, scan: u32| {
+            let t = scan as f64;
+            run.fused
+                .iter()
+                .filter(|f| f.scan == scan)
+                .map(|f| {
+                    targets
+                        .iter()
+                        .map(|x| {
+                            let p = Vec2::new(x[0] + x[1] * t, x[2] + x[3] * t);
+                            (position_of(&f.state) - p).norm()
+                        })
+                        .fold(f64::INFINITY, f64::min)
+                })
+                .fold(0.0, f64::max)
+        };
+        assert!(
+            error_at(&one, 0) > 300.0,
+            "one pass, scan 0: {}",
+            error_at(&one, 0)
+        );
+        for scan in [0, 1, 29] {
+            let e = error_at(&two, scan);
+            assert!(e < 15.0, "two passes, scan {scan}: {e}");
+        }
+        // every scan fused, three tracks of three sensors each
+        assert!(two.fused.iter().filter(|f| f.scan == 0).count() == 3);
+        assert!(two.fused.iter().all(|f| f.sources.len() == 3));
+        // without an estimator it is one pass
+        let plain = FusionConfig::default();
+        assert_eq!(
+            crate::center::fuse_all_two_pass(&tracks, &plain, Some(&sensors), None).unwrap(),
+            crate::center::fuse_all(&tracks, &plain, Some(&sensors), None).unwrap()
+        );
     }
 
     /// Learning from the associator's groups with wrong groups among them (swapped

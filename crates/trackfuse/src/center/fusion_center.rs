@@ -664,6 +664,48 @@ pub fn fuse_all(
             reason: "is the reference given the true association: it needs the truth (--truth truth.csv)".into(),
         });
     }
+    fuse_scans(&mut center, tracks, labels)
+}
+
+/// Offline two-pass fusion of a whole run (not a streaming center: it needs every scan
+/// first). Pass 1 is [`fuse_all`] with the configured bias estimator; then every local
+/// track, from the first scan on, is corrected with the estimator's *final* estimates and
+/// pass 2 fuses the corrected tracks with the same method and rule and no estimator. The
+/// result is pass 2's tracks and associations with pass 1's final estimates. Without a
+/// bias estimator it is [`fuse_all`].
+pub fn fuse_all_two_pass(
+    tracks: &[LocalTrack],
+    cfg: &FusionConfig,
+    sensors: Option<&[Sensor]>,
+    labels: Option<&HashMap<(u32, Id, Id), Id>>,
+) -> Result<FusedRun, CenterError> {
+    let mut center = FusionCenter::new(cfg, sensors)?;
+    if center.bias.is_none() || (center.needs_truth() && labels.is_none()) {
+        return fuse_all(tracks, cfg, sensors, labels);
+    }
+    let first = fuse_scans(&mut center, tracks, labels)?;
+    let (Some(est), Some(known)) = (center.bias.as_ref(), center.sensors.as_ref()) else {
+        return Ok(first);
+    };
+    let mut corrected = tracks.to_vec();
+    // by sensor, so that the correction looks each sensor up once
+    corrected.sort_by_key(|t| (t.sensor_id, t.track_id, t.scan));
+    est.correct(&mut corrected, known);
+    let second = FusionConfig {
+        bias: None,
+        ..cfg.clone()
+    };
+    let mut run = fuse_all(&corrected, &second, sensors, labels)?;
+    run.bias = first.bias;
+    Ok(run)
+}
+
+/// Run `center` over a whole set of local tracks (any order), scan by scan.
+fn fuse_scans(
+    center: &mut FusionCenter,
+    tracks: &[LocalTrack],
+    labels: Option<&HashMap<(u32, Id, Id), Id>>,
+) -> Result<FusedRun, CenterError> {
     let mut by_scan: BTreeMap<u32, Vec<LocalTrack>> = BTreeMap::new();
     for t in tracks {
         by_scan.entry(t.scan).or_default().push(*t);

@@ -29,7 +29,7 @@ pub mod t2ta;
 #[cfg(test)]
 pub mod testing;
 
-pub use fusion_center::{fuse_all, FusedRun, FusionCenter, ScanOutput};
+pub use fusion_center::{fuse_all, fuse_all_two_pass, FusedRun, FusionCenter, ScanOutput};
 
 use crate::params::ParamTables;
 use crate::types::{Id, LocalTrack, Sensor, StateCov, StateVec};
