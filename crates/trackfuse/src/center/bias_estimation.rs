@@ -2649,12 +2649,12 @@ mod tests {
         // every scan fused, three tracks of three sensors each
         assert!(two.fused.iter().filter(|f| f.scan == 0).count() == 3);
         assert!(two.fused.iter().all(|f| f.sources.len() == 3));
-        // without an estimator it is one pass
+        // without an estimator there is nothing to re-fuse with: an error, not one pass
         let plain = FusionConfig::default();
-        assert_eq!(
-            crate::center::fuse_all_two_pass(&tracks, &plain, Some(&sensors), None).unwrap(),
-            crate::center::fuse_all(&tracks, &plain, Some(&sensors), None).unwrap()
-        );
+        assert!(matches!(
+            crate::center::fuse_all_two_pass(&tracks, &plain, Some(&sensors), None),
+            Err(crate::center::CenterError::Needs { .. })
+        ));
     }
 
     /// Learning from the associator's groups with wrong groups among them (swapped

@@ -672,7 +672,8 @@ pub fn fuse_all(
 /// track, from the first scan on, is corrected with the estimator's *final* estimates and
 /// pass 2 fuses the corrected tracks with the same method and rule and no estimator. The
 /// result is pass 2's tracks and associations with pass 1's final estimates. Without a
-/// bias estimator it is [`fuse_all`].
+/// bias estimator there is nothing to re-fuse with: that is an error, not a silent
+/// single pass.
 pub fn fuse_all_two_pass(
     tracks: &[LocalTrack],
     cfg: &FusionConfig,
@@ -680,7 +681,13 @@ pub fn fuse_all_two_pass(
     labels: Option<&HashMap<(u32, Id, Id), Id>>,
 ) -> Result<FusedRun, CenterError> {
     let mut center = FusionCenter::new(cfg, sensors)?;
-    if center.bias.is_none() || (center.needs_truth() && labels.is_none()) {
+    if center.bias.is_none() {
+        return Err(CenterError::Needs {
+            method: "two-pass fusion".into(),
+            reason: "re-fuses with the final bias estimates: it needs a bias estimator (--bias fdbsc, with --sensors)".into(),
+        });
+    }
+    if center.needs_truth() && labels.is_none() {
         return fuse_all(tracks, cfg, sensors, labels);
     }
     let first = fuse_scans(&mut center, tracks, labels)?;
