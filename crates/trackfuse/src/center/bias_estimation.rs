@@ -219,7 +219,7 @@ use crate::types::{
     position_cov_of, position_of, symmetrize, Id, LocalTrack, Mat2, Sensor, SensorKind, StateCov,
     StateVec, Vec2,
 };
-use nalgebra::{DMatrix, DVector, Matrix2x4, Matrix4, Vector4};
+use nalgebra::{DMatrix, DVector, Matrix2x4, Matrix4, Matrix4x2, Vector4};
 
 use serde::Deserialize;
 use std::cmp::Ordering;
@@ -377,6 +377,20 @@ pub enum Pairing {
 /// - `confirm_scans = 2`: a pair of tracks is learnt from once the pairing has accepted it
 ///   in two consecutive scans (a wrong pairing forced by the targets one sensor happens
 ///   to have confirmed rarely survives the next scan).
+/// - `inflate_covariance = true`: the corrected track's covariance gets the uncertainty
+///   of its sensor's bias estimate added, `P + J S Jᵀ`, with `S` the 2 x 2 covariance of
+///   the sensor's `(b_r, b_theta)` estimate (the prior's until the sensor has data) and
+///   `J` the state's sensitivity to it at the track (position: the range direction and
+///   range times the cross-range direction; velocity: the bearing bias rotates it).
+///   Without it a track corrected with a barely-learnt estimate keeps the local
+///   tracker's metre-sized covariance while its error is the bias error, hundreds of
+///   metres in the first scans, and every rule that weighs by covariance, every gate
+///   and every consumer of the fused covariance is misled (fused NEES in the thousands
+///   on 000-s2). It moves no estimate by itself: association by distance (`fdbsc-ta`)
+///   and the `fuzzy` rule's positions do not read covariances. The cross-sensor
+///   correlations of the estimates are left out, and the estimate's covariance is
+///   itself somewhat optimistic (see `model_sigma`). The paper corrects the tracks only
+///   (eq. 15): `false` does that, and the paper scenarios set it.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct FdbscBiasParams {
@@ -404,6 +418,8 @@ pub struct FdbscBiasParams {
     pub iterations: u32,
     /// Consecutive scans a pair must be accepted in before it is learnt from (>= 1).
     pub confirm_scans: u32,
+    /// Whether a corrected track's covariance carries the bias estimate's uncertainty.
+    pub inflate_covariance: bool,
 }
 
 impl Default for FdbscBiasParams {
@@ -421,6 +437,7 @@ impl Default for FdbscBiasParams {
             max_groups: 2000,
             iterations: 3,
             confirm_scans: 2,
+            inflate_covariance: true,
         }
     }
 }
@@ -516,6 +533,26 @@ fn displacement_jacobian(q: &Vec2, sensor: &Vec2) -> Mat2 {
     }
     let e = d / rho;
     Mat2::new(e[0], -d[1], e[1], d[0])
+}
+
+/// `J S Jᵀ`: the covariance a `(range, bearing)` bias uncertainty `s` of the sensor at
+/// `sensor` adds to a track with state `x` (`[x, vx, y, vy]`). `J`'s position rows are
+/// [`displacement_jacobian`] (the range direction, range times the cross-range
+/// direction); a bearing bias also rotates the velocity, `d v / d b_theta = (-vy, vx)`,
+/// while a range bias does not move it.
+fn bias_spread(x: &StateVec, sensor: &Vec2, s: &Mat2) -> StateCov {
+    let jp = displacement_jacobian(&position_of(x), sensor);
+    let j = Matrix4x2::new(
+        jp[(0, 0)],
+        jp[(0, 1)],
+        0.0,
+        -x[3],
+        jp[(1, 0)],
+        jp[(1, 1)],
+        0.0,
+        x[1],
+    );
+    j * s * j.transpose()
 }
 
 /// Largest eigenvalue of a symmetric 2 x 2 matrix.
@@ -831,6 +868,19 @@ impl FdbscBias {
             (
                 self.cov[(2 * i, 2 * i)].max(0.0).sqrt(),
                 self.cov[(2 * i + 1, 2 * i + 1)].max(0.0).sqrt(),
+            )
+        })
+    }
+
+    /// The 2 x 2 covariance of `sensor_id`'s `(range, bearing)` estimate, when estimated.
+    pub fn bias_cov_of(&self, sensor_id: Id) -> Option<Mat2> {
+        self.ids.binary_search(&sensor_id).ok().map(|i| {
+            let (r, b) = (2 * i, 2 * i + 1);
+            Mat2::new(
+                self.cov[(r, r)],
+                self.cov[(r, b)],
+                self.cov[(b, r)],
+                self.cov[(b, b)],
             )
         })
     }
@@ -2030,21 +2080,40 @@ impl BiasEstimator for FdbscBias {
 
     fn correct(&self, tracks: &mut [LocalTrack], sensors: &[Sensor]) {
         // tracks come sorted by sensor: look each sensor up once per run of its tracks
-        let mut current: Option<(Id, Option<SensorShift>)> = None;
+        let mut current: Option<(Id, Option<SensorShift>, Option<Mat2>)> = None;
         for t in tracks.iter_mut() {
             if current.map(|c| c.0) != Some(t.sensor_id) {
-                let shift = self.estimate_of(t.sensor_id).and_then(|(br, bt)| {
-                    sensors
-                        .iter()
-                        .find(|s| s.id == t.sensor_id && self.estimated(s))
-                        .map(|s| (s.position(), br, bt))
-                });
-                current = Some((t.sensor_id, shift));
+                let sensor = sensors
+                    .iter()
+                    .find(|s| s.id == t.sensor_id && self.estimated(s));
+                let shift = self
+                    .estimate_of(t.sensor_id)
+                    .and_then(|(br, bt)| sensor.map(|s| (s.position(), br, bt)));
+                let spread = match sensor {
+                    Some(s) if self.params.inflate_covariance => {
+                        Some(self.bias_cov_of(s.id).unwrap_or_else(|| {
+                            Mat2::new(
+                                self.params.prior_range_sigma.powi(2),
+                                0.0,
+                                0.0,
+                                self.params.prior_bearing_sigma.powi(2),
+                            )
+                        }))
+                    }
+                    _ => None,
+                };
+                current = Some((t.sensor_id, shift, spread));
             }
-            if let Some((_, Some((sp, br, bt)))) = current {
+            let Some((_, shift, spread)) = current else {
+                continue;
+            };
+            if let Some((sp, br, bt)) = shift {
                 let (x, p) = polar_shift(&t.state, &t.cov, &sp, -br, -bt);
                 t.state = x;
                 t.cov = p;
+            }
+            if let (Some(cov_b), Some(s)) = (spread, sensors.iter().find(|s| s.id == t.sensor_id)) {
+                t.cov = symmetrize(&(t.cov + bias_spread(&t.state, &s.position(), &cov_b)));
             }
         }
     }
@@ -2753,6 +2822,67 @@ mod tests {
         for (c, t) in corrected.iter().zip(&truth) {
             assert!((position_of(&c.state) - position_of(&t.state)).norm() < 5.0);
         }
+    }
+
+    /// `inflate_covariance`: before any data the prior's uncertainty is added, at 10 km
+    /// due east of the radar `prior_r^2` along x (range) and `(10 km prior_theta)^2`
+    /// along y (cross-range), and the bearing bias spreads the velocity across too; off,
+    /// the covariance is left as given. After learning, the added spread is the
+    /// estimate's, far smaller than the prior's.
+    #[test]
+    fn corrected_covariance_carries_the_bias_uncertainty() {
+        let sensors = [radar(0, 0.0, 0.0), radar(1, 20_000.0, 0.0)];
+        let track = LocalTrack {
+            scan: 0,
+            time: 0.0,
+            sensor_id: 0,
+            track_id: 0,
+            state: StateVec::new(10_000.0, 0.0, 0.0, 50.0),
+            cov: StateCov::identity() * 4.0,
+        };
+        let params = FdbscBiasParams {
+            prior_range_sigma: 300.0,
+            prior_bearing_sigma: 0.01,
+            ..FdbscBiasParams::default()
+        };
+        let est = FdbscBias::new(params.clone()).unwrap();
+        let mut t = [track];
+        est.correct(&mut t, &sensors);
+        assert_relative_eq!(t[0].state, track.state);
+        assert_relative_eq!(t[0].cov[(0, 0)], 4.0 + 300.0 * 300.0, max_relative = 1e-9);
+        assert_relative_eq!(t[0].cov[(2, 2)], 4.0 + 100.0 * 100.0, max_relative = 1e-9);
+        // d vx / d b_theta = -vy = -50: (50 * 0.01)^2 added to vx, correlated with y
+        assert_relative_eq!(t[0].cov[(1, 1)], 4.0 + 0.25, max_relative = 1e-9);
+        assert_relative_eq!(
+            t[0].cov[(1, 2)],
+            -50.0 * 10_000.0 * 1e-4,
+            max_relative = 1e-9
+        );
+        assert_relative_eq!(t[0].cov[(3, 3)], 4.0, max_relative = 1e-12);
+        let plain = FdbscBias::new(FdbscBiasParams {
+            inflate_covariance: false,
+            ..params.clone()
+        })
+        .unwrap();
+        let mut t = [track];
+        plain.correct(&mut t, &sensors);
+        assert_eq!(t[0].cov, track.cov);
+        // learnt: the spread is the estimate's covariance, much below the prior's
+        let (sensors, biases, targets) = scenario_two();
+        let mut est = FdbscBias::new(params).unwrap();
+        for scan in 0..20 {
+            est.observe(
+                &scan_tracks(&sensors, &biases, &targets, scan, 3.0),
+                &sensors,
+            );
+        }
+        let c = est.bias_cov_of(sensors[0].id).unwrap();
+        assert!(c[(0, 0)] < 0.01 * 300.0 * 300.0, "{c}");
+        let mut t = scan_tracks(&sensors, &biases, &targets, 20, 0.0);
+        let before = t[0].cov;
+        est.correct(&mut t, &sensors);
+        let added = t[0].cov[(0, 0)] + t[0].cov[(2, 2)] - before[(0, 0)] - before[(2, 2)];
+        assert!(added > 0.0 && added < 0.01 * 300.0 * 300.0, "{added}");
     }
 
     #[test]
