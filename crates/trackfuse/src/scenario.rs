@@ -248,6 +248,10 @@ pub const BUILTIN_SCENARIOS: &[(&str, &str)] = &[
         include_str!("../../../scenarios/bias-radars.toml"),
     ),
     (
+        "bias-bench",
+        include_str!("../../../scenarios/bias-bench.toml"),
+    ),
+    (
         "bias-radars-nobias",
         include_str!("../../../scenarios/bias-radars-nobias.toml"),
     ),
