@@ -774,6 +774,11 @@ pub struct FdbscBias {
     candidates: Vec<Candidate>,
     /// Per scan track, its history positions with the hypothesis' biases removed.
     shifted: Vec<[Vec2; HISTORY]>,
+    /// Per scan track of the sensor pair being paired, its history positions relative to
+    /// its sensor and their ranges (constant over the hypotheses of one pairing).
+    relative: Vec<[(Vec2, f64); HISTORY]>,
+    /// The scan tracks the current candidates refer to, ascending.
+    involved: Vec<u32>,
     history: Vec<TrackHistory>,
     /// Pair-gate chi-square quantiles for `2 n` degrees of freedom, by `n`.
     pair_gates: [f64; HISTORY + 1],
@@ -827,6 +832,8 @@ impl FdbscBias {
             grid: EpsGrid::default(),
             candidates: Vec::new(),
             shifted: Vec::new(),
+            relative: Vec::new(),
+            involved: Vec::new(),
             history: Vec::new(),
             pair_gates: {
                 let mut g = [0.0; HISTORY + 1];
@@ -1413,6 +1420,21 @@ impl FdbscBias {
         self.stamp_j.clear();
         self.stamp_j.resize(n_tracks, 0);
         self.epoch = 0;
+        self.relative.clear();
+        self.relative
+            .resize(n_tracks, [(Vec2::zeros(), 0.0); HISTORY]);
+        for (range, pos, est) in [(ra, ctx.pos_a, ctx.est_a), (rb, ctx.pos_b, ctx.est_b)] {
+            if !est {
+                continue;
+            }
+            for i in range.0..range.1 {
+                let h = &self.history[self.scan_tracks[i].hist];
+                for k in 0..h.len {
+                    let d = h.q[k] - pos;
+                    self.relative[i][k] = (d, d.norm());
+                }
+            }
+        }
         let zero = Vector4::zeros();
         // 1-2. tracking: the gate of the current estimate's covariance, and the zero
         // hypothesis (the current estimate is right), taken when the gate leaves every
@@ -1628,6 +1650,25 @@ impl FdbscBias {
                 self.candidates.truncate(first + MAX_PARTNERS);
             }
         }
+        self.collect_involved();
+    }
+
+    /// The scan tracks the candidates refer to, into `involved` (ascending).
+    fn collect_involved(&mut self) {
+        let mut marks = vec_false(&mut self.scratch_marks, self.scan_tracks.len());
+        for c in &self.candidates {
+            marks[c.i as usize] = true;
+            marks[c.j as usize] = true;
+        }
+        self.involved.clear();
+        self.involved.extend(
+            marks
+                .iter()
+                .enumerate()
+                .filter(|(_, m)| **m)
+                .map(|(i, _)| i as u32),
+        );
+        self.scratch_marks = marks;
     }
 
     /// The number of distinct tracks (the smaller side) among the candidates.
@@ -1687,25 +1728,40 @@ impl FdbscBias {
     }
 
     /// The history positions of both sensors' tracks with the current estimates and the
-    /// residual biases `theta` removed (from the raw positions: polar shifts add).
+    /// residual biases `theta` removed (from the raw positions: polar shifts add), for
+    /// the tracks the candidates refer to (no other is read). The arithmetic is
+    /// [`polar_shift_position`]'s by `(-dr, -dtheta)`, with the relative positions and
+    /// ranges from `relative` and the rotation's sine and cosine computed once per sensor.
     fn unshift_all(&mut self, ctx: &PairContext, theta: &Vector4<f64>) {
-        for (range, pos, est, off) in [
-            (ctx.ra, ctx.pos_a, ctx.est_a, 0),
-            (ctx.rb, ctx.pos_b, ctx.est_b, 2),
-        ] {
-            let (dr, dt) = (
-                ctx.current[off] + theta[off],
-                ctx.current[off + 1] + theta[off + 1],
-            );
-            for i in range.0..range.1 {
-                let h = &self.history[self.scan_tracks[i].hist];
-                for k in 0..h.len {
-                    self.shifted[i][k] = if est {
-                        polar_shift_position(&h.q[k], &pos, -dr, -dt)
-                    } else {
-                        h.q[k]
-                    };
-                }
+        let sides = [(ctx.pos_a, ctx.est_a, 0), (ctx.pos_b, ctx.est_b, 2)].map(
+            |(pos, est, off): (Vec2, bool, usize)| {
+                let (dr, dt) = (
+                    ctx.current[off] + theta[off],
+                    ctx.current[off + 1] + theta[off + 1],
+                );
+                let (ndr, ndt) = (-dr, -dt);
+                let (sin, cos) = ndt.sin_cos();
+                (pos, est, ndr, sin, cos)
+            },
+        );
+        for &i in &self.involved {
+            let i = i as usize;
+            let (pos, est, dr, sin, cos) = if i < ctx.ra.1 { sides[0] } else { sides[1] };
+            let h = &self.history[self.scan_tracks[i].hist];
+            let out = &mut self.shifted[i];
+            if !est {
+                out[..h.len].copy_from_slice(&h.q[..h.len]);
+                continue;
+            }
+            let rel = &self.relative[i];
+            for k in 0..h.len {
+                let (d, rho) = rel[k];
+                out[k] = if !rho.is_finite() || rho < MIN_RANGE {
+                    h.q[k]
+                } else {
+                    let kk = if rho + dr > 0.0 { 1.0 + dr / rho } else { 1.0 };
+                    pos + Vec2::new(cos * d[0] - sin * d[1], sin * d[0] + cos * d[1]) * kk
+                };
             }
         }
     }
