@@ -738,6 +738,10 @@ struct Candidate {
     /// Inverse covariance of the pair's position difference at each of those scans once
     /// the biases are removed: both tracks' position covariances + `pair_tolerance^2`.
     weights: [Mat2; HISTORY],
+    /// Whether every one of `weights` is finite, symmetric and well conditioned
+    /// ([`well_conditioned`]), so that each term of the pair's chi-square is computed
+    /// non-negative and its running sum never decreases.
+    monotone: bool,
 }
 
 /// The `fdbsc` bias estimator (see the module documentation).
@@ -1618,6 +1622,7 @@ impl FdbscBias {
                     n: 0,
                     points: [(0, 0); HISTORY],
                     weights: [Mat2::zeros(); HISTORY],
+                    monotone: true,
                 };
                 // the scans both histories hold (both ascending)
                 let (mut x, mut y) = (0, 0);
@@ -1630,6 +1635,7 @@ impl FdbscBias {
                             if let Some(w) = symmetrize(&noise).try_inverse() {
                                 c.points[c.n] = (x as u8, y as u8);
                                 c.weights[c.n] = w;
+                                c.monotone &= well_conditioned(&w);
                                 c.n += 1;
                             }
                             x += 1;
@@ -1840,12 +1846,17 @@ impl FdbscBias {
     /// (`2 n` degrees of freedom).
     fn pair_distance(&self, c: &Candidate) -> Option<f64> {
         let (si, sj) = (&self.shifted[c.i as usize], &self.shifted[c.j as usize]);
+        let gate = self.pair_gates[c.n];
         let mut q = 0.0;
         for (&(x, y), w) in c.points[..c.n].iter().zip(&c.weights) {
             let d = sj[y as usize] - si[x as usize];
             q += d.dot(&(w * d));
+            // the terms still to come are non-negative: the sum stays above the gate
+            if c.monotone && q > gate {
+                return None;
+            }
         }
-        (q <= self.pair_gates[c.n]).then_some(q)
+        (q <= gate).then_some(q)
     }
 
     /// Whether the biases a hypothesis implies (the current estimates + `theta`) lie
@@ -2119,6 +2130,23 @@ fn unshift_with_jacobian(
         sensor + u,
         Mat2::new(radial[0], angular[0], radial[1], angular[1]),
     )
+}
+
+/// Whether the symmetric 2 x 2 weight `w` is finite, positive definite and conditioned
+/// well enough (eigenvalue ratio above about 1e-6) that `d . (w d)` is computed
+/// non-negative for every finite `d`: the rounding error of that quadratic form is below
+/// `3.01 u |d|^T |w| |d| <= 4.3 u lambda_max |d|^2` (`u` the unit roundoff), far below
+/// `lambda_min |d|^2`.
+fn well_conditioned(w: &Mat2) -> bool {
+    let (a, b, c, e) = (w[(0, 0)], w[(0, 1)], w[(1, 0)], w[(1, 1)]);
+    let tr = a + e;
+    a.is_finite()
+        && b.is_finite()
+        && e.is_finite()
+        && b == c
+        && a > 0.0
+        && e > 0.0
+        && (a * e - b * c) > 1e-6 * tr * tr
 }
 
 /// `buf` emptied and resized to `n` falses, returned by value (its allocation reused).
