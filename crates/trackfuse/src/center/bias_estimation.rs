@@ -318,6 +318,140 @@ struct PairContext {
 
 const NONE: u32 = u32::MAX;
 
+/// One history point of a scan track in [`ShiftCache`].
+#[derive(Debug, Clone, Copy)]
+struct ShiftPoint {
+    /// The raw position.
+    q: Vec2,
+    /// `q` relative to its sensor, and its range.
+    d: Vec2,
+    rho: f64,
+    /// Whether the point moves with its sensor's bias (an estimated sensor, a defined
+    /// bearing).
+    moves: bool,
+    /// The hypothesis `value` was computed for.
+    stamp: u32,
+    /// The position with the hypothesis' biases removed.
+    value: Vec2,
+}
+
+impl ShiftPoint {
+    const UNUSED: ShiftPoint = ShiftPoint {
+        q: Vec2::new(0.0, 0.0),
+        d: Vec2::new(0.0, 0.0),
+        rho: 0.0,
+        moves: false,
+        stamp: 0,
+        value: Vec2::new(0.0, 0.0),
+    };
+}
+
+/// The history positions of the two sensors' tracks of a pairing with the current
+/// estimates and the residual biases `theta` of a hypothesis removed (from the raw
+/// positions: polar shifts add), computed on first use per hypothesis: the candidates
+/// whose chi-square leaves the gate early read few of them. The arithmetic is
+/// [`polar_shift_position`]'s by `(-dr, -dtheta)`, with the relative position and range
+/// of each point computed once per pairing and the rotation's sine and cosine once per
+/// hypothesis and sensor.
+#[derive(Debug, Clone, Default)]
+struct ShiftCache {
+    points: Vec<[ShiftPoint; HISTORY]>,
+    /// Tracks from this index on are the second sensor's.
+    split: usize,
+    /// Per sensor of the pair: position, `-dr`, and sine and cosine of `-dtheta`.
+    sides: [(Vec2, f64, f64, f64); 2],
+    epoch: u32,
+}
+
+impl ShiftCache {
+    /// A new pairing of `ctx`'s two sensors: the points of their tracks' histories.
+    fn prepare(&mut self, ctx: &PairContext, tracks: &[ScanTrack], history: &[TrackHistory]) {
+        self.points.clear();
+        self.points
+            .resize(tracks.len(), [ShiftPoint::UNUSED; HISTORY]);
+        self.split = ctx.ra.1;
+        self.epoch = 0;
+        for (range, pos, est) in [
+            (ctx.ra, ctx.pos_a, ctx.est_a),
+            (ctx.rb, ctx.pos_b, ctx.est_b),
+        ] {
+            for i in range.0..range.1 {
+                let h = &history[tracks[i].hist];
+                for k in 0..h.len {
+                    let q = h.q[k];
+                    let d = q - pos;
+                    let rho = d.norm();
+                    self.points[i][k] = ShiftPoint {
+                        q,
+                        d,
+                        rho,
+                        moves: est && rho.is_finite() && rho >= MIN_RANGE,
+                        stamp: 0,
+                        value: q,
+                    };
+                }
+            }
+        }
+    }
+
+    /// Start hypothesis `theta` (every cached position becomes stale).
+    fn hypothesis(&mut self, ctx: &PairContext, theta: &Vector4<f64>) {
+        self.sides = [(ctx.pos_a, 0), (ctx.pos_b, 2)].map(|(pos, off): (Vec2, usize)| {
+            let (dr, dt) = (
+                ctx.current[off] + theta[off],
+                ctx.current[off + 1] + theta[off + 1],
+            );
+            let (ndr, ndt) = (-dr, -dt);
+            let (sin, cos) = ndt.sin_cos();
+            (pos, ndr, sin, cos)
+        });
+        if self.epoch == u32::MAX {
+            for p in self.points.iter_mut().flatten() {
+                p.stamp = 0;
+            }
+            self.epoch = 0;
+        }
+        self.epoch += 1;
+    }
+
+    /// History point `k` of scan track `i` under the current hypothesis.
+    #[inline]
+    fn point(&mut self, i: usize, k: usize) -> Vec2 {
+        let side = self.sides[usize::from(i >= self.split)];
+        let epoch = self.epoch;
+        let p = &mut self.points[i][k];
+        if p.stamp != epoch {
+            p.stamp = epoch;
+            p.value = if p.moves {
+                let (pos, dr, sin, cos) = side;
+                let (d, rho) = (p.d, p.rho);
+                let kk = if rho + dr > 0.0 { 1.0 + dr / rho } else { 1.0 };
+                pos + Vec2::new(cos * d[0] - sin * d[1], sin * d[0] + cos * d[1]) * kk
+            } else {
+                p.q
+            };
+        }
+        p.value
+    }
+
+    /// The chi-square of candidate `c` over its common history under the current
+    /// hypothesis, when within the pair gate (`2 n` degrees of freedom, `gates[n]`).
+    fn pair_distance(&mut self, c: &Candidate, gates: &[f64; HISTORY + 1]) -> Option<f64> {
+        let (i, j) = (c.i as usize, c.j as usize);
+        let gate = gates[c.n];
+        let mut q = 0.0;
+        for (&(x, y), w) in c.points[..c.n].iter().zip(&c.weights) {
+            let d = self.point(j, y as usize) - self.point(i, x as usize);
+            q += d.dot(&(w * d));
+            // the terms still to come are non-negative: the sum stays above the gate
+            if c.monotone && q > gate {
+                return None;
+            }
+        }
+        (q <= gate).then_some(q)
+    }
+}
+
 /// Where the estimator takes its groups of same-target tracks from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -776,13 +910,8 @@ pub struct FdbscBias {
     runs: Vec<(usize, usize)>,
     grid: EpsGrid,
     candidates: Vec<Candidate>,
-    /// Per scan track, its history positions with the hypothesis' biases removed.
-    shifted: Vec<[Vec2; HISTORY]>,
-    /// Per scan track of the sensor pair being paired, its history positions relative to
-    /// its sensor and their ranges (constant over the hypotheses of one pairing).
-    relative: Vec<[(Vec2, f64); HISTORY]>,
-    /// The scan tracks the current candidates refer to, ascending.
-    involved: Vec<u32>,
+    /// Per scan track, its history positions with a hypothesis' biases removed.
+    shift: ShiftCache,
     history: Vec<TrackHistory>,
     /// Pair-gate chi-square quantiles for `2 n` degrees of freedom, by `n`.
     pair_gates: [f64; HISTORY + 1],
@@ -835,9 +964,7 @@ impl FdbscBias {
             runs: Vec::new(),
             grid: EpsGrid::default(),
             candidates: Vec::new(),
-            shifted: Vec::new(),
-            relative: Vec::new(),
-            involved: Vec::new(),
+            shift: ShiftCache::default(),
             history: Vec::new(),
             pair_gates: {
                 let mut g = [0.0; HISTORY + 1];
@@ -1417,28 +1544,12 @@ impl FdbscBias {
             },
         };
         let n_tracks = self.scan_tracks.len();
-        self.shifted.clear();
-        self.shifted.resize(n_tracks, [Vec2::zeros(); HISTORY]);
         self.stamp_i.clear();
         self.stamp_i.resize(n_tracks, 0);
         self.stamp_j.clear();
         self.stamp_j.resize(n_tracks, 0);
         self.epoch = 0;
-        self.relative.clear();
-        self.relative
-            .resize(n_tracks, [(Vec2::zeros(), 0.0); HISTORY]);
-        for (range, pos, est) in [(ra, ctx.pos_a, ctx.est_a), (rb, ctx.pos_b, ctx.est_b)] {
-            if !est {
-                continue;
-            }
-            for i in range.0..range.1 {
-                let h = &self.history[self.scan_tracks[i].hist];
-                for k in 0..h.len {
-                    let d = h.q[k] - pos;
-                    self.relative[i][k] = (d, d.norm());
-                }
-            }
-        }
+        self.shift.prepare(&ctx, &self.scan_tracks, &self.history);
         let zero = Vector4::zeros();
         // 1-2. tracking: the gate of the current estimate's covariance, and the zero
         // hypothesis (the current estimate is right), taken when the gate leaves every
@@ -1656,25 +1767,6 @@ impl FdbscBias {
                 self.candidates.truncate(first + MAX_PARTNERS);
             }
         }
-        self.collect_involved();
-    }
-
-    /// The scan tracks the candidates refer to, into `involved` (ascending).
-    fn collect_involved(&mut self) {
-        let mut marks = vec_false(&mut self.scratch_marks, self.scan_tracks.len());
-        for c in &self.candidates {
-            marks[c.i as usize] = true;
-            marks[c.j as usize] = true;
-        }
-        self.involved.clear();
-        self.involved.extend(
-            marks
-                .iter()
-                .enumerate()
-                .filter(|(_, m)| **m)
-                .map(|(i, _)| i as u32),
-        );
-        self.scratch_marks = marks;
     }
 
     /// The number of distinct tracks (the smaller side) among the candidates.
@@ -1698,10 +1790,10 @@ impl FdbscBias {
     /// Step 4: the candidates `theta` explains, one-to-one, pairs accepted at the
     /// previous scan first, then by residual; confirmed pairs are united in `parent`.
     fn assign(&mut self, ctx: &PairContext, theta: &Vector4<f64>) {
-        self.unshift_all(ctx, theta);
+        self.shift.hypothesis(ctx, theta);
         self.accept.clear();
         for c in &self.candidates {
-            if let Some(q) = self.pair_distance(c) {
+            if let Some(q) = self.shift.pair_distance(c, &self.pair_gates) {
                 self.accept
                     .push((c.streak == 0, q, c.i, c.j, (c.streak, c.n)));
             }
@@ -1730,45 +1822,6 @@ impl FdbscBias {
             }
             self.new_memory
                 .push(((self.scan_tracks[i].key, self.scan_tracks[j].key), streak));
-        }
-    }
-
-    /// The history positions of both sensors' tracks with the current estimates and the
-    /// residual biases `theta` removed (from the raw positions: polar shifts add), for
-    /// the tracks the candidates refer to (no other is read). The arithmetic is
-    /// [`polar_shift_position`]'s by `(-dr, -dtheta)`, with the relative positions and
-    /// ranges from `relative` and the rotation's sine and cosine computed once per sensor.
-    fn unshift_all(&mut self, ctx: &PairContext, theta: &Vector4<f64>) {
-        let sides = [(ctx.pos_a, ctx.est_a, 0), (ctx.pos_b, ctx.est_b, 2)].map(
-            |(pos, est, off): (Vec2, bool, usize)| {
-                let (dr, dt) = (
-                    ctx.current[off] + theta[off],
-                    ctx.current[off + 1] + theta[off + 1],
-                );
-                let (ndr, ndt) = (-dr, -dt);
-                let (sin, cos) = ndt.sin_cos();
-                (pos, est, ndr, sin, cos)
-            },
-        );
-        for &i in &self.involved {
-            let i = i as usize;
-            let (pos, est, dr, sin, cos) = if i < ctx.ra.1 { sides[0] } else { sides[1] };
-            let h = &self.history[self.scan_tracks[i].hist];
-            let out = &mut self.shifted[i];
-            if !est {
-                out[..h.len].copy_from_slice(&h.q[..h.len]);
-                continue;
-            }
-            let rel = &self.relative[i];
-            for k in 0..h.len {
-                let (d, rho) = rel[k];
-                out[k] = if !rho.is_finite() || rho < MIN_RANGE {
-                    h.q[k]
-                } else {
-                    let kk = if rho + dr > 0.0 { 1.0 + dr / rho } else { 1.0 };
-                    pos + Vec2::new(cos * d[0] - sin * d[1], sin * d[0] + cos * d[1]) * kk
-                };
-            }
         }
     }
 
@@ -1841,24 +1894,6 @@ impl FdbscBias {
         self.plausible(ctx, &theta).then_some(theta)
     }
 
-    /// The chi-square of candidate `c` over its common history, from the positions
-    /// [`unshift_all`](Self::unshift_all) left in `shifted`, when within the pair gate
-    /// (`2 n` degrees of freedom).
-    fn pair_distance(&self, c: &Candidate) -> Option<f64> {
-        let (si, sj) = (&self.shifted[c.i as usize], &self.shifted[c.j as usize]);
-        let gate = self.pair_gates[c.n];
-        let mut q = 0.0;
-        for (&(x, y), w) in c.points[..c.n].iter().zip(&c.weights) {
-            let d = sj[y as usize] - si[x as usize];
-            q += d.dot(&(w * d));
-            // the terms still to come are non-negative: the sum stays above the gate
-            if c.monotone && q > gate {
-                return None;
-            }
-        }
-        (q <= gate).then_some(q)
-    }
-
     /// Whether the biases a hypothesis implies (the current estimates + `theta`) lie
     /// within the pair gate of the prior, in the prior's standard deviations: a fit of
     /// four free biases to two pairs can explain any two pairs, with a rotation of half
@@ -1882,12 +1917,12 @@ impl FdbscBias {
         theta: &Vector4<f64>,
         mut marks: Option<&mut Vec<bool>>,
     ) -> (usize, f64) {
-        self.unshift_all(ctx, theta);
+        self.shift.hypothesis(ctx, theta);
         self.epoch += 1;
         let e = self.epoch;
         let (mut ni, mut nj, mut cost) = (0usize, 0usize, 0.0);
         for (k, c) in self.candidates.iter().enumerate() {
-            let Some(q) = self.pair_distance(c) else {
+            let Some(q) = self.shift.pair_distance(c, &self.pair_gates) else {
                 continue;
             };
             cost += q;
