@@ -1705,7 +1705,6 @@ impl FdbscBias {
             let first = self.candidates.len();
             let tracks = &self.scan_tracks;
             let cands = &mut self.candidates;
-            let memory = &self.memory;
             let history = &self.history;
             self.grid.for_each_within(&ti.c, |jj, _| {
                 let j = rb.0 + jj;
@@ -1722,41 +1721,21 @@ impl FdbscBias {
                 if m2 > gate2 {
                     return;
                 }
-                let (hi, hj) = (&history[ti.hist], &history[tj.hist]);
-                let mut c = Candidate {
+                // a candidate needs a scan in both histories; the rest of it (its
+                // streak and common history) is filled in for those kept below
+                if !has_common_scan(&history[ti.hist], &history[tj.hist], tol2) {
+                    return;
+                }
+                cands.push(Candidate {
                     i: i as u32,
                     j: j as u32,
                     m2,
-                    streak: memory
-                        .binary_search_by(|m| m.0.cmp(&(ti.key, tj.key)))
-                        .map_or(0, |k| memory[k].1),
+                    streak: 0,
                     n: 0,
                     points: [(0, 0); HISTORY],
                     weights: [Mat2::zeros(); HISTORY],
                     monotone: true,
-                };
-                // the scans both histories hold (both ascending)
-                let (mut x, mut y) = (0, 0);
-                while x < hi.len && y < hj.len {
-                    match hi.stamps[x].cmp(&hj.stamps[y]) {
-                        Ordering::Less => x += 1,
-                        Ordering::Greater => y += 1,
-                        Ordering::Equal => {
-                            let noise = hi.p[x] + hj.p[y] + Mat2::identity() * tol2;
-                            if let Some(w) = symmetrize(&noise).try_inverse() {
-                                c.points[c.n] = (x as u8, y as u8);
-                                c.weights[c.n] = w;
-                                c.monotone &= well_conditioned(&w);
-                                c.n += 1;
-                            }
-                            x += 1;
-                            y += 1;
-                        }
-                    }
-                }
-                if c.n > 0 {
-                    cands.push(c);
-                }
+                });
             });
             let n = self.candidates.len() - first;
             if n > MAX_PARTNERS {
@@ -1765,6 +1744,17 @@ impl FdbscBias {
                     x.m2.total_cmp(&y.m2).then(x.j.cmp(&y.j))
                 });
                 self.candidates.truncate(first + MAX_PARTNERS);
+            }
+            for c in &mut self.candidates[first..] {
+                let (ti, tj) = (
+                    &self.scan_tracks[c.i as usize],
+                    &self.scan_tracks[c.j as usize],
+                );
+                c.streak = self
+                    .memory
+                    .binary_search_by(|m| m.0.cmp(&(ti.key, tj.key)))
+                    .map_or(0, |k| self.memory[k].1);
+                common_history(&self.history[ti.hist], &self.history[tj.hist], tol2, c);
             }
         }
     }
@@ -2165,6 +2155,70 @@ fn unshift_with_jacobian(
         sensor + u,
         Mat2::new(radial[0], angular[0], radial[1], angular[1]),
     )
+}
+
+/// The weight of the position difference of two tracks at a scan both histories hold:
+/// the inverse of both covariances + `tol2`, when invertible.
+#[inline]
+fn common_weight(
+    hi: &TrackHistory,
+    hj: &TrackHistory,
+    x: usize,
+    y: usize,
+    tol2: f64,
+) -> Option<Mat2> {
+    let noise = hi.p[x] + hj.p[y] + Mat2::identity() * tol2;
+    symmetrize(&noise).try_inverse()
+}
+
+/// Visit the scans both histories hold (both ascending) with their weights, oldest first,
+/// until `f` returns false.
+#[inline]
+fn for_common_scans(
+    hi: &TrackHistory,
+    hj: &TrackHistory,
+    tol2: f64,
+    mut f: impl FnMut(usize, usize, Mat2) -> bool,
+) {
+    let (mut x, mut y) = (0, 0);
+    while x < hi.len && y < hj.len {
+        match hi.stamps[x].cmp(&hj.stamps[y]) {
+            Ordering::Less => x += 1,
+            Ordering::Greater => y += 1,
+            Ordering::Equal => {
+                if let Some(w) = common_weight(hi, hj, x, y, tol2) {
+                    if !f(x, y, w) {
+                        return;
+                    }
+                }
+                x += 1;
+                y += 1;
+            }
+        }
+    }
+}
+
+/// Whether two histories have a scan in common with an invertible weight.
+fn has_common_scan(hi: &TrackHistory, hj: &TrackHistory, tol2: f64) -> bool {
+    let mut found = false;
+    for_common_scans(hi, hj, tol2, |_, _, _| {
+        found = true;
+        false
+    });
+    found
+}
+
+/// A candidate's common history: its points, their weights and `monotone`.
+fn common_history(hi: &TrackHistory, hj: &TrackHistory, tol2: f64, c: &mut Candidate) {
+    c.n = 0;
+    c.monotone = true;
+    for_common_scans(hi, hj, tol2, |x, y, w| {
+        c.points[c.n] = (x as u8, y as u8);
+        c.weights[c.n] = w;
+        c.monotone &= well_conditioned(&w);
+        c.n += 1;
+        true
+    });
 }
 
 /// Whether the symmetric 2 x 2 weight `w` is finite, positive definite and conditioned
