@@ -361,6 +361,26 @@ struct ShiftCache {
     /// Per sensor of the pair: position, `-dr`, and sine and cosine of `-dtheta`.
     sides: [(Vec2, f64, f64, f64); 2],
     epoch: u32,
+    /// Per candidate, its first term of the chi-square (the common history's oldest
+    /// scan), which most candidates of a hypothesis do not get past.
+    probes: Vec<Probe>,
+    /// The history points `(track, index)` the probes read, and their positions under
+    /// the current hypothesis (computed eagerly).
+    firsts: Vec<(u32, u32)>,
+    first_values: Vec<Vec2>,
+    /// Per history point (`track * HISTORY + index`), its index in `firsts` or [`NONE`].
+    first_index: Vec<u32>,
+}
+
+/// The first term of a candidate's chi-square: the points it reads (indices into
+/// [`ShiftCache::firsts`]), their weight, the candidate's gate and `monotone`.
+#[derive(Debug, Clone, Copy)]
+struct Probe {
+    a: u32,
+    b: u32,
+    w: Mat2,
+    gate: f64,
+    monotone: bool,
 }
 
 impl ShiftCache {
@@ -394,6 +414,35 @@ impl ShiftCache {
         }
     }
 
+    /// The probes of `candidates` (after they change).
+    fn set_candidates(&mut self, candidates: &[Candidate], gates: &[f64; HISTORY + 1]) {
+        self.first_index.clear();
+        self.first_index.resize(self.points.len() * HISTORY, NONE);
+        self.firsts.clear();
+        self.probes.clear();
+        let (firsts, first_index) = (&mut self.firsts, &mut self.first_index);
+        let mut slot = |track: u32, k: u8| {
+            let flat = track as usize * HISTORY + k as usize;
+            if first_index[flat] == NONE {
+                first_index[flat] = firsts.len() as u32;
+                firsts.push((track, u32::from(k)));
+            }
+            first_index[flat]
+        };
+        for c in candidates {
+            let (x, y) = c.points[0];
+            self.probes.push(Probe {
+                a: slot(c.i, x),
+                b: slot(c.j, y),
+                w: c.weights[0],
+                gate: gates[c.n],
+                monotone: c.monotone,
+            });
+        }
+        self.first_values.clear();
+        self.first_values.resize(self.firsts.len(), Vec2::zeros());
+    }
+
     /// Start hypothesis `theta` (every cached position becomes stale).
     fn hypothesis(&mut self, ctx: &PairContext, theta: &Vector4<f64>) {
         self.sides = [(ctx.pos_a, 0), (ctx.pos_b, 2)].map(|(pos, off): (Vec2, usize)| {
@@ -412,6 +461,24 @@ impl ShiftCache {
             self.epoch = 0;
         }
         self.epoch += 1;
+        for (v, &(i, k)) in self.first_values.iter_mut().zip(&self.firsts) {
+            let (i, k) = (i as usize, k as usize);
+            *v = Self::value(&self.points[i][k], self.sides[usize::from(i >= self.split)]);
+        }
+    }
+
+    /// The position of point `p` under the hypothesis with `side` (its sensor's entry of
+    /// `sides`).
+    #[inline]
+    fn value(p: &ShiftPoint, side: (Vec2, f64, f64, f64)) -> Vec2 {
+        if p.moves {
+            let (pos, dr, sin, cos) = side;
+            let (d, rho) = (p.d, p.rho);
+            let kk = if rho + dr > 0.0 { 1.0 + dr / rho } else { 1.0 };
+            pos + Vec2::new(cos * d[0] - sin * d[1], sin * d[0] + cos * d[1]) * kk
+        } else {
+            p.q
+        }
     }
 
     /// History point `k` of scan track `i` under the current hypothesis.
@@ -422,16 +489,23 @@ impl ShiftCache {
         let p = &mut self.points[i][k];
         if p.stamp != epoch {
             p.stamp = epoch;
-            p.value = if p.moves {
-                let (pos, dr, sin, cos) = side;
-                let (d, rho) = (p.d, p.rho);
-                let kk = if rho + dr > 0.0 { 1.0 + dr / rho } else { 1.0 };
-                pos + Vec2::new(cos * d[0] - sin * d[1], sin * d[0] + cos * d[1]) * kk
-            } else {
-                p.q
-            };
+            p.value = Self::value(p, side);
         }
         p.value
+    }
+
+    /// [`pair_distance`](Self::pair_distance) of candidate `k` (`c`), which most
+    /// candidates leave at their probe's first term.
+    #[inline]
+    fn distance(&mut self, k: usize, c: &Candidate, gates: &[f64; HISTORY + 1]) -> Option<f64> {
+        let p = &self.probes[k];
+        let d = self.first_values[p.b as usize] - self.first_values[p.a as usize];
+        let mut q = 0.0;
+        q += d.dot(&(p.w * d));
+        if p.monotone && q > p.gate {
+            return None;
+        }
+        self.pair_distance(c, gates)
     }
 
     /// The chi-square of candidate `c` over its common history under the current
@@ -1696,6 +1770,8 @@ impl FdbscBias {
                 + self.params.pair_tolerance);
         self.candidates.clear();
         if !(radius.is_finite() && radius > 0.0) {
+            self.shift
+                .set_candidates(&self.candidates, &self.pair_gates);
             return;
         }
         self.grid
@@ -1757,6 +1833,8 @@ impl FdbscBias {
                 common_history(&self.history[ti.hist], &self.history[tj.hist], tol2, c);
             }
         }
+        self.shift
+            .set_candidates(&self.candidates, &self.pair_gates);
     }
 
     /// The number of distinct tracks (the smaller side) among the candidates.
@@ -1782,8 +1860,8 @@ impl FdbscBias {
     fn assign(&mut self, ctx: &PairContext, theta: &Vector4<f64>) {
         self.shift.hypothesis(ctx, theta);
         self.accept.clear();
-        for c in &self.candidates {
-            if let Some(q) = self.shift.pair_distance(c, &self.pair_gates) {
+        for (k, c) in self.candidates.iter().enumerate() {
+            if let Some(q) = self.shift.distance(k, c, &self.pair_gates) {
                 self.accept
                     .push((c.streak == 0, q, c.i, c.j, (c.streak, c.n)));
             }
@@ -1912,7 +1990,7 @@ impl FdbscBias {
         let e = self.epoch;
         let (mut ni, mut nj, mut cost) = (0usize, 0usize, 0.0);
         for (k, c) in self.candidates.iter().enumerate() {
-            let Some(q) = self.shift.pair_distance(c, &self.pair_gates) else {
+            let Some(q) = self.shift.distance(k, c, &self.pair_gates) else {
                 continue;
             };
             cost += q;
