@@ -496,7 +496,7 @@ impl ShiftCache {
 
     /// [`pair_distance`](Self::pair_distance) of candidate `k` (`c`), which most
     /// candidates leave at their probe's first term.
-    #[inline]
+    #[inline(always)]
     fn distance(&mut self, k: usize, c: &Candidate, gates: &[f64; HISTORY + 1]) -> Option<f64> {
         let p = &self.probes[k];
         let d = self.first_values[p.b as usize] - self.first_values[p.a as usize];
@@ -510,6 +510,7 @@ impl ShiftCache {
 
     /// The chi-square of candidate `c` over its common history under the current
     /// hypothesis, when within the pair gate (`2 n` degrees of freedom, `gates[n]`).
+    #[inline(never)]
     fn pair_distance(&mut self, c: &Candidate, gates: &[f64; HISTORY + 1]) -> Option<f64> {
         let (i, j) = (c.i as usize, c.j as usize);
         let gate = gates[c.n];
