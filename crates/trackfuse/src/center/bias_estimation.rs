@@ -318,6 +318,215 @@ struct PairContext {
 
 const NONE: u32 = u32::MAX;
 
+/// One history point of a scan track in [`ShiftCache`].
+#[derive(Debug, Clone, Copy)]
+struct ShiftPoint {
+    /// The raw position.
+    q: Vec2,
+    /// `q` relative to its sensor, and its range.
+    d: Vec2,
+    rho: f64,
+    /// Whether the point moves with its sensor's bias (an estimated sensor, a defined
+    /// bearing).
+    moves: bool,
+    /// The hypothesis `value` was computed for.
+    stamp: u32,
+    /// The position with the hypothesis' biases removed.
+    value: Vec2,
+}
+
+impl ShiftPoint {
+    const UNUSED: ShiftPoint = ShiftPoint {
+        q: Vec2::new(0.0, 0.0),
+        d: Vec2::new(0.0, 0.0),
+        rho: 0.0,
+        moves: false,
+        stamp: 0,
+        value: Vec2::new(0.0, 0.0),
+    };
+}
+
+/// The history positions of the two sensors' tracks of a pairing with the current
+/// estimates and the residual biases `theta` of a hypothesis removed (from the raw
+/// positions: polar shifts add), computed on first use per hypothesis: the candidates
+/// whose chi-square leaves the gate early read few of them. The arithmetic is
+/// [`polar_shift_position`]'s by `(-dr, -dtheta)`, with the relative position and range
+/// of each point computed once per pairing and the rotation's sine and cosine once per
+/// hypothesis and sensor.
+#[derive(Debug, Clone, Default)]
+struct ShiftCache {
+    points: Vec<[ShiftPoint; HISTORY]>,
+    /// Tracks from this index on are the second sensor's.
+    split: usize,
+    /// Per sensor of the pair: position, `-dr`, and sine and cosine of `-dtheta`.
+    sides: [(Vec2, f64, f64, f64); 2],
+    epoch: u32,
+    /// Per candidate, its first term of the chi-square (the common history's oldest
+    /// scan), which most candidates of a hypothesis do not get past.
+    probes: Vec<Probe>,
+    /// The history points `(track, index)` the probes read, and their positions under
+    /// the current hypothesis (computed eagerly).
+    firsts: Vec<(u32, u32)>,
+    first_values: Vec<Vec2>,
+    /// Per history point (`track * HISTORY + index`), its index in `firsts` or [`NONE`].
+    first_index: Vec<u32>,
+}
+
+/// The first term of a candidate's chi-square: the points it reads (indices into
+/// [`ShiftCache::firsts`]), their weight, the candidate's gate and `monotone`.
+#[derive(Debug, Clone, Copy)]
+struct Probe {
+    a: u32,
+    b: u32,
+    w: Mat2,
+    gate: f64,
+    monotone: bool,
+}
+
+impl ShiftCache {
+    /// A new pairing of `ctx`'s two sensors: the points of their tracks' histories.
+    fn prepare(&mut self, ctx: &PairContext, tracks: &[ScanTrack], history: &[TrackHistory]) {
+        self.points.clear();
+        self.points
+            .resize(tracks.len(), [ShiftPoint::UNUSED; HISTORY]);
+        self.split = ctx.ra.1;
+        self.epoch = 0;
+        for (range, pos, est) in [
+            (ctx.ra, ctx.pos_a, ctx.est_a),
+            (ctx.rb, ctx.pos_b, ctx.est_b),
+        ] {
+            for i in range.0..range.1 {
+                let h = &history[tracks[i].hist];
+                for k in 0..h.len {
+                    let q = h.q[k];
+                    let d = q - pos;
+                    let rho = d.norm();
+                    self.points[i][k] = ShiftPoint {
+                        q,
+                        d,
+                        rho,
+                        moves: est && rho.is_finite() && rho >= MIN_RANGE,
+                        stamp: 0,
+                        value: q,
+                    };
+                }
+            }
+        }
+    }
+
+    /// The probes of `candidates` (after they change).
+    fn set_candidates(&mut self, candidates: &[Candidate], gates: &[f64; HISTORY + 1]) {
+        self.first_index.clear();
+        self.first_index.resize(self.points.len() * HISTORY, NONE);
+        self.firsts.clear();
+        self.probes.clear();
+        let (firsts, first_index) = (&mut self.firsts, &mut self.first_index);
+        let mut slot = |track: u32, k: u8| {
+            let flat = track as usize * HISTORY + k as usize;
+            if first_index[flat] == NONE {
+                first_index[flat] = firsts.len() as u32;
+                firsts.push((track, u32::from(k)));
+            }
+            first_index[flat]
+        };
+        for c in candidates {
+            let (x, y) = c.points[0];
+            self.probes.push(Probe {
+                a: slot(c.i, x),
+                b: slot(c.j, y),
+                w: c.weights[0],
+                gate: gates[c.n],
+                monotone: c.monotone,
+            });
+        }
+        self.first_values.clear();
+        self.first_values.resize(self.firsts.len(), Vec2::zeros());
+    }
+
+    /// Start hypothesis `theta` (every cached position becomes stale).
+    fn hypothesis(&mut self, ctx: &PairContext, theta: &Vector4<f64>) {
+        self.sides = [(ctx.pos_a, 0), (ctx.pos_b, 2)].map(|(pos, off): (Vec2, usize)| {
+            let (dr, dt) = (
+                ctx.current[off] + theta[off],
+                ctx.current[off + 1] + theta[off + 1],
+            );
+            let (ndr, ndt) = (-dr, -dt);
+            let (sin, cos) = ndt.sin_cos();
+            (pos, ndr, sin, cos)
+        });
+        if self.epoch == u32::MAX {
+            for p in self.points.iter_mut().flatten() {
+                p.stamp = 0;
+            }
+            self.epoch = 0;
+        }
+        self.epoch += 1;
+        for (v, &(i, k)) in self.first_values.iter_mut().zip(&self.firsts) {
+            let (i, k) = (i as usize, k as usize);
+            *v = Self::value(&self.points[i][k], self.sides[usize::from(i >= self.split)]);
+        }
+    }
+
+    /// The position of point `p` under the hypothesis with `side` (its sensor's entry of
+    /// `sides`).
+    #[inline]
+    fn value(p: &ShiftPoint, side: (Vec2, f64, f64, f64)) -> Vec2 {
+        if p.moves {
+            let (pos, dr, sin, cos) = side;
+            let (d, rho) = (p.d, p.rho);
+            let kk = if rho + dr > 0.0 { 1.0 + dr / rho } else { 1.0 };
+            pos + Vec2::new(cos * d[0] - sin * d[1], sin * d[0] + cos * d[1]) * kk
+        } else {
+            p.q
+        }
+    }
+
+    /// History point `k` of scan track `i` under the current hypothesis.
+    #[inline]
+    fn point(&mut self, i: usize, k: usize) -> Vec2 {
+        let side = self.sides[usize::from(i >= self.split)];
+        let epoch = self.epoch;
+        let p = &mut self.points[i][k];
+        if p.stamp != epoch {
+            p.stamp = epoch;
+            p.value = Self::value(p, side);
+        }
+        p.value
+    }
+
+    /// [`pair_distance`](Self::pair_distance) of candidate `k` (`c`), which most
+    /// candidates leave at their probe's first term.
+    #[inline(always)]
+    fn distance(&mut self, k: usize, c: &Candidate, gates: &[f64; HISTORY + 1]) -> Option<f64> {
+        let p = &self.probes[k];
+        let d = self.first_values[p.b as usize] - self.first_values[p.a as usize];
+        let mut q = 0.0;
+        q += d.dot(&(p.w * d));
+        if p.monotone && q > p.gate {
+            return None;
+        }
+        self.pair_distance(c, gates)
+    }
+
+    /// The chi-square of candidate `c` over its common history under the current
+    /// hypothesis, when within the pair gate (`2 n` degrees of freedom, `gates[n]`).
+    #[inline(never)]
+    fn pair_distance(&mut self, c: &Candidate, gates: &[f64; HISTORY + 1]) -> Option<f64> {
+        let (i, j) = (c.i as usize, c.j as usize);
+        let gate = gates[c.n];
+        let mut q = 0.0;
+        for (&(x, y), w) in c.points[..c.n].iter().zip(&c.weights) {
+            let d = self.point(j, y as usize) - self.point(i, x as usize);
+            q += d.dot(&(w * d));
+            // the terms still to come are non-negative: the sum stays above the gate
+            if c.monotone && q > gate {
+                return None;
+            }
+        }
+        (q <= gate).then_some(q)
+    }
+}
+
 /// Where the estimator takes its groups of same-target tracks from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -738,6 +947,10 @@ struct Candidate {
     /// Inverse covariance of the pair's position difference at each of those scans once
     /// the biases are removed: both tracks' position covariances + `pair_tolerance^2`.
     weights: [Mat2; HISTORY],
+    /// Whether every one of `weights` is finite, symmetric and well conditioned
+    /// ([`well_conditioned`]), so that each term of the pair's chi-square is computed
+    /// non-negative and its running sum never decreases.
+    monotone: bool,
 }
 
 /// The `fdbsc` bias estimator (see the module documentation).
@@ -772,8 +985,8 @@ pub struct FdbscBias {
     runs: Vec<(usize, usize)>,
     grid: EpsGrid,
     candidates: Vec<Candidate>,
-    /// Per scan track, its history positions with the hypothesis' biases removed.
-    shifted: Vec<[Vec2; HISTORY]>,
+    /// Per scan track, its history positions with a hypothesis' biases removed.
+    shift: ShiftCache,
     history: Vec<TrackHistory>,
     /// Pair-gate chi-square quantiles for `2 n` degrees of freedom, by `n`.
     pair_gates: [f64; HISTORY + 1],
@@ -826,7 +1039,7 @@ impl FdbscBias {
             runs: Vec::new(),
             grid: EpsGrid::default(),
             candidates: Vec::new(),
-            shifted: Vec::new(),
+            shift: ShiftCache::default(),
             history: Vec::new(),
             pair_gates: {
                 let mut g = [0.0; HISTORY + 1];
@@ -1406,13 +1619,12 @@ impl FdbscBias {
             },
         };
         let n_tracks = self.scan_tracks.len();
-        self.shifted.clear();
-        self.shifted.resize(n_tracks, [Vec2::zeros(); HISTORY]);
         self.stamp_i.clear();
         self.stamp_i.resize(n_tracks, 0);
         self.stamp_j.clear();
         self.stamp_j.resize(n_tracks, 0);
         self.epoch = 0;
+        self.shift.prepare(&ctx, &self.scan_tracks, &self.history);
         let zero = Vector4::zeros();
         // 1-2. tracking: the gate of the current estimate's covariance, and the zero
         // hypothesis (the current estimate is right), taken when the gate leaves every
@@ -1559,6 +1771,8 @@ impl FdbscBias {
                 + self.params.pair_tolerance);
         self.candidates.clear();
         if !(radius.is_finite() && radius > 0.0) {
+            self.shift
+                .set_candidates(&self.candidates, &self.pair_gates);
             return;
         }
         self.grid
@@ -1568,7 +1782,6 @@ impl FdbscBias {
             let first = self.candidates.len();
             let tracks = &self.scan_tracks;
             let cands = &mut self.candidates;
-            let memory = &self.memory;
             let history = &self.history;
             self.grid.for_each_within(&ti.c, |jj, _| {
                 let j = rb.0 + jj;
@@ -1585,39 +1798,21 @@ impl FdbscBias {
                 if m2 > gate2 {
                     return;
                 }
-                let (hi, hj) = (&history[ti.hist], &history[tj.hist]);
-                let mut c = Candidate {
+                // a candidate needs a scan in both histories; the rest of it (its
+                // streak and common history) is filled in for those kept below
+                if !has_common_scan(&history[ti.hist], &history[tj.hist], tol2) {
+                    return;
+                }
+                cands.push(Candidate {
                     i: i as u32,
                     j: j as u32,
                     m2,
-                    streak: memory
-                        .binary_search_by(|m| m.0.cmp(&(ti.key, tj.key)))
-                        .map_or(0, |k| memory[k].1),
+                    streak: 0,
                     n: 0,
                     points: [(0, 0); HISTORY],
                     weights: [Mat2::zeros(); HISTORY],
-                };
-                // the scans both histories hold (both ascending)
-                let (mut x, mut y) = (0, 0);
-                while x < hi.len && y < hj.len {
-                    match hi.stamps[x].cmp(&hj.stamps[y]) {
-                        Ordering::Less => x += 1,
-                        Ordering::Greater => y += 1,
-                        Ordering::Equal => {
-                            let noise = hi.p[x] + hj.p[y] + Mat2::identity() * tol2;
-                            if let Some(w) = symmetrize(&noise).try_inverse() {
-                                c.points[c.n] = (x as u8, y as u8);
-                                c.weights[c.n] = w;
-                                c.n += 1;
-                            }
-                            x += 1;
-                            y += 1;
-                        }
-                    }
-                }
-                if c.n > 0 {
-                    cands.push(c);
-                }
+                    monotone: true,
+                });
             });
             let n = self.candidates.len() - first;
             if n > MAX_PARTNERS {
@@ -1627,7 +1822,20 @@ impl FdbscBias {
                 });
                 self.candidates.truncate(first + MAX_PARTNERS);
             }
+            for c in &mut self.candidates[first..] {
+                let (ti, tj) = (
+                    &self.scan_tracks[c.i as usize],
+                    &self.scan_tracks[c.j as usize],
+                );
+                c.streak = self
+                    .memory
+                    .binary_search_by(|m| m.0.cmp(&(ti.key, tj.key)))
+                    .map_or(0, |k| self.memory[k].1);
+                common_history(&self.history[ti.hist], &self.history[tj.hist], tol2, c);
+            }
         }
+        self.shift
+            .set_candidates(&self.candidates, &self.pair_gates);
     }
 
     /// The number of distinct tracks (the smaller side) among the candidates.
@@ -1651,10 +1859,10 @@ impl FdbscBias {
     /// Step 4: the candidates `theta` explains, one-to-one, pairs accepted at the
     /// previous scan first, then by residual; confirmed pairs are united in `parent`.
     fn assign(&mut self, ctx: &PairContext, theta: &Vector4<f64>) {
-        self.unshift_all(ctx, theta);
+        self.shift.hypothesis(ctx, theta);
         self.accept.clear();
-        for c in &self.candidates {
-            if let Some(q) = self.pair_distance(c) {
+        for (k, c) in self.candidates.iter().enumerate() {
+            if let Some(q) = self.shift.distance(k, c, &self.pair_gates) {
                 self.accept
                     .push((c.streak == 0, q, c.i, c.j, (c.streak, c.n)));
             }
@@ -1683,30 +1891,6 @@ impl FdbscBias {
             }
             self.new_memory
                 .push(((self.scan_tracks[i].key, self.scan_tracks[j].key), streak));
-        }
-    }
-
-    /// The history positions of both sensors' tracks with the current estimates and the
-    /// residual biases `theta` removed (from the raw positions: polar shifts add).
-    fn unshift_all(&mut self, ctx: &PairContext, theta: &Vector4<f64>) {
-        for (range, pos, est, off) in [
-            (ctx.ra, ctx.pos_a, ctx.est_a, 0),
-            (ctx.rb, ctx.pos_b, ctx.est_b, 2),
-        ] {
-            let (dr, dt) = (
-                ctx.current[off] + theta[off],
-                ctx.current[off + 1] + theta[off + 1],
-            );
-            for i in range.0..range.1 {
-                let h = &self.history[self.scan_tracks[i].hist];
-                for k in 0..h.len {
-                    self.shifted[i][k] = if est {
-                        polar_shift_position(&h.q[k], &pos, -dr, -dt)
-                    } else {
-                        h.q[k]
-                    };
-                }
-            }
         }
     }
 
@@ -1779,19 +1963,6 @@ impl FdbscBias {
         self.plausible(ctx, &theta).then_some(theta)
     }
 
-    /// The chi-square of candidate `c` over its common history, from the positions
-    /// [`unshift_all`](Self::unshift_all) left in `shifted`, when within the pair gate
-    /// (`2 n` degrees of freedom).
-    fn pair_distance(&self, c: &Candidate) -> Option<f64> {
-        let (si, sj) = (&self.shifted[c.i as usize], &self.shifted[c.j as usize]);
-        let mut q = 0.0;
-        for (&(x, y), w) in c.points[..c.n].iter().zip(&c.weights) {
-            let d = sj[y as usize] - si[x as usize];
-            q += d.dot(&(w * d));
-        }
-        (q <= self.pair_gates[c.n]).then_some(q)
-    }
-
     /// Whether the biases a hypothesis implies (the current estimates + `theta`) lie
     /// within the pair gate of the prior, in the prior's standard deviations: a fit of
     /// four free biases to two pairs can explain any two pairs, with a rotation of half
@@ -1815,12 +1986,12 @@ impl FdbscBias {
         theta: &Vector4<f64>,
         mut marks: Option<&mut Vec<bool>>,
     ) -> (usize, f64) {
-        self.unshift_all(ctx, theta);
+        self.shift.hypothesis(ctx, theta);
         self.epoch += 1;
         let e = self.epoch;
         let (mut ni, mut nj, mut cost) = (0usize, 0usize, 0.0);
         for (k, c) in self.candidates.iter().enumerate() {
-            let Some(q) = self.pair_distance(c) else {
+            let Some(q) = self.shift.distance(k, c, &self.pair_gates) else {
                 continue;
             };
             cost += q;
@@ -2063,6 +2234,87 @@ fn unshift_with_jacobian(
         sensor + u,
         Mat2::new(radial[0], angular[0], radial[1], angular[1]),
     )
+}
+
+/// The weight of the position difference of two tracks at a scan both histories hold:
+/// the inverse of both covariances + `tol2`, when invertible.
+#[inline]
+fn common_weight(
+    hi: &TrackHistory,
+    hj: &TrackHistory,
+    x: usize,
+    y: usize,
+    tol2: f64,
+) -> Option<Mat2> {
+    let noise = hi.p[x] + hj.p[y] + Mat2::identity() * tol2;
+    symmetrize(&noise).try_inverse()
+}
+
+/// Visit the scans both histories hold (both ascending) with their weights, oldest first,
+/// until `f` returns false.
+#[inline]
+fn for_common_scans(
+    hi: &TrackHistory,
+    hj: &TrackHistory,
+    tol2: f64,
+    mut f: impl FnMut(usize, usize, Mat2) -> bool,
+) {
+    let (mut x, mut y) = (0, 0);
+    while x < hi.len && y < hj.len {
+        match hi.stamps[x].cmp(&hj.stamps[y]) {
+            Ordering::Less => x += 1,
+            Ordering::Greater => y += 1,
+            Ordering::Equal => {
+                if let Some(w) = common_weight(hi, hj, x, y, tol2) {
+                    if !f(x, y, w) {
+                        return;
+                    }
+                }
+                x += 1;
+                y += 1;
+            }
+        }
+    }
+}
+
+/// Whether two histories have a scan in common with an invertible weight.
+fn has_common_scan(hi: &TrackHistory, hj: &TrackHistory, tol2: f64) -> bool {
+    let mut found = false;
+    for_common_scans(hi, hj, tol2, |_, _, _| {
+        found = true;
+        false
+    });
+    found
+}
+
+/// A candidate's common history: its points, their weights and `monotone`.
+fn common_history(hi: &TrackHistory, hj: &TrackHistory, tol2: f64, c: &mut Candidate) {
+    c.n = 0;
+    c.monotone = true;
+    for_common_scans(hi, hj, tol2, |x, y, w| {
+        c.points[c.n] = (x as u8, y as u8);
+        c.weights[c.n] = w;
+        c.monotone &= well_conditioned(&w);
+        c.n += 1;
+        true
+    });
+}
+
+/// Whether the symmetric 2 x 2 weight `w` is finite, positive definite and conditioned
+/// well enough (eigenvalue ratio above about 1e-6) that `d . (w d)` is computed
+/// non-negative for every finite `d`: the rounding error of that quadratic form is below
+/// `3.01 u |d|^T |w| |d| <= 4.3 u lambda_max |d|^2` (`u` the unit roundoff), far below
+/// `lambda_min |d|^2`.
+fn well_conditioned(w: &Mat2) -> bool {
+    let (a, b, c, e) = (w[(0, 0)], w[(0, 1)], w[(1, 0)], w[(1, 1)]);
+    let tr = a + e;
+    a.is_finite()
+        && b.is_finite()
+        && e.is_finite()
+        && b == c
+        && a > 0.0
+        && e > 0.0
+        && (a * e - b * c) > 1e-6 * tr * tr
 }
 
 /// `buf` emptied and resized to `n` falses, returned by value (its allocation reused).
