@@ -956,7 +956,7 @@ fn table6(ctx: &Ctx, sc: &Scenario, runs: u32, md: &mut String) -> Result<()> {
     let (mmse, fdbsc) = (&results[2].0, &results[1].0);
     writeln!(
         md,
-        "- **Bias estimation** (`{bias_name}`, as merged from main) ends within tolerance in \
+        "- **Bias estimation** (`{bias_name}`, at the settings of `000-s3.toml`) ends within tolerance in \
          {:.0} % of the runs behind FDBSC-TA's associations, {:.0} % behind FTF's and {:.0} % \
          with the true association (table above). It converges slowly, and the RMSE rows \
          average over every scan: over scans 0-9 the MMSE reference's RMSE is {} m and \
