@@ -149,7 +149,7 @@ const BASELINES: [(&str, &str); 4] = [
 ];
 const EXTRA: [(&str, &str); 3] = [("NN", "nn"), ("GNN", "gnn"), ("PDA", "pda")];
 
-// ---- the paper's numbers (/work/shared/PAPER_TABLES.md) ----
+// ---- the paper's numbers (its tables, transcribed) ----
 
 /// Table 1: (method, lambda) -> [T1, T2, T3].
 const TABLE1: [(&str, u32, [f64; 3]); 8] = [
