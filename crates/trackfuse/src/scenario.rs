@@ -195,12 +195,14 @@ pub enum ScenarioError {
     /// The TOML did not parse or has an unknown key (the message names it, with line and column).
     #[error("{file}: {message}")]
     Parse { file: String, message: String },
-    /// A value is out of range.
-    #[error("{file}: {key}: {reason}")]
+    /// A value is out of range; `at` is the `(line, column)` of the key in the file, when
+    /// it is written there (a default that is out of range has none).
+    #[error("{file}: {}{key}: {reason}", at_prefix(.at))]
     Invalid {
         file: String,
         key: String,
         reason: String,
+        at: Option<(usize, usize)>,
     },
     /// Reading the file failed.
     #[error("{file}: cannot read: {message}")]
@@ -279,7 +281,17 @@ impl Scenario {
                 message,
             }
         })?;
-        sc.validate(file)?;
+        sc.validate(file).map_err(|e| match e {
+            ScenarioError::Invalid {
+                file, key, reason, ..
+            } => ScenarioError::Invalid {
+                at: locate_key(text, &key),
+                file,
+                key,
+                reason,
+            },
+            other => other,
+        })?;
         Ok(sc)
     }
 
@@ -323,6 +335,7 @@ impl Scenario {
             file: file.to_string(),
             key,
             reason,
+            at: None,
         };
         let finite_pos = |key: &str, v: f64| -> Result<(), ScenarioError> {
             if !(v.is_finite() && v > 0.0) {
@@ -568,6 +581,50 @@ impl Scenario {
     }
 }
 
+fn at_prefix(at: &Option<(usize, usize)>) -> String {
+    at.map(|(l, c)| format!("line {l}, column {c}: "))
+        .unwrap_or_default()
+}
+
+/// Where the key named by a validation error (`fusion.params.fdbsc-ta.eps`,
+/// `sensors[2].sigma_r`, `tracker.process_noise[0]`) is written in the TOML text, as
+/// `(line, column)`. A line scan of the table headers (`[a.b]`, `[[a]]` counted for the
+/// index) and `key = value` lines; keys written in another form (dotted keys, inline
+/// tables) are not found, and the error then names the key only.
+fn locate_key(text: &str, key: &str) -> Option<(usize, usize)> {
+    // the last segment, without an element index, is the key; the rest the table
+    let (table, last) = match key.rsplit_once('.') {
+        Some((t, l)) => (t.to_string(), l),
+        None => (String::new(), key),
+    };
+    let last = last.split('[').next().unwrap_or(last);
+    let mut current = String::new();
+    let mut counts: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
+    for (n, line) in text.lines().enumerate() {
+        let t = line.trim_start();
+        if let Some(rest) = t.strip_prefix("[[") {
+            let name = rest.split("]]").next().unwrap_or("").trim().to_string();
+            let k = counts.entry(name.clone()).or_insert(0);
+            current = format!("{name}[{k}]");
+            *k += 1;
+            continue;
+        }
+        if let Some(rest) = t.strip_prefix('[') {
+            current = rest.split(']').next().unwrap_or("").trim().to_string();
+            continue;
+        }
+        if current != table {
+            continue;
+        }
+        if let Some(rest) = t.strip_prefix(last) {
+            if rest.trim_start().starts_with('=') {
+                return Some((n + 1, line.len() - t.len() + 1));
+            }
+        }
+    }
+    None
+}
+
 fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let before = &text[..offset.min(text.len())];
     let line = before.matches('\n').count() + 1;
@@ -695,6 +752,36 @@ sigma_theta = 0.001
         let at = |t: [f64; 4], time: f64| (t[0] + t[1] * time, t[2] + t[3] * time);
         let (pa, pb) = (at(a, 11.0), at(b, 11.0));
         assert!((pa.0 - pb.0).abs() < 1e-9 && (pa.1 - pb.1).abs() < 1e-9);
+    }
+
+    #[test]
+    fn invalid_values_are_located_in_the_file() {
+        let at = |text: &str| match Scenario::from_toml(text, "s.toml") {
+            Err(ScenarioError::Invalid { at, .. }) => at,
+            other => panic!("expected an invalid value, got {other:?}"),
+        };
+        // the second [[sensors]] table's sigma_r: line 12 of this text (line 1 is empty)
+        let two = format!(
+            "{MINIMAL}[[sensors]]\nposition = [0.0, 1000.0]\n  sigma_r = -1.0\nsigma_theta = 0.001\n"
+        );
+        assert_eq!(at(&two), Some((12, 3)));
+        let param = format!(
+            "{MINIMAL}[fusion]\nmethod = \"fdbsc-ta\"\n[fusion.params.fdbsc-ta]\neps = -5.0\n"
+        );
+        assert_eq!(at(&param), Some((13, 1)));
+        let err = Scenario::from_toml(&param, "s.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("s.toml: line 13, column 1: fusion.params.fdbsc-ta.eps:"),
+            "{err}"
+        );
+        // top level, with an element index
+        let noise = MINIMAL.replace("scans = 10", "scans = 10\nprocess_noise = [-1.0, 0.0]");
+        assert_eq!(at(&noise), Some((4, 1)));
+        // a key written as a dotted key is not found: the error names the key only
+        let dotted = format!("{MINIMAL}[fusion]\nparams.fdbsc-ta.eps = -5.0\n");
+        assert_eq!(at(&dotted), None);
     }
 
     #[test]
