@@ -298,6 +298,8 @@ type PairKey = ((Id, Id), (Id, Id));
 
 /// A sensor's position and its `(range, bearing)` estimate, for the correction.
 type SensorShift = (Vec2, f64, f64);
+/// A sensor's position and the 2 x 2 covariance of its `(range, bearing)` estimate.
+type BiasSpread = (Vec2, Mat2);
 
 /// The two sensors a pairing is between: their track runs, positions, and whether each
 /// is estimated (else an anchor).
@@ -2331,8 +2333,9 @@ impl BiasEstimator for FdbscBias {
     }
 
     fn correct(&self, tracks: &mut [LocalTrack], sensors: &[Sensor]) {
-        // tracks come sorted by sensor: look each sensor up once per run of its tracks
-        let mut current: Option<(Id, Option<SensorShift>, Option<Mat2>)> = None;
+        // tracks come sorted by sensor: look each sensor up once per run of its tracks,
+        // for its shift and the bias covariance to add (with the sensor's position)
+        let mut current: Option<(Id, Option<SensorShift>, Option<BiasSpread>)> = None;
         for t in tracks.iter_mut() {
             if current.map(|c| c.0) != Some(t.sensor_id) {
                 let sensor = sensors
@@ -2341,19 +2344,17 @@ impl BiasEstimator for FdbscBias {
                 let shift = self
                     .estimate_of(t.sensor_id)
                     .and_then(|(br, bt)| sensor.map(|s| (s.position(), br, bt)));
-                let spread = match sensor {
-                    Some(s) if self.params.inflate_covariance => {
-                        Some(self.bias_cov_of(s.id).unwrap_or_else(|| {
-                            Mat2::new(
-                                self.params.prior_range_sigma.powi(2),
-                                0.0,
-                                0.0,
-                                self.params.prior_bearing_sigma.powi(2),
-                            )
-                        }))
-                    }
-                    _ => None,
-                };
+                let spread = sensor.filter(|_| self.params.inflate_covariance).map(|s| {
+                    let cov = self.bias_cov_of(s.id).unwrap_or_else(|| {
+                        Mat2::new(
+                            self.params.prior_range_sigma.powi(2),
+                            0.0,
+                            0.0,
+                            self.params.prior_bearing_sigma.powi(2),
+                        )
+                    });
+                    (s.position(), cov)
+                });
                 current = Some((t.sensor_id, shift, spread));
             }
             let Some((_, shift, spread)) = current else {
@@ -2364,8 +2365,8 @@ impl BiasEstimator for FdbscBias {
                 t.state = x;
                 t.cov = p;
             }
-            if let (Some(cov_b), Some(s)) = (spread, sensors.iter().find(|s| s.id == t.sensor_id)) {
-                t.cov = symmetrize(&(t.cov + bias_spread(&t.state, &s.position(), &cov_b)));
+            if let Some((sp, cov_b)) = spread {
+                t.cov = symmetrize(&(t.cov + bias_spread(&t.state, &sp, &cov_b)));
             }
         }
     }
@@ -2777,28 +2778,39 @@ mod tests {
     /// scan 8 the estimate (every group within the gate, scaled by the median residual of
     /// a half-wrong set) ran off to 1.8-2 km and 80-180 mrad (correction errors of 2 km);
     /// with it the wrong groups are dropped when contradicted.
+    /// The estimator at its defaults after observing run `run` of `sc` as its own
+    /// trackers track it, scan by scan (the center's view: true biases zeroed), and the
+    /// simulation (whose sensors carry the true biases).
+    fn estimator_on_builtin(
+        sc: &crate::Scenario,
+        run: u64,
+    ) -> (FdbscBias, crate::sim::SimulationOutput) {
+        let sim = crate::sim::simulate(sc, run);
+        let local = crate::pipeline::track_run(sc, &sc.tracker, &sim, run).unwrap();
+        let mut sensors = sim.sensors.clone();
+        for s in &mut sensors {
+            s.bias_r = 0.0;
+            s.bias_theta = 0.0;
+        }
+        let mut est = FdbscBias::new(FdbscBiasParams::default()).unwrap();
+        let mut scans: std::collections::BTreeMap<u32, Vec<LocalTrack>> =
+            std::collections::BTreeMap::new();
+        for t in &local {
+            scans.entry(t.scan).or_default().push(*t);
+        }
+        for ts in scans.values_mut() {
+            ts.sort_by_key(|t| (t.sensor_id, t.track_id));
+            est.observe(ts, &sensors);
+        }
+        (est, sim)
+    }
+
     #[test]
     fn wrong_early_pairs_are_revoked_on_scenario_000_s2() {
         let mut sc = crate::Scenario::builtin("000-s2").unwrap();
         sc.scans = 9;
         for run in [21u64, 83] {
-            let sim = crate::sim::simulate(&sc, run);
-            let local = crate::pipeline::track_run(&sc, &sc.tracker, &sim, run).unwrap();
-            let mut sensors = sim.sensors.clone();
-            for s in &mut sensors {
-                s.bias_r = 0.0;
-                s.bias_theta = 0.0;
-            }
-            let mut est = FdbscBias::new(FdbscBiasParams::default()).unwrap();
-            let mut scans: std::collections::BTreeMap<u32, Vec<LocalTrack>> =
-                std::collections::BTreeMap::new();
-            for t in &local {
-                scans.entry(t.scan).or_default().push(*t);
-            }
-            for ts in scans.values_mut() {
-                ts.sort_by_key(|t| (t.sensor_id, t.track_id));
-                est.observe(ts, &sensors);
-            }
+            let (est, sim) = estimator_on_builtin(&sc, run);
             for s in &sim.sensors {
                 let (r, b) = est.estimate_of(s.id).unwrap();
                 assert!(
@@ -2848,23 +2860,7 @@ mod tests {
         let mut sc = crate::Scenario::builtin("000-s2").unwrap();
         sc.scans = 40;
         for run in [7u64, 21] {
-            let sim = crate::sim::simulate(&sc, run);
-            let local = crate::pipeline::track_run(&sc, &sc.tracker, &sim, run).unwrap();
-            let mut sensors = sim.sensors.clone();
-            for s in &mut sensors {
-                s.bias_r = 0.0;
-                s.bias_theta = 0.0;
-            }
-            let mut est = FdbscBias::new(FdbscBiasParams::default()).unwrap();
-            let mut scans: std::collections::BTreeMap<u32, Vec<LocalTrack>> =
-                std::collections::BTreeMap::new();
-            for t in &local {
-                scans.entry(t.scan).or_default().push(*t);
-            }
-            for ts in scans.values_mut() {
-                ts.sort_by_key(|t| (t.sensor_id, t.track_id));
-                est.observe(ts, &sensors);
-            }
+            let (est, sim) = estimator_on_builtin(&sc, run);
             for s in &sim.sensors {
                 let (r, b) = est.estimate_of(s.id).unwrap();
                 // locked in, they were off by 150 m and 20 mrad, or by kilometres

@@ -657,14 +657,25 @@ pub fn fuse_all(
     sensors: Option<&[Sensor]>,
     labels: Option<&HashMap<(u32, Id, Id), Id>>,
 ) -> Result<FusedRun, CenterError> {
-    let mut center = FusionCenter::new(cfg, sensors)?;
+    let mut center = center_for_run(cfg, sensors, labels)?;
+    fuse_scans(&mut center, tracks, labels)
+}
+
+/// A center for a whole run; a rule that needs the true association is an error up
+/// front when no labels are given.
+fn center_for_run(
+    cfg: &FusionConfig,
+    sensors: Option<&[Sensor]>,
+    labels: Option<&HashMap<(u32, Id, Id), Id>>,
+) -> Result<FusionCenter, CenterError> {
+    let center = FusionCenter::new(cfg, sensors)?;
     if center.needs_truth() && labels.is_none() {
         return Err(CenterError::Needs {
             method: format!("rule {}", cfg.rule),
             reason: "is the reference given the true association: it needs the truth (--truth truth.csv)".into(),
         });
     }
-    fuse_scans(&mut center, tracks, labels)
+    Ok(center)
 }
 
 /// Offline two-pass fusion of a whole run (not a streaming center: it needs every scan
@@ -680,15 +691,12 @@ pub fn fuse_all_two_pass(
     sensors: Option<&[Sensor]>,
     labels: Option<&HashMap<(u32, Id, Id), Id>>,
 ) -> Result<FusedRun, CenterError> {
-    let mut center = FusionCenter::new(cfg, sensors)?;
+    let mut center = center_for_run(cfg, sensors, labels)?;
     if center.bias.is_none() {
         return Err(CenterError::Needs {
             method: "two-pass fusion".into(),
             reason: "re-fuses with the final bias estimates: it needs a bias estimator (--bias fdbsc, with --sensors)".into(),
         });
-    }
-    if center.needs_truth() && labels.is_none() {
-        return fuse_all(tracks, cfg, sensors, labels);
     }
     let first = fuse_scans(&mut center, tracks, labels)?;
     let (Some(est), Some(known)) = (center.bias.as_ref(), center.sensors.as_ref()) else {

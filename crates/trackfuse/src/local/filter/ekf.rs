@@ -68,10 +68,6 @@ impl Filter for ExtendedKalmanFilter {
         predict_cv(&mut state.mean, &mut state.cov, dt, self.process_noise);
     }
 
-    fn convert(&self, z: &Vec2, _sensor: &Sensor) -> Vec2 {
-        *z
-    }
-
     fn predict_measurement(
         &self,
         state: &FilterState,

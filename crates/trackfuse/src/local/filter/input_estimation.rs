@@ -381,10 +381,6 @@ impl Filter for InputEstimationFilter {
         }
     }
 
-    fn convert(&self, z: &Vec2, _sensor: &Sensor) -> Vec2 {
-        *z
-    }
-
     fn predict_measurement(
         &self,
         state: &FilterState,

@@ -157,8 +157,11 @@ pub trait Filter: Send + Sync {
     fn predict(&self, state: &mut FilterState, dt: f64);
 
     /// A raw measurement (`(range, bearing)` or `(x, y)`, as `sensor.kind` says) in this
-    /// filter's measurement space.
-    fn convert(&self, z: &Vec2, sensor: &Sensor) -> Vec2;
+    /// filter's measurement space. The default keeps it as measured (filters that update
+    /// in the sensor's own space); a converted-measurement filter overrides it.
+    fn convert(&self, z: &Vec2, _sensor: &Sensor) -> Vec2 {
+        *z
+    }
 
     /// The predicted measurement of `state` (after [`Filter::predict`]); `None` if the
     /// innovation covariance is singular. `clutter_density` is left 0 (the tracker sets it).
