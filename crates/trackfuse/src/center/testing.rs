@@ -1,6 +1,6 @@
 //! Helpers for the tests of every fusion-center method (compiled in tests only).
 
-use super::{AssociationContext, GlobalTrack, TrackAssociator, TrackGroup};
+use super::{AssociationContext, FusionContext, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::types::{Id, LocalTrack, StateCov, StateVec};
 
 /// A local track at scan 0 with position `(x, y)`, velocity `(vx, vy)` and covariance
@@ -112,4 +112,16 @@ pub fn check_groups(tracks: &[LocalTrack], groups: &[TrackGroup], n_globals: usi
         }
     }
     assert!(seen.iter().all(|&s| s), "a track is in no group");
+}
+
+/// A fusion context for rule tests: no prior, no sensors, 1 s since the last update,
+/// 1 m/s^2 process noise.
+pub fn fusion_ctx() -> FusionContext<'static> {
+    FusionContext {
+        time: 0.0,
+        prior: None,
+        sensors: None,
+        dt: 1.0,
+        process_noise: 1.0,
+    }
 }

@@ -282,15 +282,7 @@ mod tests {
     use super::*;
     use crate::center::testing::local;
 
-    fn ctx() -> FusionContext<'static> {
-        FusionContext {
-            time: 0.0,
-            prior: None,
-            sensors: None,
-            dt: 1.0,
-            process_noise: 1.0,
-        }
-    }
+    use crate::center::testing::fusion_ctx as ctx;
 
     /// Fused covariance for weight w on a: (w P_a^-1 + (1-w) P_b^-1)^-1.
     fn fused_cov(a: &StateCov, b: &StateCov, w: f64) -> StateCov {

@@ -117,11 +117,8 @@ mod tests {
 
     fn ctx() -> FusionContext<'static> {
         FusionContext {
-            time: 0.0,
-            prior: None,
-            sensors: None,
             dt: 0.0,
-            process_noise: 1.0,
+            ..crate::center::testing::fusion_ctx()
         }
     }
 

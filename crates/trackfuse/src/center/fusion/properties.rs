@@ -5,20 +5,11 @@
 use super::blue::PSD_TOLERANCE;
 use crate::center::registry::{make_rule, RULES};
 use crate::center::testing::local;
-use crate::center::FusionContext;
 use crate::params::ParamTables;
 use crate::types::{LocalTrack, StateCov, StateVec};
 use proptest::prelude::*;
 
-fn ctx() -> FusionContext<'static> {
-    FusionContext {
-        time: 0.0,
-        prior: None,
-        sensors: None,
-        dt: 1.0,
-        process_noise: 1.0,
-    }
-}
+use crate::center::testing::fusion_ctx as ctx;
 
 /// A random member: covariance `scale (M M^T + alpha I)`.
 fn member() -> impl Strategy<Value = (Vec<f64>, f64, f64, Vec<f64>)> {

@@ -106,15 +106,7 @@ mod tests {
     use super::*;
     use crate::center::testing::local;
 
-    fn ctx() -> FusionContext<'static> {
-        FusionContext {
-            time: 0.0,
-            prior: None,
-            sensors: None,
-            dt: 1.0,
-            process_noise: 1.0,
-        }
-    }
+    use crate::center::testing::fusion_ctx as ctx;
 
     #[test]
     fn two_tracks_by_hand() {
