@@ -36,7 +36,7 @@ fn fusion_center(c: &mut Criterion) {
                             k = 0;
                         }
                         center
-                            .process_scan_into(black_box(&scans[k]), None, &mut out)
+                            .process_scan_into(black_box(&scans[k]), &mut out)
                             .expect("scan");
                         k += 1;
                         out.fused.len()

@@ -168,14 +168,14 @@ fn time_center(flags: &FusionFlags, scans: &[Vec<LocalTrack>]) -> Result<ScanTim
     // first scan starts the global tracks; time the steady state after it
     // (as a service would: one output buffer reused from scan to scan)
     let mut out = trackfuse::center::ScanOutput::default();
-    center.process_scan_into(&scans[0], None, &mut out)?;
+    center.process_scan_into(&scans[0], &mut out)?;
     let mut tracks = 0;
     let mut times = Vec::with_capacity(scans.len());
     for s in &scans[1..] {
         // the thread's CPU time, not wall time: on a shared machine the wall time of a
         // 40 ms scan includes the time slices of other processes
         let t0 = cpu_time::ThreadTime::now();
-        center.process_scan_into(s, None, &mut out)?;
+        center.process_scan_into(s, &mut out)?;
         times.push(t0.elapsed().as_secs_f64());
         tracks += s.len();
     }

@@ -74,6 +74,19 @@ pub fn track_run(
 }
 
 /// Run `run` of a scenario with its own tracker and fusion configs.
+///
+/// # Examples
+/// ```
+/// use trackfuse::{pipeline::run_once, Scenario};
+///
+/// let mut sc = Scenario::builtin("000-s1").expect("a built-in scenario");
+/// sc.scans = 10; // a short run keeps the example fast
+/// let out = run_once(&sc, 0)?;
+/// assert!(!out.local.is_empty() && !out.fused.fused.is_empty());
+/// let summary = out.metrics.summary(&sc.evaluation);
+/// assert!(summary.fused_rmse.expect("the targets are followed") < 100.0);
+/// # Ok::<(), trackfuse::pipeline::PipelineError>(())
+/// ```
 pub fn run_once(sc: &Scenario, run: u64) -> Result<RunOutput, PipelineError> {
     run_with(sc, &sc.tracker, &sc.fusion, run)
 }
@@ -93,10 +106,9 @@ pub fn run_with(
     let local = track_run(sc, tracker, &sim, run)?;
     times.track = t0.elapsed();
     let t0 = Instant::now();
-    let needs_truth =
-        crate::center::registry::make_rule(&fusion.rule, &fusion.params)?.needs_true_association();
-    let labels =
-        needs_truth.then(|| label_local_tracks(&sim.truth, &local, sc.evaluation.label_gate));
+    // the truth labels go to the `truth` associator only (rule `mmse`, method `truth`)
+    let labels = crate::center::needs_truth(fusion)?
+        .then(|| label_local_tracks(&sim.truth, &local, sc.evaluation.label_gate));
     let fused = fuse_all(&local, fusion, Some(&sim.sensors), labels.as_ref())?;
     times.fuse = t0.elapsed();
     let t0 = Instant::now();

@@ -2898,7 +2898,7 @@ mod tests {
         let mut last = None;
         for scan in 0..40 {
             let raw = scan_tracks(&sensors, &biases, &targets, scan, 3.0);
-            last = Some(center.process_scan(&raw, None).unwrap());
+            last = Some(center.process_scan(&raw).unwrap());
         }
         let est = center.bias_estimates();
         for (e, &(br, bt)) in est.iter().zip(&biases) {

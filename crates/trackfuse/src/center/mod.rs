@@ -29,7 +29,9 @@ pub mod t2ta;
 #[cfg(test)]
 pub mod testing;
 
-pub use fusion_center::{fuse_all, fuse_all_two_pass, FusedRun, FusionCenter, ScanOutput};
+pub use fusion_center::{
+    fuse_all, fuse_all_two_pass, needs_truth, FusedRun, FusionCenter, ScanOutput,
+};
 
 use crate::params::ParamTables;
 use crate::types::{Id, LocalTrack, Sensor, StateCov, StateVec};
@@ -67,10 +69,6 @@ pub struct AssociationContext<'a> {
     pub predicted: &'a [(StateVec, StateCov)],
     /// Seconds since the previous scan the center processed (0 for the first).
     pub dt: f64,
-    /// The truth label (target id) of each local track of the scan, same order as the
-    /// tracks, when the truth is given (evaluation runs); `-1` for an unlabelled track.
-    /// Only the `mmse` reference (optimal fusion given the true association) reads it.
-    pub labels: Option<&'a [Id]>,
 }
 
 impl AssociationContext<'_> {
@@ -153,9 +151,9 @@ pub trait FusionRule: Send + Sync {
     /// The ALGORITHMS.md name.
     fn name(&self) -> &'static str;
     /// Whether the rule is a reference that needs the true association (the `mmse`
-    /// Bayesian reference of 000): the center then groups the local tracks by their truth
-    /// labels instead of running the associator, and fails with a clear error when no
-    /// truth is given.
+    /// Bayesian reference of 000): a center built by name then runs the `truth`
+    /// associator ([`t2ta::truth`]) in place of the configured method, and fails with a
+    /// clear error when no truth labels are given.
     fn needs_true_association(&self) -> bool {
         false
     }

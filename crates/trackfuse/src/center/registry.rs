@@ -75,6 +75,11 @@ MethodInfo {
         summary: "002 baseline: fuzzy track association with association quality m (quality, default 6; He, Wang, Guan 2010)",
         make: |p| Ok(Box::new(super::t2ta::fta::Fta::from_params(p)?)),
     },
+    MethodInfo {
+        name: super::t2ta::truth::NAME,
+        summary: "reference of 000: groups the local tracks by their truth labels (the true association; needs the truth)",
+        make: super::t2ta::truth::make,
+    },
 ];
 
 /// Every finished fusion rule.

@@ -58,7 +58,7 @@ pub fn predicted(globals: &[GlobalTrack]) -> Vec<(StateVec, StateCov)> {
 }
 
 /// The context of scan `scan` at time `scan` seconds, 1 s after the previous scan, with
-/// the given predicted globals and no sensors or labels.
+/// the given predicted globals and no sensors.
 pub fn ctx(scan: u32, predicted: &[(StateVec, StateCov)]) -> AssociationContext<'_> {
     AssociationContext {
         scan,
@@ -66,7 +66,6 @@ pub fn ctx(scan: u32, predicted: &[(StateVec, StateCov)]) -> AssociationContext<
         sensors: None,
         predicted,
         dt: 1.0,
-        labels: None,
     }
 }
 

@@ -30,7 +30,7 @@ use super::gating::{gate_threshold, Gates, MeasurementIndex};
 use super::registry::{self, AssociatorSettings, FilterSettings};
 use super::{InitiationMethod, TrackerConfig, DEFAULT_PROCESS_NOISE};
 use crate::models::range_bearing_to_position;
-use crate::params::ParamError;
+use crate::params::{ParamError, ParamTables};
 use crate::types::{
     Id, LocalTrack, Mat2, Measurement, Sensor, SensorKind, StateCov, StateVec, Vec2,
 };
@@ -77,6 +77,41 @@ struct Seed {
 }
 
 /// One sensor's tracker; feed it one scan at a time with [`SensorTracker::process_scan`].
+///
+/// Built by name from a [`TrackerConfig`] ([`SensorTracker::new`]), or from a filter and
+/// a data associator of your own ([`SensorTracker::with_parts`]).
+///
+/// # Examples
+/// ```
+/// use trackfuse::local::{SensorTracker, TrackerConfig};
+/// use trackfuse::types::{Sensor, SensorKind, Vec2};
+///
+/// let sensor = Sensor {
+///     id: 0,
+///     kind: SensorKind::Position,
+///     x: 0.0,
+///     y: 0.0,
+///     sigma_a: 10.0,
+///     sigma_b: 10.0,
+///     pd: 1.0,
+///     bias_r: 0.0,
+///     bias_theta: 0.0,
+///     max_range: 100_000.0,
+///     clutter_density: None,
+/// };
+/// // default track management: two-point initiation, confirmed by 4 hits in 5 scans
+/// let mut tracker = SensorTracker::new(&sensor, &TrackerConfig::default(), None, &[], 1, 0, 0)?;
+/// let mut out = Vec::new();
+/// for scan in 0..5u32 {
+///     let t = f64::from(scan);
+///     out.clear();
+///     // one target at 20 m/s along x
+///     tracker.process_scan(scan, t, &[Vec2::new(1000.0 + 20.0 * t, 500.0)], &mut out)?;
+/// }
+/// assert_eq!(out.len(), 1);
+/// assert!((out[0].state[0] - 1080.0).abs() < 30.0);
+/// # Ok::<(), trackfuse::local::TrackerError>(())
+/// ```
 pub struct SensorTracker {
     sensor: Sensor,
     filter: Box<dyn Filter>,
@@ -99,6 +134,8 @@ pub struct SensorTracker {
     index: MeasurementIndex,
     gates: Gates,
     weights: AssociationWeights,
+    /// Whether each track was updated this scan.
+    updated: Vec<bool>,
     candidates: Vec<(f64, u32, u32)>,
 }
 
@@ -168,6 +205,45 @@ impl SensorTracker {
                 params: &cfg.params,
             },
         )?;
+        Self::with_parts(&sensor, cfg, filter, associator, known)
+    }
+
+    /// A tracker for `sensor` built from parts: a filter and a data associator of your
+    /// own (or from the registry), with `cfg`'s gating and track management (its
+    /// `filter`, `associator`, `process_noise` and `params` are the parts' business and
+    /// are ignored here). `known` are the known targets for [`InitiationMethod::Known`].
+    /// The sensor's true biases are zeroed before the parts see it.
+    pub fn with_parts(
+        sensor: &Sensor,
+        cfg: &TrackerConfig,
+        filter: Box<dyn Filter>,
+        associator: Box<dyn DataAssociator>,
+        known: &[KnownTarget],
+    ) -> Result<SensorTracker, TrackerError> {
+        // the settings the tracker itself reads, checked with the parts' names and tables
+        // set aside (the parts are built already)
+        TrackerConfig {
+            filter: "auto".into(),
+            associator: TrackerConfig::default().associator,
+            params: ParamTables::new(),
+            ..cfg.clone()
+        }
+        .validate()
+        .map_err(|(k, r)| TrackerError::Config(ParamError::new(k, r)))?;
+        let mut sensor = sensor.clone();
+        sensor.bias_r = 0.0;
+        sensor.bias_theta = 0.0;
+        if !filter.supports(sensor.kind) {
+            return Err(TrackerError::Config(ParamError::new(
+                "filter",
+                format!(
+                    "filter {:?} cannot track the {} sensor {}",
+                    filter.name(),
+                    sensor.kind.as_str(),
+                    sensor.id
+                ),
+            )));
+        }
         let clutter_km2 = sensor
             .clutter_density
             .or(cfg.clutter_density)
@@ -198,6 +274,7 @@ impl SensorTracker {
             index: MeasurementIndex::default(),
             gates: Gates::default(),
             weights: AssociationWeights::default(),
+            updated: Vec::new(),
             candidates: Vec::new(),
         })
     }
@@ -223,7 +300,26 @@ impl SensorTracker {
             )));
         }
         self.start_known_tracks(scan, time);
-        // 1. predict
+        self.predict(scan, time)?;
+        self.convert_and_index(measurements);
+        self.gate();
+        self.associate()?;
+        self.update_confirmed();
+        let m_of_n = self.cfg.initiation.method == InitiationMethod::MOfN;
+        if m_of_n {
+            self.update_tentative();
+        }
+        self.delete_tracks();
+        if m_of_n {
+            self.initiate(time);
+        }
+        self.report(scan, time, out);
+        Ok(())
+    }
+
+    /// Step 1: predict every track to the scan time (a scan earlier than a track's last
+    /// one is an error).
+    fn predict(&mut self, scan: u32, time: f64) -> Result<(), TrackerError> {
         for t in &mut self.tracks {
             let dt = time - t.last_time;
             if dt < 0.0 {
@@ -238,7 +334,12 @@ impl SensorTracker {
             t.last_time = time;
             t.age += 1;
         }
-        // 2. convert, index
+        Ok(())
+    }
+
+    /// Step 2: convert the measurements into the filter's measurement space and index
+    /// them; none is used yet.
+    fn convert_and_index(&mut self, measurements: &[Vec2]) {
         self.raw.clear();
         self.raw.extend_from_slice(measurements);
         self.converted.clear();
@@ -248,7 +349,11 @@ impl SensorTracker {
         self.used.clear();
         self.used.resize(measurements.len(), false);
         self.index.build(&self.converted);
-        // 3. confirmed tracks (and known tracks not yet seen): associate, update
+    }
+
+    /// Step 2: the predicted measurement of every confirmed track (and known track not
+    /// yet seen), with its clutter density, and the measurements in each one's gate.
+    fn gate(&mut self) {
         self.predictions.clear();
         self.predicted_of.clear();
         for (i, t) in self.tracks.iter().enumerate() {
@@ -267,6 +372,10 @@ impl SensorTracker {
         }
         self.gates
             .compute(&self.predictions, &self.converted, &self.index, self.gamma);
+    }
+
+    /// Step 3: the associator weighs the gated measurements for every predicted track.
+    fn associate(&mut self) -> Result<(), TrackerError> {
         let problem = AssociationProblem {
             predictions: &self.predictions,
             measurements: &self.converted,
@@ -285,7 +394,15 @@ impl SensorTracker {
                 self.predictions.len()
             )));
         }
-        let mut updated = vec![false; self.tracks.len()];
+        Ok(())
+    }
+
+    /// Step 3: each predicted track is updated with its weights (a hit; a known track is
+    /// confirmed by its first), or coasts on its prediction (a miss). A measurement with
+    /// a weight above 0 is used.
+    fn update_confirmed(&mut self) {
+        self.updated.clear();
+        self.updated.resize(self.tracks.len(), false);
         for (k, &ti) in self.predicted_of.iter().enumerate() {
             let w = self.weights.of(k);
             let hit = w.iter().any(|&(_, b)| b > 0.0);
@@ -306,7 +423,7 @@ impl SensorTracker {
             {
                 track.hits += 1;
                 track.misses = 0;
-                updated[ti] = true;
+                self.updated[ti] = true;
                 if track.id.is_none() {
                     track.id = Some(self.next_id);
                     self.next_id += 1;
@@ -315,11 +432,12 @@ impl SensorTracker {
                 track.misses += 1;
             }
         }
-        // 4. tentative tracks: nearest unused measurement first
-        if self.cfg.initiation.method == InitiationMethod::MOfN {
-            self.update_tentative(&mut updated);
-        }
-        // 6. delete
+    }
+
+    /// Step 6 (before initiation, so new tracks are not judged): delete confirmed (and
+    /// known) tracks missed `delete_after` scans in a row, and tentative tracks that can
+    /// no longer reach M hits within their first N scans.
+    fn delete_tracks(&mut self) {
         let cfg = &self.cfg.initiation;
         let known_mode = cfg.method == InitiationMethod::Known;
         self.tracks.retain(|t| {
@@ -330,11 +448,10 @@ impl SensorTracker {
                 t.hits + (cfg.n.saturating_sub(t.age)) >= cfg.m
             }
         });
-        // 5. two-point initiation from what is left
-        if self.cfg.initiation.method == InitiationMethod::MOfN {
-            self.initiate(time);
-        }
-        // report
+    }
+
+    /// Report the confirmed tracks, in `track_id` order.
+    fn report(&self, scan: u32, time: f64, out: &mut Vec<LocalTrack>) {
         let first = out.len();
         for t in &self.tracks {
             if let Some(id) = t.id {
@@ -349,7 +466,6 @@ impl SensorTracker {
             }
         }
         out[first..].sort_by_key(|l| l.track_id);
-        Ok(())
     }
 
     fn is_known_unconfirmed(&self, t: &Track) -> bool {
@@ -377,9 +493,10 @@ impl SensorTracker {
         }
     }
 
-    /// Tentative tracks take the unused measurements in their gates, nearest (smallest
-    /// d^2) pair first, one measurement per track and one track per measurement.
-    fn update_tentative(&mut self, updated: &mut [bool]) {
+    /// Step 4: tentative tracks take the unused measurements in their gates, nearest
+    /// (smallest d^2) pair first, one measurement per track and one track per
+    /// measurement; one confirmed by M hits within its first N scans gets its id.
+    fn update_tentative(&mut self) {
         self.candidates.clear();
         for (ti, t) in self.tracks.iter().enumerate() {
             if t.id.is_some() || t.age == 0 {
@@ -404,7 +521,7 @@ impl SensorTracker {
         for c in 0..self.candidates.len() {
             let (_, ti, m) = self.candidates[c];
             let (ti, m) = (ti as usize, m as usize);
-            if updated[ti] || self.used[m] {
+            if self.updated[ti] || self.used[m] {
                 continue;
             }
             let track = &mut self.tracks[ti];
@@ -418,7 +535,7 @@ impl SensorTracker {
                 &[(m as u32, 1.0)],
                 &self.sensor,
             ) {
-                updated[ti] = true;
+                self.updated[ti] = true;
                 self.used[m] = true;
                 track.hits += 1;
                 if track.hits >= self.cfg.initiation.m && track.age < self.cfg.initiation.n {
@@ -429,7 +546,7 @@ impl SensorTracker {
             }
         }
         for (ti, t) in self.tracks.iter_mut().enumerate() {
-            if t.id.is_none() && !updated[ti] {
+            if t.id.is_none() && !self.updated[ti] {
                 t.misses += 1;
             }
         }
@@ -449,7 +566,7 @@ impl SensorTracker {
         }
     }
 
-    /// Two-point initiation: each unused measurement pairs with the nearest single point
+    /// Step 5, two-point initiation: each unused measurement pairs with the nearest single point
     /// of the previous scan within `max_speed * dt` (plus three standard deviations of
     /// the two positions); the pair starts a tentative track with the differenced
     /// velocity. Unpaired measurements become single points for the next scan.
@@ -757,6 +874,110 @@ pd = 0.95
         let e = track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0)
             .expect_err("unknown associator");
         assert!(e.to_string().contains("no-such"), "{e}");
+    }
+
+    /// A data associator of the test's own: the nearest gated measurement of each track,
+    /// weight 1 (or, `blind`, none at all); counts its calls.
+    struct Nearest {
+        blind: bool,
+        calls: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+    }
+    impl DataAssociator for Nearest {
+        fn name(&self) -> &'static str {
+            "nearest"
+        }
+        fn associate(&mut self, problem: &AssociationProblem<'_>, out: &mut AssociationWeights) {
+            self.calls
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            out.clear();
+            for t in 0..problem.predictions.len() {
+                out.begin_track();
+                let nearest = problem.gates.of(t).iter().min_by(|a, b| a.1.total_cmp(&b.1));
+                if let (false, Some(&(m, _))) = (self.blind, nearest) {
+                    out.push(m, 1.0);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn with_parts_runs_an_associator_of_ones_own() {
+        let sensor = Sensor {
+            id: 4,
+            kind: SensorKind::Position,
+            x: 0.0,
+            y: 0.0,
+            sigma_a: 10.0,
+            sigma_b: 10.0,
+            pd: 1.0,
+            bias_r: 0.0,
+            bias_theta: 0.0,
+            max_range: 100_000.0,
+            clutter_density: None,
+        };
+        let mut cfg = TrackerConfig::default();
+        cfg.initiation.method = InitiationMethod::Known;
+        let known = [KnownTarget {
+            start_scan: 0,
+            state: StateVec::new(1000.0, 20.0, 500.0, 0.0),
+        }];
+        let filter = || {
+            registry::make_filter(
+                "kf",
+                &FilterSettings {
+                    process_noise: [0.5, 0.5],
+                    params: &cfg.params,
+                },
+            )
+            .expect("kf")
+        };
+        let run = |blind: bool| {
+            let calls = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+            let associator = Nearest {
+                blind,
+                calls: calls.clone(),
+            };
+            let mut tracker =
+                SensorTracker::with_parts(&sensor, &cfg, filter(), Box::new(associator), &known)
+                    .expect("tracker");
+            let mut out = Vec::new();
+            for scan in 0..8u32 {
+                let t = f64::from(scan);
+                // the target, and a far clutter point outside its gate
+                let z = [Vec2::new(1000.0 + 20.0 * t, 500.0), Vec2::new(9000.0, 9000.0)];
+                tracker.process_scan(scan, t, &z, &mut out).expect("scan");
+            }
+            (out, calls.load(std::sync::atomic::Ordering::Relaxed))
+        };
+        // the associator is called every scan; its weights drive the updates
+        let (seen, calls) = run(false);
+        assert_eq!(calls, 8);
+        assert_eq!(seen.len(), 8, "the known track is reported every scan");
+        assert!(seen.iter().all(|l| l.sensor_id == 4 && l.track_id == 0));
+        let last = seen.last().expect("track");
+        assert!((last.state[0] - 1140.0).abs() < 1.0, "{}", last.state);
+        // an associator that never weighs a measurement: the track never gets a hit
+        let (blind, calls) = run(true);
+        assert_eq!(calls, 8);
+        assert!(blind.is_empty(), "{blind:?}");
+        // a filter that cannot take the sensor is refused
+        let radar = Sensor {
+            kind: SensorKind::RangeBearing,
+            ..sensor
+        };
+        let e = SensorTracker::with_parts(
+            &radar,
+            &cfg,
+            filter(),
+            Box::new(Nearest {
+                blind: false,
+                calls: Default::default(),
+            }),
+            &known,
+        )
+        .err()
+        .expect("kf cannot track a radar");
+        assert!(e.to_string().contains("kf"), "{e}");
     }
 
     #[test]

@@ -9,13 +9,17 @@
 //! ([`super::bar_shalom_campo`], [`super::blue`]), with the same cross-covariance models
 //! and parameters, read from `[fusion.params.mmse]`.
 //!
-//! # How `mmse` differs from `bc`
-//! - `needs_true_association()` is true: the fusion center groups the local tracks by
-//!   their truth labels instead of running a track-to-track associator, and fails with a
-//!   clear error when no truth is given. So `mmse` measures the fusion error alone, with
-//!   association errors removed; `bc` is the same fuser behind whatever associator is
-//!   configured.
-//! - Nothing else: same estimator, same cross-covariance model, same fallbacks.
+//! # `mmse` = the `truth` associator + this BLUE rule
+//! The true association is not the rule's business: it is the `truth` associator's
+//! ([`crate::center::t2ta::truth`]), which groups the local tracks by their truth
+//! labels. This rule says it needs it (`needs_true_association()` is true), and a
+//! fusion center built by name ([`crate::center::FusionCenter::new`] /
+//! [`crate::center::FusionCenter::with_truth`]) then runs `truth` in place of the
+//! configured method (which is ignored), failing with a clear error when no truth labels
+//! are given. So `rule = "mmse"` is the pair `method = "truth"` + `rule = "bc"` with the
+//! `[fusion.params.mmse]` table: it measures the fusion error alone, with association
+//! errors removed; `bc` is the same fuser behind whatever associator is configured.
+//! Nothing else differs: same estimator, same cross-covariance model, same fallbacks.
 //!
 //! # Choices where the paper is silent
 //! 000 gives no equations for its MMSE reference. Chang, Saha & Bar-Shalom (1997) also

@@ -9,4 +9,5 @@ pub mod fta;
 pub mod ftta;
 pub(crate) mod grouping;
 pub mod ht_t2gt;
+pub mod truth;
 pub mod wfc;
