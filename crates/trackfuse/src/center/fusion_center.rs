@@ -79,8 +79,7 @@ impl FusionCenter {
     /// A center configured by `cfg`; `sensors` is what it may know of the sensors (their
     /// true biases are zeroed here and never read).
     pub fn new(cfg: &FusionConfig, sensors: Option<&[Sensor]>) -> Result<Self, CenterError> {
-        cfg.validate()
-            .map_err(|(key, reason)| CenterError::Config { key, reason })?;
+        cfg.check()?;
         let method = make_method(&cfg.method, &cfg.params)?;
         let rule = make_rule(&cfg.rule, &cfg.params)?;
         let bias = cfg
@@ -103,8 +102,8 @@ impl FusionCenter {
     ) -> Result<Self, CenterError> {
         if let (Some(b), None) = (&bias, sensors) {
             return Err(CenterError::Needs {
-                method: format!("bias estimator {}", b.name()),
-                reason: "needs the sensor positions: give sensors.csv (--sensors)".into(),
+                method: b.name(),
+                what: super::Missing::Sensors("bias estimation (the sensor positions)"),
             });
         }
         let sensors = sensors.map(|s| {
@@ -204,19 +203,18 @@ impl FusionCenter {
         }
         if let Some(l) = labels {
             if l.len() != tracks.len() {
-                return Err(CenterError::Input(format!(
-                    "{} labels for {} local tracks",
-                    l.len(),
-                    tracks.len()
-                )));
+                return Err(CenterError::LabelCount {
+                    labels: l.len(),
+                    tracks: tracks.len(),
+                });
             }
         }
         let scan = tracks[0].scan;
         if let Some(t) = tracks.iter().find(|t| t.scan != scan) {
-            return Err(CenterError::Input(format!(
-                "one scan at a time: scan {scan} and scan {} given together",
-                t.scan
-            )));
+            return Err(CenterError::MixedScan {
+                scan,
+                other: t.scan,
+            });
         }
         let time = tracks
             .iter()
@@ -225,9 +223,12 @@ impl FusionCenter {
         let dt = match self.last {
             Some((last_scan, last_time)) => {
                 if scan <= last_scan || time < last_time {
-                    return Err(CenterError::Input(format!(
-                        "scan {scan} at time {time} does not come after scan {last_scan} at time {last_time}"
-                    )));
+                    return Err(CenterError::TimeGoesBack {
+                        scan,
+                        time,
+                        previous_scan: last_scan,
+                        previous_time: last_time,
+                    });
                 }
                 time - last_time
             }
@@ -251,10 +252,11 @@ impl FusionCenter {
             for w in order.windows(2) {
                 let (a, b) = (&tracks[w[0]], &tracks[w[1]]);
                 if key(a) == key(b) {
-                    return Err(CenterError::Input(format!(
-                        "scan {scan}: local track {}:{} given twice",
-                        a.sensor_id, a.track_id
-                    )));
+                    return Err(CenterError::DuplicateTrack {
+                        scan,
+                        sensor_id: a.sensor_id,
+                        track_id: a.track_id,
+                    });
                 }
             }
         }
@@ -305,12 +307,10 @@ impl FusionCenter {
             for t in base {
                 if last != Some(t.sensor_id) {
                     if !s.iter().any(|x| x.id == t.sensor_id) {
-                        return Err(CenterError::Needs {
-                            method: format!("bias estimator {}", b.name()),
-                            reason: format!(
-                                "local track {}:{} comes from sensor {}, which is not among the sensors given (sensors.csv)",
-                                t.sensor_id, t.track_id, t.sensor_id
-                            ),
+                        return Err(CenterError::UnknownSensor {
+                            method: b.name(),
+                            sensor_id: t.sensor_id,
+                            track_id: t.track_id,
                         });
                     }
                     last = Some(t.sensor_id);
@@ -335,8 +335,8 @@ impl FusionCenter {
         if self.rule.needs_true_association() {
             let Some(l) = &sorted_labels else {
                 return Err(CenterError::Needs {
-                    method: format!("rule {}", self.rule.name()),
-                    reason: "is the reference given the true association: it needs the truth (--truth truth.csv)".into(),
+                    method: self.rule.name(),
+                    what: super::Missing::Truth,
                 });
             };
             groups = self.truth_groups(sorted, l);
@@ -402,10 +402,10 @@ impl FusionCenter {
             };
             let (x, p) = self.rule.fuse(&members, &g.weights, &ctx)?;
             if !(x.iter().all(|v| v.is_finite()) && p.iter().all(|v| v.is_finite())) {
-                return Err(CenterError::Input(format!(
-                    "rule {} gave a non-finite estimate at scan {scan}",
-                    self.rule.name()
-                )));
+                return Err(CenterError::NonFiniteFusion {
+                    rule: self.rule.name(),
+                    scan,
+                });
             }
             fused_est.push((x, symmetrize(&p)));
         }
@@ -588,53 +588,50 @@ impl FusionCenter {
 /// The invariants every association method keeps (`center/mod.rs`); a method that breaks
 /// one is reported as an error naming it, never silently mended.
 fn check_groups(
-    method: &str,
+    method: &'static str,
     tracks: &[LocalTrack],
     groups: &[TrackGroup],
     n_globals: usize,
     scratch: &mut Vec<bool>,
 ) -> Result<(), CenterError> {
-    let bad = |why: String| Err(CenterError::Input(format!("method {method}: {why}")));
+    use super::InvariantKind;
+    let bad = |kind| Err(CenterError::InvariantBroken { method, kind });
     // one scratch buffer: `tracks.len()` flags for the local tracks, then `n_globals`
     scratch.clear();
     scratch.resize(tracks.len() + n_globals, false);
     let (seen, global_seen) = scratch.split_at_mut(tracks.len());
     for g in groups {
         if g.members.is_empty() || g.members.len() != g.weights.len() {
-            return bad("a group is empty or has not one weight per member".into());
+            return bad(InvariantKind::BadGroup);
         }
         for (k, &m) in g.members.iter().enumerate() {
             if m >= tracks.len() || seen[m] {
-                return bad(format!(
-                    "local track index {m} out of range or in two groups"
-                ));
+                return bad(InvariantKind::TrackIndex { index: m });
             }
             seen[m] = true;
             if g.members[..k]
                 .iter()
                 .any(|&o| tracks[o].sensor_id == tracks[m].sensor_id)
             {
-                return bad(format!(
-                    "two tracks of sensor {} in one group",
-                    tracks[m].sensor_id
-                ));
+                return bad(InvariantKind::SameSensor {
+                    sensor_id: tracks[m].sensor_id,
+                });
             }
             if !(g.weights[k].is_finite() && g.weights[k] >= 0.0) {
-                return bad(format!(
-                    "weight {} is not a finite number >= 0",
-                    g.weights[k]
-                ));
+                return bad(InvariantKind::BadWeight {
+                    weight: g.weights[k],
+                });
             }
         }
         if let Some(gi) = g.global {
             if gi >= n_globals || global_seen[gi] {
-                return bad(format!("global index {gi} out of range or continued twice"));
+                return bad(InvariantKind::GlobalIndex { index: gi });
             }
             global_seen[gi] = true;
         }
     }
     if let Some(m) = seen.iter().position(|s| !s) {
-        return bad(format!("local track index {m} is in no group"));
+        return bad(InvariantKind::Ungrouped { index: m });
     }
     Ok(())
 }
@@ -671,8 +668,8 @@ fn center_for_run(
     let center = FusionCenter::new(cfg, sensors)?;
     if center.needs_truth() && labels.is_none() {
         return Err(CenterError::Needs {
-            method: format!("rule {}", cfg.rule),
-            reason: "is the reference given the true association: it needs the truth (--truth truth.csv)".into(),
+            method: center.rule.name(),
+            what: super::Missing::Truth,
         });
     }
     Ok(center)
@@ -694,8 +691,8 @@ pub fn fuse_all_two_pass(
     let mut center = center_for_run(cfg, sensors, labels)?;
     if center.bias.is_none() {
         return Err(CenterError::Needs {
-            method: "two-pass fusion".into(),
-            reason: "re-fuses with the final bias estimates: it needs a bias estimator (--bias fdbsc, with --sensors)".into(),
+            method: "two-pass fusion",
+            what: super::Missing::BiasEstimator,
         });
     }
     let first = fuse_scans(&mut center, tracks, labels)?;
@@ -880,16 +877,35 @@ mod tests {
         let mut c = center(false);
         let mut ts = two_targets(0);
         ts.push(ts[0]);
-        assert!(c.process_scan(&ts, None).is_err(), "duplicate track");
+        assert!(
+            matches!(
+                c.process_scan(&ts, None),
+                Err(CenterError::DuplicateTrack { scan: 0, .. })
+            ),
+            "duplicate track"
+        );
         let mut c = center(false);
         c.process_scan(&two_targets(3), None).expect("scan 3");
         assert!(
-            c.process_scan(&two_targets(2), None).is_err(),
+            matches!(
+                c.process_scan(&two_targets(2), None),
+                Err(CenterError::TimeGoesBack {
+                    scan: 2,
+                    previous_scan: 3,
+                    ..
+                })
+            ),
             "back in time"
         );
         let mut mixed = two_targets(4);
         mixed[1].scan = 5;
-        assert!(c.process_scan(&mixed, None).is_err(), "two scans at once");
+        assert!(
+            matches!(
+                c.process_scan(&mixed, None),
+                Err(CenterError::MixedScan { scan: 4, other: 5 })
+            ),
+            "two scans at once"
+        );
     }
 
     #[test]
@@ -897,7 +913,10 @@ mod tests {
         let mut c = center(true);
         assert!(matches!(
             c.process_scan(&two_targets(0), None),
-            Err(CenterError::Needs { .. })
+            Err(CenterError::Needs {
+                method: "mean",
+                what: crate::center::Missing::Truth
+            })
         ));
         // labels pair the tracks across the targets, against the geometry
         let labels = [10, 20, 20, 10];
@@ -985,8 +1004,8 @@ mod tests {
         // sensors 0 and 1 report, only sensor 0 is known
         let mut c = FusionCenter::new(&cfg, Some(&[radar(0)])).expect("center");
         match c.process_scan(&two_targets(0), None) {
-            Err(CenterError::Needs { reason, .. }) => {
-                assert!(reason.contains("sensor 1"), "{reason}")
+            Err(e @ CenterError::UnknownSensor { sensor_id: 1, .. }) => {
+                assert!(e.to_string().contains("sensor 1"), "{e}")
             }
             other => panic!("expected an error naming sensor 1, got {other:?}"),
         }
