@@ -5,7 +5,7 @@
 use anyhow::{anyhow, Result};
 use clap::Args;
 use trackfuse::center::registry as center_registry;
-use trackfuse::center::FusionConfig;
+use trackfuse::center::{CenterError, FusionConfig};
 use trackfuse::local::registry as local_registry;
 use trackfuse::local::{InitiationMethod, TrackerConfig};
 use trackfuse::params::{parse_cli_param, ParamTables};
@@ -174,8 +174,33 @@ impl FusionFlags {
         if let Some(d) = self.global_delete_after {
             c.delete_after = d;
         }
-        c.validate().map_err(|(k, r)| anyhow!("fusion: {k}: {r}"))?;
+        c.check().map_err(|e| self.with_flag_hint(e))?;
         Ok(c)
+    }
+
+    /// A [`FusionConfig::check`] error as `fusion: <key>: <reason>`, naming the flag
+    /// when the unknown name came from one.
+    fn with_flag_hint(&self, e: CenterError) -> anyhow::Error {
+        match e {
+            CenterError::Config(p) => anyhow!("fusion: {p}"),
+            CenterError::Unknown { kind, name, known } => {
+                let flag = match kind {
+                    "method" => self.method.as_ref().map(|_| "--method"),
+                    "rule" => self.rule.as_ref().map(|_| "--rule"),
+                    "bias" => self.bias.as_ref().map(|_| "--bias"),
+                    _ => None,
+                };
+                let reason = format!(
+                    "{kind}: unknown {kind} {name:?} (known: {})",
+                    known.join(", ")
+                );
+                match flag {
+                    Some(flag) => anyhow!("fusion: {reason} ({flag}; see trackfuse methods)"),
+                    None => anyhow!("fusion: {reason}"),
+                }
+            }
+            other => anyhow!("fusion: {other}"),
+        }
     }
 }
 

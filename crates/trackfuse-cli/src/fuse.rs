@@ -7,7 +7,9 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use trackfuse::center::{fuse_all, fuse_all_two_pass, FusedRun, FusionConfig};
+use trackfuse::center::{
+    fuse_all, fuse_all_two_pass, registry, CenterError, FusedRun, FusionConfig, Missing,
+};
 use trackfuse::io::{
     read_local_tracks, read_sensors, read_truth, AssociationWriter, FusedTrackWriter,
 };
@@ -98,6 +100,29 @@ fn check_sensors_cover(
     Ok(())
 }
 
+/// The center's error with the flag that gives what it is missing (the library names the
+/// file, e.g. "the sensors (sensors.csv)"; the flag is the CLI's).
+fn with_flag_hint(e: CenterError) -> anyhow::Error {
+    let bias = registry::BIAS_ESTIMATORS.first().map_or("NAME", |b| b.name);
+    let flag = match &e {
+        CenterError::Needs {
+            what: Missing::Sensors(_),
+            ..
+        }
+        | CenterError::UnknownSensor { .. } => "--sensors sensors.csv".to_string(),
+        CenterError::Needs {
+            what: Missing::Truth,
+            ..
+        } => "--truth truth.csv".to_string(),
+        CenterError::Needs {
+            what: Missing::BiasEstimator,
+            ..
+        } => format!("--bias {bias}, with --sensors sensors.csv"),
+        _ => return e.into(),
+    };
+    anyhow::anyhow!("{e} (give {flag})")
+}
+
 pub fn run(args: &FuseArgs) -> Result<()> {
     let base = match args.scenario.as_deref() {
         Some(s) => load_scenario(Some(s))?.0.fusion,
@@ -115,10 +140,11 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     };
     let t0 = std::time::Instant::now();
     let run = if args.two_pass {
-        fuse_all_two_pass(&local, &cfg, sensors.as_deref(), labels.as_ref())?
+        fuse_all_two_pass(&local, &cfg, sensors.as_deref(), labels.as_ref())
     } else {
-        fuse_all(&local, &cfg, sensors.as_deref(), labels.as_ref())?
-    };
+        fuse_all(&local, &cfg, sensors.as_deref(), labels.as_ref())
+    }
+    .map_err(with_flag_hint)?;
     let elapsed = t0.elapsed();
     let dir = out_dir(&args.out)?;
     write_fused(&dir, &run)?;

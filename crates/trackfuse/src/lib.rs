@@ -8,6 +8,9 @@
 //! so the CLI, the Monte Carlo engine ([`montecarlo`]) and a service share one code path.
 //! The library holds no global state and prints nothing.
 
+// the library reports through its return values; printing is the CLI's
+#![deny(clippy::print_stdout, clippy::print_stderr, clippy::dbg_macro)]
+
 pub mod center;
 pub mod io;
 pub mod local;

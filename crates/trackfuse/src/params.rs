@@ -5,11 +5,18 @@
 use serde::de::DeserializeOwned;
 use std::collections::BTreeMap;
 
-/// A parameter problem: which key, and why.
+/// A parameter problem: which key, and why. Every method's parameter check, the TOML
+/// parse of a parameter table (unknown or mistyped key) and the config range checks
+/// return it; the fusion center and the local tracker wrap it as their `Config` variant.
+/// One struct and not an enum: the situations differ only in the key and the reason, and
+/// a caller acts on the key (e.g. the CLI maps it to the flag that set it).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{key}: {reason}")]
 pub struct ParamError {
+    /// The key as written in a scenario, relative to its section (`gate_probability`,
+    /// `params.fdbsc-ta.eps`, `process_noise[1]`).
     pub key: String,
+    /// Why the value is refused (`-1 must be positive`, `unknown field ...`).
     pub reason: String,
 }
 

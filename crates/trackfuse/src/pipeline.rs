@@ -12,11 +12,13 @@ use crate::types::{Id, LocalTrack, TruthState};
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-/// A pipeline problem.
+/// A pipeline problem: the stage that failed and its own typed error.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PipelineError {
+    /// A sensor's tracker could not be built or refused its measurements.
     #[error("local tracking: {0}")]
     Tracker(#[from] TrackerError),
+    /// The fusion center could not be built or refused a scan of local tracks.
     #[error("fusion center: {0}")]
     Center(#[from] CenterError),
 }

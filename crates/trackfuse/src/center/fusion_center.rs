@@ -149,8 +149,7 @@ impl FusionCenter {
         sensors: Option<&[Sensor]>,
         truth: Option<Box<dyn TruthSource>>,
     ) -> Result<Self, CenterError> {
-        cfg.validate()
-            .map_err(|(key, reason)| CenterError::Config { key, reason })?;
+        cfg.check()?;
         let rule = make_rule(&cfg.rule, &cfg.params)?;
         let wants_truth = cfg.method == truth::NAME || rule.needs_true_association();
         let (method, truth_missing): (Box<dyn TrackAssociator>, bool) = if wants_truth {
@@ -184,8 +183,8 @@ impl FusionCenter {
     ) -> Result<Self, CenterError> {
         if let (Some(b), None) = (&bias, sensors) {
             return Err(CenterError::Needs {
-                method: format!("bias estimator {}", b.name()),
-                reason: "needs the sensor positions: give sensors.csv (--sensors)".into(),
+                method: b.name(),
+                what: super::Missing::Sensors("bias estimation (the sensor positions)"),
             });
         }
         let sensors = sensors.map(|s| {
@@ -310,10 +309,10 @@ impl FusionCenter {
     fn scan_time(&self, tracks: &[LocalTrack]) -> Result<(u32, f64, f64), CenterError> {
         let scan = tracks[0].scan;
         if let Some(t) = tracks.iter().find(|t| t.scan != scan) {
-            return Err(CenterError::Input(format!(
-                "one scan at a time: scan {scan} and scan {} given together",
-                t.scan
-            )));
+            return Err(CenterError::MixedScan {
+                scan,
+                other: t.scan,
+            });
         }
         let time = tracks
             .iter()
@@ -322,9 +321,12 @@ impl FusionCenter {
         let dt = match self.last {
             Some((last_scan, last_time)) => {
                 if scan <= last_scan || time < last_time {
-                    return Err(CenterError::Input(format!(
-                        "scan {scan} at time {time} does not come after scan {last_scan} at time {last_time}"
-                    )));
+                    return Err(CenterError::TimeGoesBack {
+                        scan,
+                        time,
+                        previous_scan: last_scan,
+                        previous_time: last_time,
+                    });
                 }
                 time - last_time
             }
@@ -358,12 +360,10 @@ impl FusionCenter {
         for t in tracks {
             if last != Some(t.sensor_id) {
                 if !s.iter().any(|x| x.id == t.sensor_id) {
-                    return Err(CenterError::Needs {
-                        method: format!("bias estimator {}", b.name()),
-                        reason: format!(
-                            "local track {}:{} comes from sensor {}, which is not among the sensors given (sensors.csv)",
-                            t.sensor_id, t.track_id, t.sensor_id
-                        ),
+                    return Err(CenterError::UnknownSensor {
+                        method: b.name(),
+                        sensor_id: t.sensor_id,
+                        track_id: t.track_id,
                     });
                 }
                 last = Some(t.sensor_id);
@@ -447,10 +447,10 @@ impl FusionCenter {
             };
             let (x, p) = self.rule.fuse(&members, &g.weights, &ctx)?;
             if !(x.iter().all(|v| v.is_finite()) && p.iter().all(|v| v.is_finite())) {
-                return Err(CenterError::Input(format!(
-                    "rule {} gave a non-finite estimate at scan {scan}",
-                    self.rule.name()
-                )));
+                return Err(CenterError::NonFiniteFusion {
+                    rule: self.rule.name(),
+                    scan,
+                });
             }
             fused_est.push((x, symmetrize(&p)));
         }
@@ -581,10 +581,11 @@ fn sort_to_scan_time<'a>(
         for w in order.windows(2) {
             let (a, b) = (&tracks[w[0]], &tracks[w[1]]);
             if key(a) == key(b) {
-                return Err(CenterError::Input(format!(
-                    "scan {scan}: local track {}:{} given twice",
-                    a.sensor_id, a.track_id
-                )));
+                return Err(CenterError::DuplicateTrack {
+                    scan,
+                    sensor_id: a.sensor_id,
+                    track_id: a.track_id,
+                });
             }
         }
     }
@@ -638,53 +639,50 @@ fn publish(out: &mut ScanOutput) {
 /// The invariants every association method keeps (`center/mod.rs`); a method that breaks
 /// one is reported as an error naming it, never silently mended.
 fn check_groups(
-    method: &str,
+    method: &'static str,
     tracks: &[LocalTrack],
     groups: &[TrackGroup],
     n_globals: usize,
     scratch: &mut Vec<bool>,
 ) -> Result<(), CenterError> {
-    let bad = |why: String| Err(CenterError::Input(format!("method {method}: {why}")));
+    use super::InvariantKind;
+    let bad = |kind| Err(CenterError::InvariantBroken { method, kind });
     // one scratch buffer: `tracks.len()` flags for the local tracks, then `n_globals`
     scratch.clear();
     scratch.resize(tracks.len() + n_globals, false);
     let (seen, global_seen) = scratch.split_at_mut(tracks.len());
     for g in groups {
         if g.members.is_empty() || g.members.len() != g.weights.len() {
-            return bad("a group is empty or has not one weight per member".into());
+            return bad(InvariantKind::BadGroup);
         }
         for (k, &m) in g.members.iter().enumerate() {
             if m >= tracks.len() || seen[m] {
-                return bad(format!(
-                    "local track index {m} out of range or in two groups"
-                ));
+                return bad(InvariantKind::TrackIndex { index: m });
             }
             seen[m] = true;
             if g.members[..k]
                 .iter()
                 .any(|&o| tracks[o].sensor_id == tracks[m].sensor_id)
             {
-                return bad(format!(
-                    "two tracks of sensor {} in one group",
-                    tracks[m].sensor_id
-                ));
+                return bad(InvariantKind::SameSensor {
+                    sensor_id: tracks[m].sensor_id,
+                });
             }
             if !(g.weights[k].is_finite() && g.weights[k] >= 0.0) {
-                return bad(format!(
-                    "weight {} is not a finite number >= 0",
-                    g.weights[k]
-                ));
+                return bad(InvariantKind::BadWeight {
+                    weight: g.weights[k],
+                });
             }
         }
         if let Some(gi) = g.global {
             if gi >= n_globals || global_seen[gi] {
-                return bad(format!("global index {gi} out of range or continued twice"));
+                return bad(InvariantKind::GlobalIndex { index: gi });
             }
             global_seen[gi] = true;
         }
     }
     if let Some(m) = seen.iter().position(|s| !s) {
-        return bad(format!("local track index {m} is in no group"));
+        return bad(InvariantKind::Ungrouped { index: m });
     }
     Ok(())
 }
@@ -725,13 +723,13 @@ fn center_for_run(
     };
     if center.lacks_truth() {
         let method = if cfg.method == truth::NAME {
-            format!("method {}", cfg.method)
+            truth::NAME
         } else {
-            format!("rule {}", cfg.rule)
+            center.rule.name()
         };
         return Err(CenterError::Needs {
             method,
-            reason: "is the reference given the true association: it needs the truth (--truth truth.csv)".into(),
+            what: super::Missing::Truth,
         });
     }
     Ok(center)
@@ -753,8 +751,8 @@ pub fn fuse_all_two_pass(
     let mut center = center_for_run(cfg, sensors, labels)?;
     if center.bias.is_none() {
         return Err(CenterError::Needs {
-            method: "two-pass fusion".into(),
-            reason: "re-fuses with the final bias estimates: it needs a bias estimator (--bias fdbsc, with --sensors)".into(),
+            method: "two-pass fusion",
+            what: super::Missing::BiasEstimator,
         });
     }
     let first = fuse_scans(&mut center, tracks)?;
@@ -925,16 +923,35 @@ mod tests {
         let mut c = center(false);
         let mut ts = two_targets(0);
         ts.push(ts[0]);
-        assert!(c.process_scan(&ts).is_err(), "duplicate track");
+        assert!(
+            matches!(
+                c.process_scan(&ts),
+                Err(CenterError::DuplicateTrack { scan: 0, .. })
+            ),
+            "duplicate track"
+        );
         let mut c = center(false);
         c.process_scan(&two_targets(3)).expect("scan 3");
         assert!(
-            c.process_scan(&two_targets(2)).is_err(),
+            matches!(
+                c.process_scan(&two_targets(2)),
+                Err(CenterError::TimeGoesBack {
+                    scan: 2,
+                    previous_scan: 3,
+                    ..
+                })
+            ),
             "back in time"
         );
         let mut mixed = two_targets(4);
         mixed[1].scan = 5;
-        assert!(c.process_scan(&mixed).is_err(), "two scans at once");
+        assert!(
+            matches!(
+                c.process_scan(&mixed),
+                Err(CenterError::MixedScan { scan: 4, other: 5 })
+            ),
+            "two scans at once"
+        );
     }
 
     #[test]
@@ -1084,8 +1101,8 @@ mod tests {
         // sensors 0 and 1 report, only sensor 0 is known
         let mut c = FusionCenter::new(&cfg, Some(&[radar(0)])).expect("center");
         match c.process_scan(&two_targets(0)) {
-            Err(CenterError::Needs { reason, .. }) => {
-                assert!(reason.contains("sensor 1"), "{reason}")
+            Err(e @ CenterError::UnknownSensor { sensor_id: 1, .. }) => {
+                assert!(e.to_string().contains("sensor 1"), "{e}")
             }
             other => panic!("expected an error naming sensor 1, got {other:?}"),
         }

@@ -33,7 +33,7 @@ pub use fusion_center::{
     fuse_all, fuse_all_two_pass, needs_truth, FusedRun, FusionCenter, ScanOutput,
 };
 
-use crate::params::ParamTables;
+use crate::params::{ParamError, ParamTables};
 use crate::types::{Id, LocalTrack, Sensor, StateCov, StateVec};
 use serde::{Deserialize, Serialize};
 
@@ -77,15 +77,15 @@ impl AssociationContext<'_> {
     /// calls this first; the error names `method`.
     pub fn check_predictions(
         &self,
-        method: &str,
+        method: &'static str,
         globals: &[GlobalTrack],
     ) -> Result<(), CenterError> {
         if self.predicted.len() != globals.len() {
-            return Err(CenterError::Input(format!(
-                "{method}: {} predicted estimates for {} global tracks",
-                self.predicted.len(),
-                globals.len()
-            )));
+            return Err(CenterError::PredictionCount {
+                method,
+                predicted: self.predicted.len(),
+                globals: globals.len(),
+            });
         }
         Ok(())
     }
@@ -172,27 +172,201 @@ pub trait FusionRule: Send + Sync {
     ) -> Result<(StateVec, StateCov), CenterError>;
 }
 
-/// A fusion-center problem.
+/// A fusion-center problem: a configuration the registry cannot build, input the center
+/// cannot process, or a method that broke the center's contract. Each variant is one
+/// situation, with the ids and counts that locate it; the messages name what is missing
+/// (e.g. "the sensors (sensors.csv)") but no command-line flag, which the CLI adds.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum CenterError {
-    /// A method needs something the input does not give (e.g. sensors.csv).
-    #[error("{method}: {reason}")]
-    Needs { method: String, reason: String },
-    /// A configuration value is wrong.
-    #[error("fusion config: {key}: {reason}")]
-    Config { key: String, reason: String },
-    /// Input that cannot be processed (e.g. a scan going back in time).
-    #[error("{0}")]
-    Input(String),
+    /// A configuration value is wrong: a [`FusionConfig`] value or a method's parameter
+    /// table (the key names it, e.g. `params.fdbsc-ta.eps`).
+    #[error("fusion config: {0}")]
+    Config(#[from] ParamError),
+    /// A method, rule or bias estimator name that is not in the registry; `kind` is
+    /// `"method"`, `"rule"` or `"bias"`, `known` the registered names.
+    #[error("fusion config: {kind}: {}", unknown_reason(kind, name, known))]
+    Unknown {
+        kind: &'static str,
+        name: String,
+        known: Vec<&'static str>,
+    },
+    /// A method, rule, bias estimator or the two-pass run (`method` names it) needs
+    /// something the input does not give: the sensors, the truth, a bias estimator (see
+    /// [`Missing`]).
+    #[error("{method}: needs {what}")]
+    Needs { method: &'static str, what: Missing },
+    /// A local track comes from a sensor that is not among the given sensors, and the
+    /// method or bias estimator `method` needs that sensor's geometry.
+    #[error(
+        "{method}: local track {sensor_id}:{track_id} comes from sensor {sensor_id}, which is \
+         not among the given sensors (sensors.csv)"
+    )]
+    UnknownSensor {
+        method: &'static str,
+        sensor_id: Id,
+        track_id: Id,
+    },
+    /// The local tracks given as one scan carry two scan numbers.
+    #[error("one scan at a time: scan {scan} and scan {other} given together")]
+    MixedScan { scan: u32, other: u32 },
+    /// A scan whose number is not above the previous scan's, or whose time is earlier.
+    #[error(
+        "scan {scan} at time {time} does not come after scan {previous_scan} at time {previous_time}"
+    )]
+    TimeGoesBack {
+        scan: u32,
+        time: f64,
+        previous_scan: u32,
+        previous_time: f64,
+    },
+    /// The same `(sensor_id, track_id)` twice in one scan.
+    #[error("scan {scan}: local track {sensor_id}:{track_id} given twice")]
+    DuplicateTrack {
+        scan: u32,
+        sensor_id: Id,
+        track_id: Id,
+    },
+    /// Truth labels given with another length than the scan's local tracks.
+    #[error("{labels} labels for {tracks} local tracks")]
+    LabelCount { labels: usize, tracks: usize },
+    /// A method that keeps a history of scans (`fdtta`) was given a scan that does not
+    /// come after the previous one it saw.
+    #[error("{method}: scan {scan} does not come after the previous scan {previous}")]
+    ScanOutOfOrder {
+        method: &'static str,
+        scan: u32,
+        previous: u32,
+    },
+    /// A local track with a non-finite state or covariance reached a method or rule.
+    #[error("{method}: local track {sensor_id}:{track_id} has a non-finite state or covariance")]
+    NonFiniteTrack {
+        method: &'static str,
+        sensor_id: Id,
+        track_id: Id,
+    },
+    /// A predicted global track with a non-finite state or covariance reached a method.
+    #[error("{method}: predicted global track {global_id} is not finite")]
+    NonFinitePrediction { method: &'static str, global_id: Id },
+    /// An associator driven directly was given local tracks not sorted by sensor.
+    #[error("{method}: local tracks are not sorted by sensor")]
+    Unsorted { method: &'static str },
+    /// More tracks than the method's index type holds.
+    #[error("{method}: too many tracks ({tracks} local, {globals} global)")]
+    TooManyTracks {
+        method: &'static str,
+        tracks: usize,
+        globals: usize,
+    },
+    /// An [`AssociationContext`] whose predictions are not one per global track (the
+    /// center builds them so; a caller driving an associator directly may not).
+    #[error("{method}: {predicted} predicted estimates for {globals} global tracks")]
+    PredictionCount {
+        method: &'static str,
+        predicted: usize,
+        globals: usize,
+    },
+    /// A rule was given a group with no member.
+    #[error("{method}: a group to fuse has no member")]
+    EmptyGroup { method: &'static str },
+    /// A rule was given another number of weights than members.
+    #[error("{method}: {weights} weights for {members} members")]
+    WeightCount {
+        method: &'static str,
+        weights: usize,
+        members: usize,
+    },
+    /// A rule was given a weight that is negative or not finite.
+    #[error("{method}: weight {weight} is not a finite number >= 0")]
+    BadWeight { method: &'static str, weight: f64 },
+    /// A rule was given a process noise (from [`FusionContext`]) that is negative or not
+    /// finite.
+    #[error("{method}: process noise {value} must be finite and >= 0")]
+    BadProcessNoise { method: &'static str, value: f64 },
+    /// The association method returned groups that break the center's contract (see
+    /// [`InvariantKind`]).
+    #[error("method {method}: {kind}")]
+    InvariantBroken {
+        method: &'static str,
+        kind: InvariantKind,
+    },
+    /// The rule returned a non-finite fused estimate.
+    #[error("rule {rule} gave a non-finite estimate at scan {scan}")]
+    NonFiniteFusion { rule: &'static str, scan: u32 },
+    /// A numerical step of a method or rule failed on its input (see [`Numerical`]).
+    #[error("{method}: {what}")]
+    NumericalFailure {
+        method: &'static str,
+        what: Numerical,
+    },
 }
 
-impl From<crate::params::ParamError> for CenterError {
-    fn from(e: crate::params::ParamError) -> Self {
-        CenterError::Config {
-            key: e.key,
-            reason: e.reason,
-        }
-    }
+/// What a [`CenterError::Needs`] is missing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Missing {
+    /// The sensors (sensors.csv), for what the field says (bias estimation needs their
+    /// positions, `resolution = "sensor"` their resolutions).
+    #[error("the sensors (sensors.csv) for {0}")]
+    Sensors(&'static str),
+    /// The truth (truth.csv): the rule is the reference given the true association
+    /// (`mmse`) and no truth labels were given.
+    #[error("the truth (truth.csv): it is the reference given the true association")]
+    Truth,
+    /// A bias estimator: two-pass fusion re-fuses with the final bias estimates, so
+    /// without one there is nothing to re-fuse with.
+    #[error(
+        "a bias estimator (and the sensors, sensors.csv): it re-fuses with the final bias \
+         estimates"
+    )]
+    BiasEstimator,
+}
+
+/// `unknown <kind> "<name>" (known: a, b)`: the reason of [`CenterError::Unknown`].
+fn unknown_reason(kind: &str, name: &str, known: &[&str]) -> String {
+    format!("unknown {kind} {name:?} (known: {})", known.join(", "))
+}
+
+/// How an association method's groups broke the center's contract (each local track in
+/// exactly one group, at most one track per sensor in a group, one finite weight >= 0 per
+/// member, each global track continued at most once).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum InvariantKind {
+    /// A group is empty or has not one weight per member.
+    #[error("a group is empty or has not one weight per member")]
+    BadGroup,
+    /// A member index is out of range or in two groups.
+    #[error("local track index {index} out of range or in two groups")]
+    TrackIndex { index: usize },
+    /// Two tracks of one sensor in one group.
+    #[error("two tracks of sensor {sensor_id} in one group")]
+    SameSensor { sensor_id: Id },
+    /// A weight that is negative or not finite.
+    #[error("weight {weight} is not a finite number >= 0")]
+    BadWeight { weight: f64 },
+    /// A global index out of range or continued by two groups.
+    #[error("global index {index} out of range or continued twice")]
+    GlobalIndex { index: usize },
+    /// A local track in no group.
+    #[error("local track index {index} is in no group")]
+    Ungrouped { index: usize },
+}
+
+/// Which numerical step failed (numerical failure is a value, never a panic).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Numerical {
+    /// The members' covariances (or the joint covariance) are not positive semidefinite,
+    /// so no Cholesky factor exists.
+    #[error("the members' covariances are not positive semidefinite")]
+    NotPositiveSemidefinite,
+    /// The fused information matrix has no inverse.
+    #[error("the fused information matrix is singular")]
+    SingularInformation,
+    /// The assignment solver failed (its message).
+    #[error("assignment failed ({0})")]
+    Assignment(String),
 }
 
 /// Configuration of the fusion center (`[fusion]` in a scenario, or the flags of
@@ -253,37 +427,201 @@ impl Default for FusionConfig {
 
 impl FusionConfig {
     /// Range-check the values and that the named methods exist and accept their
-    /// parameters; `Err((key, reason))`.
-    pub fn validate(&self) -> Result<(), (String, String)> {
-        let err = |e: CenterError| match e {
-            CenterError::Config { key, reason } => (key, reason),
-            other => ("fusion".to_string(), other.to_string()),
-        };
+    /// parameters: [`CenterError::Config`] for a value or parameter,
+    /// [`CenterError::Unknown`] for a name not in the registry.
+    pub fn check(&self) -> Result<(), CenterError> {
         if !(self.process_noise.is_finite() && self.process_noise >= 0.0) {
-            return Err((
-                "process_noise".into(),
+            return Err(ParamError::new(
+                "process_noise",
                 format!("{} must be a finite number >= 0", self.process_noise),
-            ));
+            )
+            .into());
         }
         if self.delete_after == 0 {
-            return Err(("delete_after".into(), "must be at least 1".into()));
+            return Err(ParamError::new("delete_after", "must be at least 1").into());
         }
-        registry::make_method(&self.method, &self.params).map_err(err)?;
-        registry::make_rule(&self.rule, &self.params).map_err(err)?;
+        registry::make_method(&self.method, &self.params)?;
+        registry::make_rule(&self.rule, &self.params)?;
         if let Some(b) = &self.bias {
-            registry::make_bias(b, &self.params).map_err(err)?;
+            registry::make_bias(b, &self.params)?;
         }
         for name in self.params.keys() {
             let known = registry::METHODS.iter().any(|m| m.name == name)
                 || registry::RULES.iter().any(|r| r.name == name)
                 || registry::BIAS_ESTIMATORS.iter().any(|b| b.name == name);
             if !known {
-                return Err((
+                return Err(ParamError::new(
                     format!("params.{name}"),
-                    "no method, rule or bias estimator of that name".into(),
-                ));
+                    "no method, rule or bias estimator of that name",
+                )
+                .into());
             }
         }
         Ok(())
+    }
+
+    /// [`FusionConfig::check`] as `Err((key, reason))`, for the scenario's validation.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        self.check().map_err(|e| match e {
+            CenterError::Config(ParamError { key, reason }) => (key, reason),
+            CenterError::Unknown { kind, name, known } => {
+                (kind.to_string(), unknown_reason(kind, &name, &known))
+            }
+            other => ("fusion".to_string(), other.to_string()),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::testing::{fusion_ctx, local};
+    use super::*;
+
+    /// Puts every local track in one group, twice (breaks "each track in one group").
+    struct Twice;
+    impl TrackAssociator for Twice {
+        fn name(&self) -> &'static str {
+            "twice"
+        }
+        fn associate(
+            &mut self,
+            _ctx: &AssociationContext<'_>,
+            tracks: &[LocalTrack],
+            _globals: &[GlobalTrack],
+        ) -> Result<Vec<TrackGroup>, CenterError> {
+            let group = TrackGroup {
+                members: (0..tracks.len()).collect(),
+                weights: vec![1.0; tracks.len()],
+                global: None,
+            };
+            Ok(vec![group.clone(), group])
+        }
+    }
+
+    #[test]
+    fn config_errors_are_typed_and_validate_keeps_the_messages() {
+        let cfg = FusionConfig {
+            method: "nope".into(),
+            ..FusionConfig::default()
+        };
+        match cfg.check() {
+            Err(CenterError::Unknown { kind, name, known }) => {
+                assert_eq!((kind, name.as_str()), ("method", "nope"));
+                assert!(known.contains(&"fdbsc-ta"), "{known:?}");
+            }
+            other => panic!("expected an unknown method, got {other:?}"),
+        }
+        let (key, reason) = cfg.validate().unwrap_err();
+        assert_eq!(key, "method");
+        assert!(
+            reason.starts_with("unknown method \"nope\" (known: "),
+            "{reason}"
+        );
+        let cfg = FusionConfig {
+            process_noise: -1.0,
+            ..FusionConfig::default()
+        };
+        assert!(matches!(
+            cfg.check(),
+            Err(CenterError::Config(ParamError { ref key, .. })) if key == "process_noise"
+        ));
+        assert!(matches!(
+            FusionCenter::new(&cfg, None),
+            Err(CenterError::Config(_))
+        ));
+    }
+
+    #[test]
+    fn missing_input_names_what_is_missing_and_no_flag() {
+        let bias = registry::BIAS_ESTIMATORS[0].name;
+        let cfg = FusionConfig {
+            bias: Some(bias.into()),
+            ..FusionConfig::default()
+        };
+        let e = FusionCenter::new(&cfg, None).err().expect("no sensors");
+        assert!(
+            matches!(
+                e,
+                CenterError::Needs {
+                    method,
+                    what: Missing::Sensors(_)
+                } if method == bias
+            ),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("sensors.csv"), "{e}");
+        let tracks = [local(0, 1, 0.0, 0.0, 0.0, 0.0, 1.0)];
+        let e = fuse_all_two_pass(&tracks, &FusionConfig::default(), None, None).unwrap_err();
+        assert_eq!(
+            e,
+            CenterError::Needs {
+                method: "two-pass fusion",
+                what: Missing::BiasEstimator
+            }
+        );
+        let cfg = FusionConfig {
+            rule: "mmse".into(),
+            ..FusionConfig::default()
+        };
+        let e = fuse_all(&tracks, &cfg, None, None).unwrap_err();
+        assert_eq!(
+            e,
+            CenterError::Needs {
+                method: "mmse",
+                what: Missing::Truth
+            }
+        );
+        for e in [
+            FusionCenter::new(
+                &FusionConfig {
+                    bias: Some(bias.into()),
+                    ..FusionConfig::default()
+                },
+                None,
+            )
+            .err()
+            .expect("no sensors"),
+            fuse_all_two_pass(&tracks, &FusionConfig::default(), None, None).unwrap_err(),
+            fuse_all(&tracks, &cfg, None, None).unwrap_err(),
+        ] {
+            assert!(!e.to_string().contains("--"), "a CLI flag in {e}");
+        }
+    }
+
+    #[test]
+    fn a_method_breaking_the_contract_is_an_invariant_error() {
+        let rule = registry::make_rule("fuzzy", &ParamTables::new()).expect("rule");
+        let mut center =
+            FusionCenter::with_parts(&FusionConfig::default(), Box::new(Twice), rule, None, None)
+                .expect("center");
+        let tracks = [
+            local(0, 1, 0.0, 0.0, 0.0, 0.0, 1.0),
+            local(1, 1, 0.0, 0.0, 0.0, 0.0, 1.0),
+        ];
+        assert_eq!(
+            center.process_scan(&tracks, None).unwrap_err(),
+            CenterError::InvariantBroken {
+                method: "twice",
+                kind: InvariantKind::TrackIndex { index: 0 }
+            }
+        );
+    }
+
+    #[test]
+    fn numerical_failure_is_a_value() {
+        let cc = registry::make_rule("cc", &ParamTables::new()).expect("rule");
+        let a = local(0, 1, 0.0, 0.0, 0.0, 0.0, -1.0);
+        let b = local(1, 1, 0.0, 0.0, 0.0, 0.0, -1.0);
+        assert_eq!(
+            cc.fuse(&[&a, &b], &[1.0, 1.0], &fusion_ctx()).unwrap_err(),
+            CenterError::NumericalFailure {
+                method: "cc",
+                what: Numerical::NotPositiveSemidefinite
+            }
+        );
+        assert_eq!(
+            cc.fuse(&[], &[], &fusion_ctx()).unwrap_err(),
+            CenterError::EmptyGroup { method: "cc" }
+        );
     }
 }

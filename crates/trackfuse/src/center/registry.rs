@@ -133,10 +133,11 @@ pub const BIAS_ESTIMATORS: &[BiasInfo] = &[BiasInfo {
     make: super::bias_estimation::make,
 }];
 
-fn unknown(kind: &str, name: &str, known: Vec<&str>) -> CenterError {
-    CenterError::Config {
-        key: kind.to_string(),
-        reason: format!("unknown {kind} {name:?} (known: {})", known.join(", ")),
+fn unknown(kind: &'static str, name: &str, known: Vec<&'static str>) -> CenterError {
+    CenterError::Unknown {
+        kind,
+        name: name.to_string(),
+        known,
     }
 }
 

@@ -13,7 +13,7 @@ mod writer;
 pub use error::InputError;
 pub use reader::{
     check_covariance, read_associations, read_fused_tracks, read_local_tracks, read_measurements,
-    read_sensors, read_truth,
+    read_sensors, read_truth, CovarianceError,
 };
 pub use writer::{
     write_sensors, AssociationWriter, CsvRowWriter, FusedTrackWriter, LocalTrackWriter,

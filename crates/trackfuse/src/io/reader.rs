@@ -243,9 +243,26 @@ impl Row<'_> {
     }
 }
 
+/// Why a covariance read from a file is not one (FORMATS.md).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum CovarianceError {
+    /// `P[row][col]` and `P[col][row]` differ by more than `1e-9` relative.
+    #[error("covariance is not symmetric: P{row}{col} = {upper} but P{col}{row} = {lower}")]
+    NotSymmetric {
+        row: usize,
+        col: usize,
+        upper: f64,
+        lower: f64,
+    },
+    /// The smallest eigenvalue is below `-1e-9` relative.
+    #[error("covariance is not positive semi-definite (smallest eigenvalue {min_eigenvalue})")]
+    NotPositiveSemidefinite { min_eigenvalue: f64 },
+}
+
 /// Check that a covariance is symmetric positive semi-definite within `1e-9` relative
-/// (FORMATS.md). Returns the reason when it is not.
-pub fn check_covariance(p: &StateCov) -> Result<(), String> {
+/// (FORMATS.md).
+pub fn check_covariance(p: &StateCov) -> Result<(), CovarianceError> {
     let scale = p
         .iter()
         .fold(0.0f64, |m, v| m.max(v.abs()))
@@ -253,20 +270,21 @@ pub fn check_covariance(p: &StateCov) -> Result<(), String> {
     for r in 0..4 {
         for c in (r + 1)..4 {
             if (p[(r, c)] - p[(c, r)]).abs() > 1e-9 * scale {
-                return Err(format!(
-                    "covariance is not symmetric: P{r}{c} = {} but P{c}{r} = {}",
-                    p[(r, c)],
-                    p[(c, r)]
-                ));
+                return Err(CovarianceError::NotSymmetric {
+                    row: r,
+                    col: c,
+                    upper: p[(r, c)],
+                    lower: p[(c, r)],
+                });
             }
         }
     }
     let eig = nalgebra::SymmetricEigen::new(crate::types::symmetrize(p));
     let min = eig.eigenvalues.iter().fold(f64::INFINITY, |m, v| m.min(*v));
     if min < -1e-9 * scale {
-        return Err(format!(
-            "covariance is not positive semi-definite (smallest eigenvalue {min})"
-        ));
+        return Err(CovarianceError::NotPositiveSemidefinite {
+            min_eigenvalue: min,
+        });
     }
     Ok(())
 }
@@ -298,7 +316,7 @@ impl StateCols {
             p[(i / 4, i % 4)] = row.f64(self.cov[i])?;
         }
         check_covariance(&p)
-            .map_err(|reason| InputError::line(&row.table.path, row.line, reason))?;
+            .map_err(|e| InputError::line(&row.table.path, row.line, e.to_string()))?;
         Ok((s, p))
     }
 }
@@ -732,4 +750,30 @@ pub fn read_associations(path: &Path) -> Result<Vec<Association>, InputError> {
     })?;
     out.sort();
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn covariance_errors_say_which_entry_or_eigenvalue() {
+        let mut p = StateCov::identity();
+        p[(0, 1)] = 0.5;
+        assert_eq!(
+            check_covariance(&p),
+            Err(CovarianceError::NotSymmetric {
+                row: 0,
+                col: 1,
+                upper: 0.5,
+                lower: 0.0
+            })
+        );
+        let p = -StateCov::identity();
+        assert!(matches!(
+            check_covariance(&p),
+            Err(CovarianceError::NotPositiveSemidefinite { min_eigenvalue }) if min_eigenvalue == -1.0
+        ));
+        assert_eq!(check_covariance(&StateCov::identity()), Ok(()));
+    }
 }

@@ -37,15 +37,65 @@ use crate::types::{
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 
-/// A local-tracking problem.
+/// A local-tracking problem: a configuration the registry cannot build, or input the
+/// tracker cannot process. Each variant is one situation, with the ids that locate it.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum TrackerError {
-    /// A configuration value is wrong (names the key).
+    /// A configuration value is wrong, or a filter or associator name is not registered
+    /// (the key names it, e.g. `initiation.m` or `params.fdb-daf.k`).
     #[error("tracker config: {0}")]
     Config(#[from] ParamError),
-    /// Input that cannot be processed.
-    #[error("{0}")]
-    Input(String),
+    /// The configured filter cannot track this kind of sensor (e.g. `kf` and a
+    /// range-bearing radar).
+    #[error(
+        "tracker config: filter: filter {filter:?} cannot track the {} sensor {sensor_id}",
+        kind.as_str()
+    )]
+    FilterCannotTrack {
+        filter: String,
+        kind: SensorKind,
+        sensor_id: Id,
+    },
+    /// `initiation.method = "known"` and no known targets were given.
+    #[error("initiation.method = \"known\" needs the known targets (a scenario with [[targets]])")]
+    NeedsKnownTargets,
+    /// A scan time that is NaN or infinite.
+    #[error("scan {scan}: time {time} is not finite")]
+    NonFiniteTime { scan: u32, time: f64 },
+    /// A scan earlier than the previous scan of the same sensor.
+    #[error(
+        "sensor {sensor_id}: scan {scan} at time {time} is earlier than the previous scan at \
+         {previous_time}"
+    )]
+    TimeGoesBack {
+        sensor_id: Id,
+        scan: u32,
+        time: f64,
+        previous_time: f64,
+    },
+    /// The associator returned another number of weight lists than it was given tracks.
+    #[error("associator {associator} returned {lists} weight lists for {tracks} tracks")]
+    WeightCount {
+        associator: &'static str,
+        lists: usize,
+        tracks: usize,
+    },
+    /// A measurement of a sensor that is not among the sensors.
+    #[error("measurement of sensor {sensor_id} at scan {scan}: no such sensor")]
+    UnknownSensor { sensor_id: Id, scan: u32 },
+    /// A measurement whose kind (position, range-bearing) is not its sensor's.
+    #[error(
+        "measurement of sensor {sensor_id} at scan {scan} is {} but the sensor is {}",
+        measurement.as_str(),
+        sensor.as_str()
+    )]
+    KindMismatch {
+        sensor_id: Id,
+        scan: u32,
+        measurement: SensorKind,
+        sensor: SensorKind,
+    },
 }
 
 /// A target whose initial state is known in advance (for [`InitiationMethod::Known`]).
@@ -159,14 +209,11 @@ fn filter_for(
         },
     )?;
     if !filter.supports(sensor.kind) {
-        return Err(TrackerError::Config(ParamError::new(
-            "filter",
-            format!(
-                "filter {name:?} cannot track the {} sensor {}",
-                sensor.kind.as_str(),
-                sensor.id
-            ),
-        )));
+        return Err(TrackerError::FilterCannotTrack {
+            filter: name.to_string(),
+            kind: sensor.kind,
+            sensor_id: sensor.id,
+        });
     }
     Ok(filter)
 }
@@ -249,10 +296,7 @@ impl SensorTracker {
             .or(cfg.clutter_density)
             .unwrap_or(0.0);
         if cfg.initiation.method == InitiationMethod::Known && known.is_empty() {
-            return Err(TrackerError::Input(
-                "initiation.method = \"known\" needs the known targets (a scenario with [[targets]])"
-                    .into(),
-            ));
+            return Err(TrackerError::NeedsKnownTargets);
         }
         Ok(SensorTracker {
             sensor,
@@ -295,9 +339,7 @@ impl SensorTracker {
         out: &mut Vec<LocalTrack>,
     ) -> Result<(), TrackerError> {
         if !time.is_finite() {
-            return Err(TrackerError::Input(format!(
-                "scan {scan}: time {time} is not finite"
-            )));
+            return Err(TrackerError::NonFiniteTime { scan, time });
         }
         self.start_known_tracks(scan, time);
         self.predict(scan, time)?;
@@ -323,10 +365,12 @@ impl SensorTracker {
         for t in &mut self.tracks {
             let dt = time - t.last_time;
             if dt < 0.0 {
-                return Err(TrackerError::Input(format!(
-                    "sensor {}: scan {scan} at time {time} is earlier than the previous scan at {}",
-                    self.sensor.id, t.last_time
-                )));
+                return Err(TrackerError::TimeGoesBack {
+                    sensor_id: self.sensor.id,
+                    scan,
+                    time,
+                    previous_time: t.last_time,
+                });
             }
             if dt > 0.0 {
                 self.filter.predict(&mut t.state, dt);
@@ -387,12 +431,11 @@ impl SensorTracker {
         };
         self.associator.associate(&problem, &mut self.weights);
         if self.weights.tracks() != self.predictions.len() {
-            return Err(TrackerError::Input(format!(
-                "associator {} returned {} weight lists for {} tracks",
-                self.associator.name(),
-                self.weights.tracks(),
-                self.predictions.len()
-            )));
+            return Err(TrackerError::WeightCount {
+                associator: self.associator.name(),
+                lists: self.weights.tracks(),
+                tracks: self.predictions.len(),
+            });
         }
         Ok(())
     }
@@ -685,19 +728,18 @@ pub fn track_sensors(
     let mut per_sensor: BTreeMap<Id, BTreeMap<u32, (f64, Vec<Vec2>)>> = BTreeMap::new();
     for m in measurements {
         let Some(s) = sensors.iter().find(|s| s.id == m.sensor_id) else {
-            return Err(TrackerError::Input(format!(
-                "measurement of sensor {} at scan {}: no such sensor",
-                m.sensor_id, m.scan
-            )));
+            return Err(TrackerError::UnknownSensor {
+                sensor_id: m.sensor_id,
+                scan: m.scan,
+            });
         };
         if s.kind != m.kind {
-            return Err(TrackerError::Input(format!(
-                "measurement of sensor {} at scan {} is {} but the sensor is {}",
-                m.sensor_id,
-                m.scan,
-                m.kind.as_str(),
-                s.kind.as_str()
-            )));
+            return Err(TrackerError::KindMismatch {
+                sensor_id: m.sensor_id,
+                scan: m.scan,
+                measurement: m.kind,
+                sensor: s.kind,
+            });
         }
         let t = scan_time.entry(m.scan).or_insert(m.time);
         *t = t.min(m.time);
@@ -853,7 +895,10 @@ pd = 0.95
             assert!(first.scan <= 2, "first report at scan {}", first.scan);
         }
         // without known targets it is an error, not a silent switch to M-of-N
-        assert!(track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0).is_err());
+        assert!(matches!(
+            track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0),
+            Err(TrackerError::NeedsKnownTargets)
+        ));
     }
 
     #[test]
@@ -866,6 +911,17 @@ pd = 0.95
         };
         let e = track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0)
             .expect_err("kf cannot track a radar");
+        assert!(
+            matches!(
+                &e,
+                TrackerError::FilterCannotTrack {
+                    filter,
+                    kind: SensorKind::RangeBearing,
+                    sensor_id: 1,
+                } if filter == "kf"
+            ),
+            "{e:?}"
+        );
         assert!(e.to_string().contains("kf"), "{e}");
         let cfg = TrackerConfig {
             associator: "no-such".into(),
@@ -991,5 +1047,65 @@ pd = 0.95
         shuffled.reverse();
         let b = track_sensors(&sim.sensors, &shuffled, &cfg, None, &[], 1, 0).expect("tracking");
         assert_eq!(a, b);
+    }
+
+    /// Input the tracker cannot process is a typed error naming the sensor and scan.
+    #[test]
+    fn bad_input_gives_typed_errors() {
+        let sc = Scenario::from_toml(TWO_TARGETS, "t").expect("scenario");
+        let sim = simulate(&sc, 0);
+        let cfg = TrackerConfig::default();
+        // a measurement of a sensor that is not among the sensors
+        let mut measurements = sim.measurements.clone();
+        measurements[0].sensor_id = 9;
+        let scan = measurements[0].scan;
+        assert_eq!(
+            track_sensors(&sim.sensors, &measurements, &cfg, None, &[], 1, 0),
+            Err(TrackerError::UnknownSensor { sensor_id: 9, scan })
+        );
+        // a range-bearing measurement of the position sensor
+        let mut measurements = sim.measurements.clone();
+        let k = measurements
+            .iter()
+            .position(|m| m.sensor_id == 0)
+            .expect("a measurement of sensor 0");
+        measurements[k].kind = SensorKind::RangeBearing;
+        assert!(matches!(
+            track_sensors(&sim.sensors, &measurements, &cfg, None, &[], 1, 0),
+            Err(TrackerError::KindMismatch {
+                sensor_id: 0,
+                measurement: SensorKind::RangeBearing,
+                sensor: SensorKind::Position,
+                ..
+            })
+        ));
+        // a scan earlier than the previous one, and a time that is not a number
+        let known = crate::pipeline::known_targets(&sim.truth);
+        let cfg = TrackerConfig {
+            initiation: crate::local::InitiationConfig {
+                method: InitiationMethod::Known,
+                ..Default::default()
+            },
+            ..TrackerConfig::default()
+        };
+        let mut tracker =
+            SensorTracker::new(&sim.sensors[0], &cfg, None, &known, 1, 0, 0).expect("tracker");
+        let mut out = Vec::new();
+        tracker
+            .process_scan(0, 10.0, &[], &mut out)
+            .expect("scan 0");
+        assert_eq!(
+            tracker.process_scan(1, 5.0, &[], &mut out),
+            Err(TrackerError::TimeGoesBack {
+                sensor_id: sim.sensors[0].id,
+                scan: 1,
+                time: 5.0,
+                previous_time: 10.0,
+            })
+        );
+        assert!(matches!(
+            tracker.process_scan(2, f64::NAN, &[], &mut out),
+            Err(TrackerError::NonFiniteTime { scan: 2, .. })
+        ));
     }
 }

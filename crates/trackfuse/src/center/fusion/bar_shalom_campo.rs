@@ -574,9 +574,10 @@ impl BarShalomCampo {
             CrossCovarianceModel::SteadyState => {
                 let q_std = ctx.process_noise;
                 if !(q_std.is_finite() && q_std >= 0.0) {
-                    return Err(CenterError::Input(format!(
-                        "bc: process noise {q_std} must be finite and >= 0"
-                    )));
+                    return Err(CenterError::BadProcessNoise {
+                        method: "bc",
+                        value: q_std,
+                    });
                 }
                 let dt = if self.params.interval > 0.0 {
                     self.params.interval
@@ -621,7 +622,7 @@ impl BarShalomCampo {
     /// Fuse with the modelled cross-covariances (shared by `bc` and `mmse`).
     pub(crate) fn fuse_group(
         &self,
-        rule: &str,
+        rule: &'static str,
         members: &[&LocalTrack],
         weights: &[f64],
         ctx: &FusionContext<'_>,
@@ -644,10 +645,9 @@ impl BarShalomCampo {
             Ok(fused) => Ok(fused),
             Err(_) => {
                 self.fallbacks.fetch_add(1, Ordering::Relaxed);
-                convex_combination(&members).ok_or_else(|| {
-                    CenterError::Input(format!(
-                        "{rule}: the members' covariances are not positive semidefinite"
-                    ))
+                convex_combination(&members).ok_or(CenterError::NumericalFailure {
+                    method: rule,
+                    what: crate::center::Numerical::NotPositiveSemidefinite,
                 })
             }
         }

@@ -54,28 +54,27 @@ pub(crate) struct Inconsistent;
 /// Check a group before fusing it: at least one member, one weight per member, finite
 /// states and covariances. Errors name the rule and the offending track.
 pub(crate) fn validate(
-    rule: &str,
+    rule: &'static str,
     members: &[&LocalTrack],
     weights: &[f64],
 ) -> Result<(), CenterError> {
     if members.is_empty() {
-        return Err(CenterError::Input(format!(
-            "{rule}: a group to fuse has no member"
-        )));
+        return Err(CenterError::EmptyGroup { method: rule });
     }
     if weights.len() != members.len() {
-        return Err(CenterError::Input(format!(
-            "{rule}: {} weights for {} members",
-            weights.len(),
-            members.len()
-        )));
+        return Err(CenterError::WeightCount {
+            method: rule,
+            weights: weights.len(),
+            members: members.len(),
+        });
     }
     for m in members {
         if !m.state.iter().all(|v| v.is_finite()) || !m.cov.iter().all(|v| v.is_finite()) {
-            return Err(CenterError::Input(format!(
-                "{rule}: local track {} of sensor {} has a non-finite state or covariance",
-                m.track_id, m.sensor_id
-            )));
+            return Err(CenterError::NonFiniteTrack {
+                method: rule,
+                sensor_id: m.sensor_id,
+                track_id: m.track_id,
+            });
         }
     }
     Ok(())

@@ -91,10 +91,9 @@ impl FusionRule for ConvexCombination {
     ) -> Result<(StateVec, StateCov), CenterError> {
         validate("cc", members, weights)?;
         let members = canonical(members);
-        convex_combination(&members).ok_or_else(|| {
-            CenterError::Input(
-                "cc: the members' covariances are not positive semidefinite".to_string(),
-            )
+        convex_combination(&members).ok_or(CenterError::NumericalFailure {
+            method: "cc",
+            what: crate::center::Numerical::NotPositiveSemidefinite,
         })
     }
 }

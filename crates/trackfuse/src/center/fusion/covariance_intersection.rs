@@ -270,8 +270,9 @@ impl FusionRule for CovarianceIntersection {
         let p = symmetrize(&info)
             .cholesky()
             .map(|c| symmetrize(&c.inverse()))
-            .ok_or_else(|| {
-                CenterError::Input("ci: the fused information matrix is singular".to_string())
+            .ok_or(CenterError::NumericalFailure {
+                method: "ci",
+                what: crate::center::Numerical::SingularInformation,
             })?;
         Ok((p * info_state, p))
     }

@@ -76,19 +76,20 @@ pub fn weighted_fusion(
     weights: &[f64],
 ) -> Result<(StateVec, StateCov), CenterError> {
     if members.is_empty() {
-        return Err(CenterError::Input(format!("{NAME}: empty group")));
+        return Err(CenterError::EmptyGroup { method: NAME });
     }
     if members.len() != weights.len() {
-        return Err(CenterError::Input(format!(
-            "{NAME}: {} weights for {} members",
-            weights.len(),
-            members.len()
-        )));
+        return Err(CenterError::WeightCount {
+            method: NAME,
+            weights: weights.len(),
+            members: members.len(),
+        });
     }
     if let Some(w) = weights.iter().find(|w| !(w.is_finite() && **w >= 0.0)) {
-        return Err(CenterError::Input(format!(
-            "{NAME}: weight {w} is not a finite number >= 0"
-        )));
+        return Err(CenterError::BadWeight {
+            method: NAME,
+            weight: *w,
+        });
     }
     // sum in (sensor_id, track_id) order, so the result is the same to the last bit
     // whatever order the associator lists the members in

@@ -207,15 +207,14 @@ impl FusionRule for Sdf {
     ) -> Result<(StateVec, StateCov), CenterError> {
         let n = members.len();
         if n == 0 {
-            return Err(CenterError::Input(format!(
-                "{NAME}: a group with no member"
-            )));
+            return Err(CenterError::EmptyGroup { method: NAME });
         }
         if weights.len() != n {
-            return Err(CenterError::Input(format!(
-                "{NAME}: {} weights for {n} members",
-                weights.len()
-            )));
+            return Err(CenterError::WeightCount {
+                method: NAME,
+                weights: weights.len(),
+                members: n,
+            });
         }
         if n == 1 {
             return Ok((members[0].state, symmetrize(&members[0].cov)));

@@ -124,14 +124,14 @@ impl Superior {
         ctx: &FusionContext<'_>,
     ) -> Result<usize, CenterError> {
         if members.is_empty() {
-            return Err(CenterError::Input(format!("{NAME}: empty group")));
+            return Err(CenterError::EmptyGroup { method: NAME });
         }
         if weights.len() != members.len() {
-            return Err(CenterError::Input(format!(
-                "{NAME}: {} weights for {} members",
-                weights.len(),
-                members.len()
-            )));
+            return Err(CenterError::WeightCount {
+                method: NAME,
+                weights: weights.len(),
+                members: members.len(),
+            });
         }
         let mut best = 0;
         let mut best_value = f64::NEG_INFINITY;
@@ -316,7 +316,16 @@ mod tests {
         })
         .unwrap();
         let e = strict.fuse(&[&a], &[1.0], &ctx(None)).unwrap_err();
-        assert!(matches!(e, CenterError::Needs { .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                CenterError::Needs {
+                    method: NAME,
+                    what: crate::center::Missing::Sensors(_)
+                }
+            ),
+            "{e}"
+        );
         let mut t = ParamTables::new();
         assert!(make(&t).is_ok());
         let mut table = toml::Table::new();

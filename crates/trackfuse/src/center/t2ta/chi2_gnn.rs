@@ -649,8 +649,11 @@ impl Chi2Gnn {
             self.cost[row * nc + col] = e.d2;
             self.is_edge[row * nc + col] = true;
         }
-        let (rows, cols) = lsap::solve(nr, nc, &self.cost, false)
-            .map_err(|e| CenterError::Input(format!("chi2-gnn: assignment failed ({e:?})")))?;
+        let (rows, cols) =
+            lsap::solve(nr, nc, &self.cost, false).map_err(|e| CenterError::NumericalFailure {
+                method: "chi2-gnn",
+                what: crate::center::Numerical::Assignment(format!("{e:?}")),
+            })?;
         for (a, b) in rows.into_iter().zip(cols) {
             if self.is_edge[a * nc + b] {
                 self.matched[self.comp_tracks[a] as usize] = self.comp_refs[b];
@@ -702,29 +705,32 @@ impl TrackAssociator for Chi2Gnn {
     ) -> Result<Vec<TrackGroup>, CenterError> {
         ctx.check_predictions("chi2-gnn", globals)?;
         if tracks.len() >= NONE as usize || globals.len() + tracks.len() >= NONE as usize {
-            return Err(CenterError::Input("chi2-gnn: too many tracks".to_string()));
+            return Err(CenterError::TooManyTracks {
+                method: "chi2-gnn",
+                tracks: tracks.len(),
+                globals: globals.len(),
+            });
         }
         for (k, t) in tracks.iter().enumerate() {
             if k > 0 && t.sensor_id < tracks[k - 1].sensor_id {
-                return Err(CenterError::Input(
-                    "chi2-gnn: local tracks are not sorted by sensor".to_string(),
-                ));
+                return Err(CenterError::Unsorted { method: "chi2-gnn" });
             }
             if !finite(&t.state, &t.cov) {
-                return Err(CenterError::Input(format!(
-                    "chi2-gnn: local track {} of sensor {} is not finite",
-                    t.track_id, t.sensor_id
-                )));
+                return Err(CenterError::NonFiniteTrack {
+                    method: "chi2-gnn",
+                    sensor_id: t.sensor_id,
+                    track_id: t.track_id,
+                });
             }
         }
         self.refs.clear();
         self.touched.clear();
         for (g, (state, cov)) in ctx.predicted.iter().enumerate() {
             if !finite(state, cov) {
-                return Err(CenterError::Input(format!(
-                    "chi2-gnn: predicted global track {} is not finite",
-                    globals[g].id
-                )));
+                return Err(CenterError::NonFinitePrediction {
+                    method: "chi2-gnn",
+                    global_id: globals[g].id,
+                });
             }
             self.refs.push(Reference::predicted(*state, *cov, g));
         }

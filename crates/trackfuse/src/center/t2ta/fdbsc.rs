@@ -936,19 +936,21 @@ impl TrackAssociator for FdbscTa {
             .iter()
             .find(|t| !(t.state[0].is_finite() && t.state[2].is_finite()))
         {
-            return Err(CenterError::Input(format!(
-                "{NAME}: local track {}:{} has a non-finite position",
-                t.sensor_id, t.track_id
-            )));
+            return Err(CenterError::NonFiniteTrack {
+                method: NAME,
+                sensor_id: t.sensor_id,
+                track_id: t.track_id,
+            });
         }
-        if ctx
+        if let Some(g) = ctx
             .predicted
             .iter()
-            .any(|(x, _)| !(x[0].is_finite() && x[2].is_finite()))
+            .position(|(x, _)| !(x[0].is_finite() && x[2].is_finite()))
         {
-            return Err(CenterError::Input(format!(
-                "{NAME}: a predicted global track has a non-finite position"
-            )));
+            return Err(CenterError::NonFinitePrediction {
+                method: NAME,
+                global_id: globals[g].id,
+            });
         }
         let eps = self.eps;
         self.track_grid

@@ -69,7 +69,7 @@
 //! sorted index, to the distance at which `a1 mu1` could still lift `f` above it.
 //!
 //! The history needs the scans in increasing order (an earlier or repeated scan is a
-//! [`CenterError::Input`]) and stable global ids; a new run needs a new associator.
+//! [`CenterError::ScanOutOfOrder`]) and stable global ids; a new run needs a new associator.
 //!
 //! # Output
 //! Groups have weight 1 per member (the decisions are hard). [`Fdtta::decisions`] gives,
@@ -795,10 +795,11 @@ impl TrackAssociator for Fdtta {
         ctx.check_predictions(NAME, globals)?;
         if let Some(last) = self.last_scan {
             if ctx.scan <= last {
-                return Err(CenterError::Input(format!(
-                    "{NAME}: scan {} does not come after the previous scan {last}",
-                    ctx.scan
-                )));
+                return Err(CenterError::ScanOutOfOrder {
+                    method: NAME,
+                    scan: ctx.scan,
+                    previous: last,
+                });
             }
         }
         self.last_scan = Some(ctx.scan);
@@ -1044,7 +1045,11 @@ mod tests {
         // scans must increase
         assert!(matches!(
             fd.associate(&ctx(4, &[]), &near, &[]),
-            Err(CenterError::Input(_))
+            Err(CenterError::ScanOutOfOrder {
+                scan: 4,
+                previous: 4,
+                ..
+            })
         ));
     }
 

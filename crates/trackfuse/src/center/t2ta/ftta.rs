@@ -38,8 +38,8 @@
 //! of the local track: the difference of two independent estimates of one target with
 //! equal covariance `s^2 I` has `d^2 = 2 s^2 chi^2_2`, so the default scale 3 accepts a
 //! true pair with probability `1 - exp(-9/2) = 0.989`. `resolution = "sensor"` requires
-//! the sensors and fails with [`CenterError::Needs`] without them; a local track whose
-//! sensor is missing from the given sensors is a [`CenterError::Needs`] too.
+//! the sensors and fails with [`CenterError::Needs`] without them; a local track
+//! whose sensor is missing from the given sensors is a [`CenterError::UnknownSensor`].
 //!
 //! # Groups (where the paper is silent)
 //! The correlation graph need not be transitive and may join two tracks of one sensor
@@ -124,18 +124,18 @@ impl ResolutionModel {
         &self,
         track: &LocalTrack,
         sensors: Option<&[Sensor]>,
-        method: &str,
+        method: &'static str,
     ) -> Result<f64, CenterError> {
         let sensors = match (self.source, sensors) {
             (ResolutionSource::Covariance, _) | (ResolutionSource::Auto, None) => None,
             (_, Some(s)) => Some(s),
             (ResolutionSource::Sensor, None) => {
                 return Err(CenterError::Needs {
-                    method: method.to_string(),
-                    reason: "resolution = \"sensor\" takes the sensor resolutions from the \
-                             sensors (sensors.csv), which were not given; give them, or use \
-                             resolution = \"covariance\" or \"auto\""
-                        .to_string(),
+                    method,
+                    what: crate::center::Missing::Sensors(
+                        "their resolutions (resolution = \"sensor\"); without them use \
+                         resolution = \"covariance\" or \"auto\"",
+                    ),
                 })
             }
         };
@@ -145,17 +145,13 @@ impl ResolutionModel {
                 self.covariance_scale * var.max(0.0).sqrt()
             }
             Some(sensors) => {
-                let s = sensors
-                    .iter()
-                    .find(|s| s.id == track.sensor_id)
-                    .ok_or_else(|| CenterError::Needs {
-                        method: method.to_string(),
-                        reason: format!(
-                            "local track {}:{} comes from sensor {}, which is not among the \
-                             given sensors (sensors.csv); its resolution is unknown",
-                            track.sensor_id, track.track_id, track.sensor_id
-                        ),
-                    })?;
+                let s = sensors.iter().find(|s| s.id == track.sensor_id).ok_or(
+                    CenterError::UnknownSensor {
+                        method,
+                        sensor_id: track.sensor_id,
+                        track_id: track.track_id,
+                    },
+                )?;
                 let var = match s.kind {
                     SensorKind::Position => s.sigma_a * s.sigma_a + s.sigma_b * s.sigma_b,
                     SensorKind::RangeBearing => {
@@ -997,14 +993,33 @@ mod tests {
         .unwrap();
         let tracks = [local(1, 0, 0.0, 0.0, 0.0, 0.0, 1.0)];
         let e = strict.associate(&ctx(None, &[]), &tracks, &[]).unwrap_err();
-        assert!(matches!(e, CenterError::Needs { .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                CenterError::Needs {
+                    method: NAME,
+                    what: crate::center::Missing::Sensors(_)
+                }
+            ),
+            "{e}"
+        );
         assert!(e.to_string().contains("sensors.csv"), "{e}");
         // a track whose sensor is not among the sensors
         let sensors = [position_sensor(2, 10.0)];
         let e = ftta
             .associate(&ctx(Some(&sensors), &[]), &tracks, &[])
             .unwrap_err();
-        assert!(matches!(e, CenterError::Needs { .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                CenterError::UnknownSensor {
+                    sensor_id: 1,
+                    track_id: 0,
+                    ..
+                }
+            ),
+            "{e}"
+        );
     }
 
     #[test]

@@ -153,8 +153,8 @@ impl TrackAssociator for TruthAssociator {
         ctx.check_predictions(NAME, globals)?;
         let Some(source) = &self.source else {
             return Err(CenterError::Needs {
-                method: format!("method {NAME}"),
-                reason: "is the reference given the true association: it needs the truth labels of the local tracks".into(),
+                method: NAME,
+                what: crate::center::Missing::Truth,
             });
         };
         let key_of = |t: &LocalTrack| match source.target_of(ctx.scan, t.sensor_id, t.track_id) {
