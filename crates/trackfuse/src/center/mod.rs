@@ -599,7 +599,7 @@ mod tests {
             local(1, 1, 0.0, 0.0, 0.0, 0.0, 1.0),
         ];
         assert_eq!(
-            center.process_scan(&tracks, None).unwrap_err(),
+            center.process_scan(&tracks).unwrap_err(),
             CenterError::InvariantBroken {
                 method: "twice",
                 kind: InvariantKind::TrackIndex { index: 0 }
