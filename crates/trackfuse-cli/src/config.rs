@@ -109,8 +109,7 @@ impl TrackerFlags {
         if let Some(d) = self.delete_after {
             c.initiation.delete_after = d;
         }
-        c.validate()
-            .map_err(|(k, r)| anyhow!("tracker: {k}: {r}"))?;
+        c.validate().map_err(|e| anyhow!("tracker: {e}"))?;
         Ok(c)
     }
 }
@@ -174,7 +173,7 @@ impl FusionFlags {
         if let Some(d) = self.global_delete_after {
             c.delete_after = d;
         }
-        c.validate().map_err(|(k, r)| anyhow!("fusion: {k}: {r}"))?;
+        c.validate().map_err(|e| anyhow!("fusion: {e}"))?;
         Ok(c)
     }
 }

@@ -9,6 +9,7 @@
 //! The library holds no global state and prints nothing.
 
 pub mod center;
+pub mod config;
 pub mod io;
 pub mod local;
 pub mod metrics;
@@ -21,5 +22,6 @@ pub mod scenario;
 pub mod sim;
 pub mod types;
 
+pub use config::RunConfig;
 pub use scenario::Scenario;
 pub use types::*;

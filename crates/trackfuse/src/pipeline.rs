@@ -4,6 +4,7 @@
 //! `trackfuse fuse` (which call the same library functions on files).
 
 use crate::center::{fuse_all, CenterError, FusedRun, FusionConfig};
+use crate::config::RunConfig;
 use crate::local::{track_sensors, KnownTarget, TrackerConfig, TrackerError};
 use crate::metrics::{evaluate_run, label_local_tracks, EvalInput, RunMetrics};
 use crate::scenario::Scenario;
@@ -54,7 +55,7 @@ pub fn known_targets(truth: &[TruthState]) -> Vec<KnownTarget> {
     first.into_values().collect()
 }
 
-/// Local tracking of a simulated run with the scenario's tracker config.
+/// Local tracking of a simulated run of `sc` with the tracker config `cfg`.
 pub fn track_run(
     sc: &Scenario,
     cfg: &TrackerConfig,
@@ -73,24 +74,26 @@ pub fn track_run(
     )
 }
 
-/// Run `run` of a scenario with its own tracker and fusion configs.
-pub fn run_once(sc: &Scenario, run: u64) -> Result<RunOutput, PipelineError> {
-    run_with(sc, &sc.tracker, &sc.fusion, run)
+/// Run `run` of a run configuration: its scenario simulated, tracked, fused and evaluated
+/// with its own tracker, fusion and evaluation configs.
+pub fn run_once(config: &RunConfig, run: u64) -> Result<RunOutput, PipelineError> {
+    run_with(config, &config.tracker, &config.fusion, run)
 }
 
-/// Run `run` of a scenario with the given tracker and fusion configs.
+/// Run `run` of a run configuration's scenario and evaluation with the given tracker and
+/// fusion configs in place of its own (variants of one scenario).
 pub fn run_with(
-    sc: &Scenario,
+    sc: &RunConfig,
     tracker: &TrackerConfig,
     fusion: &FusionConfig,
     run: u64,
 ) -> Result<RunOutput, PipelineError> {
     let mut times = StageTimes::default();
     let t0 = Instant::now();
-    let sim = simulate(sc, run);
+    let sim = simulate(&sc.scenario, run);
     times.simulate = t0.elapsed();
     let t0 = Instant::now();
-    let local = track_run(sc, tracker, &sim, run)?;
+    let local = track_run(&sc.scenario, tracker, &sim, run)?;
     times.track = t0.elapsed();
     let t0 = Instant::now();
     let needs_truth =

@@ -79,8 +79,7 @@ impl FusionCenter {
     /// A center configured by `cfg`; `sensors` is what it may know of the sensors (their
     /// true biases are zeroed here and never read).
     pub fn new(cfg: &FusionConfig, sensors: Option<&[Sensor]>) -> Result<Self, CenterError> {
-        cfg.validate()
-            .map_err(|(key, reason)| CenterError::Config { key, reason })?;
+        cfg.validate().map_err(CenterError::from)?;
         let method = make_method(&cfg.method, &cfg.params)?;
         let rule = make_rule(&cfg.rule, &cfg.params)?;
         let bias = cfg

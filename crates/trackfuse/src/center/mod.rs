@@ -255,20 +255,21 @@ impl Default for FusionConfig {
 
 impl FusionConfig {
     /// Range-check the values and that the named methods exist and accept their
-    /// parameters; `Err((key, reason))`.
-    pub fn validate(&self) -> Result<(), (String, String)> {
+    /// parameters; the error names the key within `[fusion]`.
+    pub fn validate(&self) -> Result<(), crate::params::ParamError> {
+        use crate::params::ParamError;
         let err = |e: CenterError| match e {
-            CenterError::Config { key, reason } => (key, reason),
-            other => ("fusion".to_string(), other.to_string()),
+            CenterError::Config { key, reason } => ParamError::new(key, reason),
+            other => ParamError::new("fusion", other.to_string()),
         };
         if !(self.process_noise.is_finite() && self.process_noise >= 0.0) {
-            return Err((
-                "process_noise".into(),
+            return Err(ParamError::new(
+                "process_noise",
                 format!("{} must be a finite number >= 0", self.process_noise),
             ));
         }
         if self.delete_after == 0 {
-            return Err(("delete_after".into(), "must be at least 1".into()));
+            return Err(ParamError::new("delete_after", "must be at least 1"));
         }
         registry::make_method(&self.method, &self.params).map_err(err)?;
         registry::make_rule(&self.rule, &self.params).map_err(err)?;
@@ -280,9 +281,9 @@ impl FusionConfig {
                 || registry::RULES.iter().any(|r| r.name == name)
                 || registry::BIAS_ESTIMATORS.iter().any(|b| b.name == name);
             if !known {
-                return Err((
+                return Err(ParamError::new(
                     format!("params.{name}"),
-                    "no method, rule or bias estimator of that name".into(),
+                    "no method, rule or bias estimator of that name",
                 ));
             }
         }
