@@ -8,11 +8,11 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
 use trackfuse::local::track_sensors;
 use trackfuse::pipeline::{known_targets, run_once};
-use trackfuse::Scenario;
+use trackfuse::RunConfig;
 
 fn tracking(c: &mut Criterion) {
-    let sc = Scenario::builtin("track-bench").expect("built-in track-bench");
-    let sim = trackfuse::sim::simulate(&sc, 0);
+    let sc = RunConfig::builtin("track-bench").expect("built-in track-bench");
+    let sim = trackfuse::sim::simulate(&sc.scenario, 0);
     let known = known_targets(&sim.truth);
     let mut group = c.benchmark_group("local_tracking");
     group.sample_size(10);
@@ -23,9 +23,9 @@ fn tracking(c: &mut Criterion) {
                 &sim.sensors,
                 black_box(&sim.measurements),
                 &sc.tracker,
-                Some(sc.process_noise),
+                Some(sc.scenario.process_noise),
                 &known,
-                sc.seed,
+                sc.scenario.seed,
                 0,
             )
             .expect("tracks")
@@ -36,7 +36,7 @@ fn tracking(c: &mut Criterion) {
 }
 
 fn end_to_end(c: &mut Criterion) {
-    let sc = Scenario::default_builtin();
+    let sc = RunConfig::default_builtin();
     let mut group = c.benchmark_group("pipeline");
     group.sample_size(20);
     group.bench_function("run_once default scenario", |b| {

@@ -79,7 +79,7 @@ fn peak_rss_kb() -> Option<u64> {
 pub fn run(args: &BenchArgs) -> Result<()> {
     match &args.what {
         BenchWhat::Simulate { scenario, out } => {
-            let (sc, _) = load_scenario(Some(scenario))?;
+            let sc = load_scenario(Some(scenario))?.0.scenario;
             let dir = out_dir(out)?;
             let t0 = Instant::now();
             let stats = simulate_to_dir(&sc, 0, &dir)?;
@@ -116,8 +116,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
 }
 
 fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32) -> Result<()> {
-    let (sc, _) = load_scenario(Some(scenario))?;
-    let cfg = flags.apply(&sc.tracker)?;
+    let (config, _) = load_scenario(Some(scenario))?;
+    let cfg = flags.apply(&config.tracker)?;
+    let sc = config.scenario;
     let sim = trackfuse::sim::simulate(&sc, 0);
     let known = known_targets(&sim.truth);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;

@@ -2,28 +2,29 @@
 
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
+use trackfuse::config::BUILTIN_SCENARIOS;
 use trackfuse::metrics::Summary;
-use trackfuse::scenario::BUILTIN_SCENARIOS;
-use trackfuse::Scenario;
+use trackfuse::RunConfig;
 
 /// A scenario given on the command line: a file path, or the name of a built-in scenario,
-/// or nothing (the built-in default). Returns the scenario and its TOML text.
-pub fn load_scenario(arg: Option<&str>) -> Result<(Scenario, String)> {
+/// or nothing (the built-in default). Returns the run configuration the file holds and
+/// its TOML text.
+pub fn load_scenario(arg: Option<&str>) -> Result<(RunConfig, String)> {
     match arg {
         None => {
             let (name, text) = BUILTIN_SCENARIOS[0];
             Ok((
-                Scenario::from_toml(text, &format!("builtin:{name}"))?,
+                RunConfig::from_toml(text, &format!("builtin:{name}"))?,
                 text.to_string(),
             ))
         }
         Some(a) if Path::new(a).exists() => {
             let text = std::fs::read_to_string(a).with_context(|| format!("reading {a}"))?;
-            Ok((Scenario::from_toml(&text, a)?, text))
+            Ok((RunConfig::from_toml(&text, a)?, text))
         }
-        Some(a) => match Scenario::builtin_text(a) {
+        Some(a) => match RunConfig::builtin_text(a) {
             Some(text) => Ok((
-                Scenario::from_toml(text, &format!("builtin:{a}"))?,
+                RunConfig::from_toml(text, &format!("builtin:{a}"))?,
                 text.to_string(),
             )),
             None => {

@@ -109,8 +109,7 @@ impl TrackerFlags {
         if let Some(d) = self.delete_after {
             c.initiation.delete_after = d;
         }
-        c.validate()
-            .map_err(|(k, r)| anyhow!("tracker: {k}: {r}"))?;
+        c.validate().map_err(|e| anyhow!("tracker: {e}"))?;
         Ok(c)
     }
 }

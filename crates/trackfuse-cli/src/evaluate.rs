@@ -42,7 +42,7 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
         label_gate: args.label_gate,
     };
     cfg.validate()
-        .map_err(|(k, r)| anyhow::anyhow!("--{}: {r}", k.replace('_', "-")))?;
+        .map_err(|e| anyhow::anyhow!("--{}: {}", e.key.replace('_', "-"), e.reason))?;
     let truth = read_truth(&args.truth)?;
     let fused = read_fused_tracks(&args.tracks)?;
     let assoc = args

@@ -106,9 +106,9 @@ fn real_main() -> Result<()> {
         Command::Bench(a) => bench::run(a),
         Command::Plot(a) => plot::run(a),
         Command::Scenarios => {
-            for (name, text) in trackfuse::scenario::BUILTIN_SCENARIOS {
-                let desc = trackfuse::Scenario::from_toml(text, name)
-                    .map(|s| s.description)
+            for (name, text) in trackfuse::config::BUILTIN_SCENARIOS {
+                let desc = trackfuse::RunConfig::from_toml(text, name)
+                    .map(|c| c.scenario.description)
                     .unwrap_or_default();
                 println!("{name:<14} {desc}");
             }

@@ -37,7 +37,7 @@ pub struct McArgs {
 pub fn run(args: &McArgs) -> Result<()> {
     let (mut sc, _) = load_scenario(args.scenario.as_deref())?;
     if let Some(seed) = args.seed {
-        sc.seed = seed;
+        sc.scenario.seed = seed;
     }
     let runs = args.runs.unwrap_or(sc.monte_carlo.runs);
     if runs == 0 {
@@ -73,13 +73,13 @@ pub fn run(args: &McArgs) -> Result<()> {
         .with_context(|| format!("writing {}", path.display()))?;
     println!(
         "{}: {} runs, seed {}, tracker {} + {}, fusion {} + {}{}\n",
-        if sc.name.is_empty() {
+        if sc.scenario.name.is_empty() {
             "scenario"
         } else {
-            &sc.name
+            &sc.scenario.name
         },
         runs,
-        sc.seed,
+        sc.scenario.seed,
         tracker.associator,
         tracker.filter,
         fusion.method,

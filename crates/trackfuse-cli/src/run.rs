@@ -33,7 +33,7 @@ pub struct RunArgs {
 pub fn run(args: &RunArgs) -> Result<()> {
     let (mut sc, mut text) = load_scenario(args.scenario.as_deref())?;
     if let Some(seed) = args.seed {
-        sc.seed = seed;
+        sc.scenario.seed = seed;
         text = with_seed(&text, seed);
     }
     let tracker = args.tracker.apply(&sc.tracker)?;
@@ -70,12 +70,12 @@ pub fn run(args: &RunArgs) -> Result<()> {
     .with_context(|| ctx("summary.json"))?;
     println!(
         "{} (seed {}, run {}): tracker {} + {}, fusion {} + {}{}",
-        if sc.name.is_empty() {
+        if sc.scenario.name.is_empty() {
             "scenario"
         } else {
-            &sc.name
+            &sc.scenario.name
         },
-        sc.seed,
+        sc.scenario.seed,
         args.run,
         tracker.associator,
         tracker.filter,

@@ -59,7 +59,8 @@ pub fn simulate_to_dir(sc: &Scenario, run: u64, dir: &Path) -> Result<SimulateSt
 }
 
 pub fn run(args: &SimulateArgs) -> Result<()> {
-    let (mut sc, mut text) = load_scenario(args.scenario.as_deref())?;
+    let (mut sc, mut text) =
+        load_scenario(args.scenario.as_deref()).map(|(c, t)| (c.scenario, t))?;
     if let Some(seed) = args.seed {
         sc.seed = seed;
         text = with_seed(&text, seed);

@@ -62,15 +62,18 @@ pub fn run(args: &TrackArgs) -> Result<()> {
     }
     let known = scenario
         .as_ref()
-        .map(scenario_known_targets)
+        .map(|c| scenario_known_targets(&c.scenario))
         .unwrap_or_default();
-    let seed = args.seed.or(scenario.as_ref().map(|s| s.seed)).unwrap_or(1);
+    let seed = args
+        .seed
+        .or(scenario.as_ref().map(|c| c.scenario.seed))
+        .unwrap_or(1);
     let t0 = std::time::Instant::now();
     let local = track_sensors(
         &sensors,
         &measurements,
         &cfg,
-        scenario.as_ref().map(|s| s.process_noise),
+        scenario.as_ref().map(|c| c.scenario.process_noise),
         &known,
         seed,
         0,

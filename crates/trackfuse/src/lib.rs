@@ -12,6 +12,7 @@
 #![deny(clippy::print_stdout, clippy::print_stderr, clippy::dbg_macro)]
 
 pub mod center;
+pub mod config;
 pub mod io;
 pub mod local;
 pub mod metrics;
@@ -24,5 +25,6 @@ pub mod scenario;
 pub mod sim;
 pub mod types;
 
+pub use config::RunConfig;
 pub use scenario::Scenario;
 pub use types::*;

@@ -6,7 +6,40 @@
 //! order and merged sequentially, so floating-point sums are added in the same order on
 //! every machine and thread count.
 
+use crate::params::ParamError;
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Monte Carlo defaults of a scenario (`[monte_carlo]` in a scenario file).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MonteCarloConfig {
+    /// Number of runs of a Monte Carlo study when its caller gives none (default 100).
+    #[serde(default = "default_runs")]
+    pub runs: u32,
+}
+
+impl Default for MonteCarloConfig {
+    fn default() -> Self {
+        MonteCarloConfig {
+            runs: default_runs(),
+        }
+    }
+}
+
+fn default_runs() -> u32 {
+    100
+}
+
+impl MonteCarloConfig {
+    /// Range-check the values.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        if self.runs == 0 {
+            return Err(ParamError::new("runs", "must be at least 1"));
+        }
+        Ok(())
+    }
+}
 
 /// Run `f(run)` for `run in 0..runs` in parallel; `progress` is called once per finished
 /// run (from worker threads). Returns the results in run order, or the error of the
@@ -39,7 +72,7 @@ mod tests {
     /// on 1 and 4 threads.
     #[test]
     fn identical_across_thread_counts() {
-        let sc = crate::Scenario::default_builtin();
+        let sc = crate::RunConfig::default_builtin().scenario;
         let one_run = |run: u64| -> Result<RunMetrics, ()> {
             let out = crate::sim::simulate(&sc, run);
             let mut rng = crate::rng::stream(sc.seed, run, "test-noise", 0);

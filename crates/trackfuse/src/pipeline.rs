@@ -4,6 +4,7 @@
 //! `trackfuse fuse` (which call the same library functions on files).
 
 use crate::center::{fuse_all, CenterError, FusedRun, FusionConfig};
+use crate::config::RunConfig;
 use crate::local::{track_sensors, KnownTarget, TrackerConfig, TrackerError};
 use crate::metrics::{evaluate_run, label_local_tracks, EvalInput, RunMetrics};
 use crate::scenario::Scenario;
@@ -56,7 +57,7 @@ pub fn known_targets(truth: &[TruthState]) -> Vec<KnownTarget> {
     first.into_values().collect()
 }
 
-/// Local tracking of a simulated run with the scenario's tracker config.
+/// Local tracking of a simulated run of `sc` with the tracker config `cfg`.
 pub fn track_run(
     sc: &Scenario,
     cfg: &TrackerConfig,
@@ -75,37 +76,39 @@ pub fn track_run(
     )
 }
 
-/// Run `run` of a scenario with its own tracker and fusion configs.
+/// Run `run` of a run configuration: its scenario simulated, tracked, fused and evaluated
+/// with its own tracker, fusion and evaluation configs.
 ///
 /// # Examples
 /// ```
-/// use trackfuse::{pipeline::run_once, Scenario};
+/// use trackfuse::{pipeline::run_once, RunConfig};
 ///
-/// let mut sc = Scenario::builtin("000-s1").expect("a built-in scenario");
-/// sc.scans = 10; // a short run keeps the example fast
-/// let out = run_once(&sc, 0)?;
+/// let mut config = RunConfig::builtin("000-s1").expect("a built-in scenario");
+/// config.scenario.scans = 10; // a short run keeps the example fast
+/// let out = run_once(&config, 0)?;
 /// assert!(!out.local.is_empty() && !out.fused.fused.is_empty());
-/// let summary = out.metrics.summary(&sc.evaluation);
+/// let summary = out.metrics.summary(&config.evaluation);
 /// assert!(summary.fused_rmse.expect("the targets are followed") < 100.0);
 /// # Ok::<(), trackfuse::pipeline::PipelineError>(())
 /// ```
-pub fn run_once(sc: &Scenario, run: u64) -> Result<RunOutput, PipelineError> {
-    run_with(sc, &sc.tracker, &sc.fusion, run)
+pub fn run_once(config: &RunConfig, run: u64) -> Result<RunOutput, PipelineError> {
+    run_with(config, &config.tracker, &config.fusion, run)
 }
 
-/// Run `run` of a scenario with the given tracker and fusion configs.
+/// Run `run` of a run configuration's scenario and evaluation with the given tracker and
+/// fusion configs in place of its own (variants of one scenario).
 pub fn run_with(
-    sc: &Scenario,
+    sc: &RunConfig,
     tracker: &TrackerConfig,
     fusion: &FusionConfig,
     run: u64,
 ) -> Result<RunOutput, PipelineError> {
     let mut times = StageTimes::default();
     let t0 = Instant::now();
-    let sim = simulate(sc, run);
+    let sim = simulate(&sc.scenario, run);
     times.simulate = t0.elapsed();
     let t0 = Instant::now();
-    let local = track_run(sc, tracker, &sim, run)?;
+    let local = track_run(&sc.scenario, tracker, &sim, run)?;
     times.track = t0.elapsed();
     let t0 = Instant::now();
     // the truth labels go to the `truth` associator only (rule `mmse`, method `truth`)

@@ -1,23 +1,25 @@
-//! Scenario files (TOML): targets, sensors, clutter, timing, process noise, seed, and the
-//! configuration of the local trackers, the fusion center, the evaluation and Monte Carlo.
+//! The simulation scenario: what the simulator needs (targets, sensors, clutter, timing,
+//! process noise, seed), and nothing of the stages that process its output.
+//!
+//! A scenario file (`scenarios/*.toml`) also configures those stages (`[tracker]`,
+//! `[fusion]`, `[evaluation]`, `[monte_carlo]`); it parses into the run configuration
+//! [`crate::config::RunConfig`], whose `scenario` is a [`Scenario`].
 //!
 //! Unknown keys are errors that name the key (serde `deny_unknown_fields`), and every value
 //! is range-checked by [`Scenario::validate`], whose errors name the key too
-//! (`sensors[1].pd: 1.5 must be in [0, 1]`).
+//! (`sensors[1].pd: 1.5 must be in [0, 1]`) and, when parsed from text, its line and
+//! column ([`ScenarioError`]).
 //!
 //! # Units
 //! Metres, seconds, m/s, m/s^2, radians; clutter density in false alarms per km^2 per scan.
 
-use crate::center::FusionConfig;
-use crate::local::TrackerConfig;
-use crate::metrics::EvaluationConfig;
 use crate::models::AccelerationSegment;
 use crate::types::{Id, Sensor, SensorKind};
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use std::collections::HashSet;
-use std::path::Path;
 
-/// A complete scenario.
+/// A simulation scenario.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
@@ -49,21 +51,9 @@ pub struct Scenario {
     /// Clutter.
     #[serde(default)]
     pub clutter: ClutterSpec,
-    /// Local tracker configuration (one tracker per sensor).
-    #[serde(default)]
-    pub tracker: TrackerConfig,
-    /// Fusion center configuration.
-    #[serde(default)]
-    pub fusion: FusionConfig,
-    /// Evaluation parameters.
-    #[serde(default)]
-    pub evaluation: EvaluationConfig,
-    /// Monte Carlo defaults.
-    #[serde(default)]
-    pub monte_carlo: MonteCarloSpec,
 }
 
-fn default_seed() -> u64 {
+pub(crate) fn default_seed() -> u64 {
     1
 }
 
@@ -168,35 +158,23 @@ pub struct ClutterSpec {
     pub region: Option<[f64; 4]>,
 }
 
-/// Monte Carlo defaults of a scenario.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MonteCarloSpec {
-    /// Number of runs `trackfuse mc` uses when `--runs` is not given.
-    #[serde(default = "default_runs")]
-    pub runs: u32,
-}
-
-impl Default for MonteCarloSpec {
-    fn default() -> Self {
-        MonteCarloSpec {
-            runs: default_runs(),
-        }
-    }
-}
-
-fn default_runs() -> u32 {
-    100
-}
-
-/// A scenario problem: which key, and why.
+/// A problem with a scenario file (or a run configuration read from one): which file,
+/// where in it, which key, and why. `file` is the name the caller gave the text (a path,
+/// or `builtin:<name>`).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ScenarioError {
-    /// The TOML did not parse or has an unknown key (the message names it, with line and column).
-    #[error("{file}: {message}")]
-    Parse { file: String, message: String },
-    /// A value is out of range; `at` is the `(line, column)` of the key in the file, when
-    /// it is written there (a default that is out of range has none).
+    /// The TOML did not parse, has an unknown key, or a value of the wrong type; `message`
+    /// is the parser's (it names an unknown key and lists the known ones), `at` the
+    /// `(line, column)` it points to.
+    #[error("{file}: {}{message}", at_prefix(.at))]
+    Parse {
+        file: String,
+        at: Option<(usize, usize)>,
+        message: String,
+    },
+    /// A value is out of range; `key` is its path (`sensors[1].pd`,
+    /// `fusion.params.fdbsc-ta.eps`), `at` the `(line, column)` of the key in the file,
+    /// when it is written there (a default that is out of range has none).
     #[error("{file}: {}{key}: {reason}", at_prefix(.at))]
     Invalid {
         file: String,
@@ -209,79 +187,11 @@ pub enum ScenarioError {
     Io { file: String, message: String },
 }
 
-/// The scenarios compiled into the library, by name. The first is the default.
-pub const BUILTIN_SCENARIOS: &[(&str, &str)] = &[
-    ("000-s2", include_str!("../../../scenarios/000-s2.toml")),
-    ("000-s1", include_str!("../../../scenarios/000-s1.toml")),
-    ("000-s3", include_str!("../../../scenarios/000-s3.toml")),
-    ("001-s1", include_str!("../../../scenarios/001-s1.toml")),
-    (
-        "001-s1-l2",
-        include_str!("../../../scenarios/001-s1-l2.toml"),
-    ),
-    ("001-s2", include_str!("../../../scenarios/001-s2.toml")),
-    (
-        "001-s2-l2",
-        include_str!("../../../scenarios/001-s2-l2.toml"),
-    ),
-    ("002-s1", include_str!("../../../scenarios/002-s1.toml")),
-    (
-        "003-case1",
-        include_str!("../../../scenarios/003-case1.toml"),
-    ),
-    (
-        "003-case2",
-        include_str!("../../../scenarios/003-case2.toml"),
-    ),
-    (
-        "004-case1",
-        include_str!("../../../scenarios/004-case1.toml"),
-    ),
-    (
-        "004-case2",
-        include_str!("../../../scenarios/004-case2.toml"),
-    ),
-    (
-        "grid-bench",
-        include_str!("../../../scenarios/grid-bench.toml"),
-    ),
-    (
-        "bias-radars",
-        include_str!("../../../scenarios/bias-radars.toml"),
-    ),
-    (
-        "bias-bench",
-        include_str!("../../../scenarios/bias-bench.toml"),
-    ),
-    (
-        "bias-radars-nobias",
-        include_str!("../../../scenarios/bias-radars-nobias.toml"),
-    ),
-    (
-        "crossing-bench",
-        include_str!("../../../scenarios/crossing-bench.toml"),
-    ),
-    (
-        "track-bench",
-        include_str!("../../../scenarios/track-bench.toml"),
-    ),
-];
-
-impl Scenario {
-    /// Parse a scenario from TOML text; `file` names it in errors.
-    pub fn from_toml(text: &str, file: &str) -> Result<Scenario, ScenarioError> {
-        let sc: Scenario = toml::from_str(text).map_err(|e| {
-            let mut message = e.message().to_string();
-            if let Some(span) = e.span() {
-                let (line, col) = line_col(text, span.start);
-                message = format!("line {line}, column {col}: {message}");
-            }
-            ScenarioError::Parse {
-                file: file.to_string(),
-                message,
-            }
-        })?;
-        sc.validate(file).map_err(|e| match e {
+impl ScenarioError {
+    /// An [`ScenarioError::Invalid`] error with `at` set to where its key is written in
+    /// `text` (see [`locate_key`]); other errors unchanged.
+    pub(crate) fn located_in(self, text: &str) -> ScenarioError {
+        match self {
             ScenarioError::Invalid {
                 file, key, reason, ..
             } => ScenarioError::Invalid {
@@ -291,42 +201,29 @@ impl Scenario {
                 reason,
             },
             other => other,
-        })?;
+        }
+    }
+}
+
+/// Deserialize TOML `text` into `T`; a syntax error, an unknown key or a mistyped value is
+/// a [`ScenarioError::Parse`] with the parser's message and its line and column.
+pub(crate) fn parse_toml<T: DeserializeOwned>(text: &str, file: &str) -> Result<T, ScenarioError> {
+    toml::from_str(text).map_err(|e| ScenarioError::Parse {
+        file: file.to_string(),
+        at: e.span().map(|span| line_col(text, span.start)),
+        message: e.message().to_string(),
+    })
+}
+
+impl Scenario {
+    /// Parse a simulation scenario from TOML text of the simulation keys only; `file`
+    /// names it in errors. A scenario file with `[tracker]`, `[fusion]`, `[evaluation]`
+    /// or `[monte_carlo]` sections is a run configuration:
+    /// [`crate::config::RunConfig::from_toml`] reads it.
+    pub fn from_toml(text: &str, file: &str) -> Result<Scenario, ScenarioError> {
+        let sc: Scenario = parse_toml(text, file)?;
+        sc.validate(file).map_err(|e| e.located_in(text))?;
         Ok(sc)
-    }
-
-    /// Read a scenario file.
-    pub fn from_file(path: &Path) -> Result<Scenario, ScenarioError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
-            file: file.clone(),
-            message: e.to_string(),
-        })?;
-        Scenario::from_toml(&text, &file)
-    }
-
-    /// A built-in scenario by name.
-    pub fn builtin(name: &str) -> Option<Scenario> {
-        BUILTIN_SCENARIOS
-            .iter()
-            .find(|(n, _)| *n == name)
-            .map(|(n, text)| {
-                Scenario::from_toml(text, &format!("builtin:{n}"))
-                    .unwrap_or_else(|e| panic!("built-in scenario {n} is invalid: {e}"))
-            })
-    }
-
-    /// The built-in default scenario (paper 000 scenario II).
-    pub fn default_builtin() -> Scenario {
-        Scenario::builtin(BUILTIN_SCENARIOS[0].0).expect("the default scenario exists")
-    }
-
-    /// TOML text of a built-in scenario.
-    pub fn builtin_text(name: &str) -> Option<&'static str> {
-        BUILTIN_SCENARIOS
-            .iter()
-            .find(|(n, _)| *n == name)
-            .map(|(_, t)| *t)
     }
 
     /// Range-check every value. Errors name the key.
@@ -445,9 +342,6 @@ impl Scenario {
         }
         let mut sids = HashSet::new();
         finite_nonneg("clutter.density".into(), self.clutter.density)?;
-        if self.monte_carlo.runs == 0 {
-            return Err(bad("monte_carlo.runs".into(), "must be at least 1".into()));
-        }
         if let Some(r) = self.clutter.region {
             if r.iter().any(|v| !v.is_finite()) || r[0] >= r[1] || r[2] >= r[3] {
                 return Err(bad(
@@ -534,15 +428,6 @@ impl Scenario {
                 ));
             }
         }
-        self.tracker
-            .validate()
-            .map_err(|(k, r)| bad(format!("tracker.{k}"), r))?;
-        self.fusion
-            .validate()
-            .map_err(|(k, r)| bad(format!("fusion.{k}"), r))?;
-        self.evaluation
-            .validate()
-            .map_err(|(k, r)| bad(format!("evaluation.{k}"), r))?;
         Ok(())
     }
 
@@ -676,223 +561,16 @@ sigma_theta = 0.001
         let e = Scenario::from_toml(&format!("{MINIMAL}\n[clutter]\ndensity = 1.0\n"), "t")
             .unwrap_err();
         assert!(e.to_string().contains("max_range"), "{e}");
-        let e =
-            Scenario::from_toml(&format!("{MINIMAL}\n[monte_carlo]\nruns = 0\n"), "t").unwrap_err();
-        assert!(e.to_string().contains("monte_carlo.runs"), "{e}");
     }
 
     #[test]
-    fn paper_003_004_scenarios_parse() {
-        for (name, sigmas) in [
-            ("003-case1", [100.0, 100.0, 100.0, 100.0]),
-            ("003-case2", [40.0, 50.0, 150.0, 200.0]),
-        ] {
-            let s = Scenario::builtin(name).expect(name);
-            assert_eq!(s.name, name);
-            assert_eq!((s.dt, s.scans, s.monte_carlo.runs), (0.1, 601, 200));
-            assert_eq!(s.targets.len(), 3);
-            assert_eq!(s.targets[2].acceleration.len(), 3);
-            assert_eq!(s.targets[2].acceleration[0].accel, [98.1, 19.62]);
-            let table = s.sensor_table();
-            let got: Vec<f64> = table.iter().map(|s| s.sigma_a).collect();
-            assert_eq!(got, sigmas);
-            assert!(table.iter().all(|s| s.kind == SensorKind::Position));
-            // coverage of 003 Fig. 5: six reports
-            let visible: Vec<Vec<Id>> = s
-                .sensors
-                .iter()
-                .map(|s| s.visible_targets.clone().expect("coverage"))
-                .collect();
-            assert_eq!(visible, vec![vec![1], vec![2, 3], vec![2, 3], vec![3]]);
-            // one scan simulates the six reports T11, T22, T32, T23, T33, T34
-            let mut sim = crate::sim::Simulation::new(&s, 0);
-            let (mut truth, mut z) = (Vec::new(), Vec::new());
-            assert!(sim.next_scan(&mut truth, &mut z));
-            let mut seen: Vec<(Id, Id)> = z.iter().map(|m| (m.target_id, m.sensor_id)).collect();
-            seen.sort_unstable();
-            assert_eq!(seen, vec![(1, 1), (2, 2), (2, 3), (3, 2), (3, 3), (3, 4)]);
-        }
-        for name in ["004-case1", "004-case2"] {
-            let s = Scenario::builtin(name).expect(name);
-            assert_eq!(s.name, name);
-            assert_eq!(s.target_count(), 60);
-            assert_eq!((s.dt, s.monte_carlo.runs, s.sensors.len()), (1.0, 50, 2));
-            let mut sim = crate::sim::Simulation::new(&s, 0);
-            let (mut truth, mut z) = (Vec::new(), Vec::new());
-            assert!(sim.next_scan(&mut truth, &mut z));
-            assert_eq!((truth.len(), z.len()), (60, 120));
-        }
-    }
-
-    #[test]
-    fn scenario_002_s1_parses() {
-        let s = Scenario::builtin("002-s1").expect("registered");
-        assert_eq!(s.dt, 3.0);
-        assert_eq!(s.target_count(), 4);
-        assert!(s.targets.iter().all(|t| t.initial[0] == 9000.0));
-        let y0: Vec<f64> = s.targets.iter().map(|t| t.initial[2]).collect();
-        assert_eq!(y0, vec![7400.0, 7300.0, 7200.0, 6200.0]);
-        let sensors = s.sensor_table();
-        let pos: Vec<(f64, f64)> = sensors.iter().map(|x| (x.x, x.y)).collect();
-        assert_eq!(
-            pos,
-            vec![
-                (8500.0, 4500.0),
-                (21000.0, 4500.0),
-                (8500.0, 24000.0),
-                (21000.0, 24000.0)
-            ]
-        );
-        for x in &sensors {
-            assert_eq!(x.sigma_a, 100.0);
-            assert!((x.sigma_b - 0.1f64.to_radians()).abs() < 1e-15);
-        }
-        // targets 2 and 4 cross at t = 11 s
-        let (a, b) = (s.targets[1].initial, s.targets[3].initial);
-        let at = |t: [f64; 4], time: f64| (t[0] + t[1] * time, t[2] + t[3] * time);
-        let (pa, pb) = (at(a, 11.0), at(b, 11.0));
-        assert!((pa.0 - pb.0).abs() < 1e-9 && (pa.1 - pb.1).abs() < 1e-9);
-    }
-
-    #[test]
-    fn invalid_values_are_located_in_the_file() {
-        let at = |text: &str| match Scenario::from_toml(text, "s.toml") {
-            Err(ScenarioError::Invalid { at, .. }) => at,
-            other => panic!("expected an invalid value, got {other:?}"),
-        };
-        // the second [[sensors]] table's sigma_r: line 12 of this text (line 1 is empty)
-        let two = format!(
-            "{MINIMAL}[[sensors]]\nposition = [0.0, 1000.0]\n  sigma_r = -1.0\nsigma_theta = 0.001\n"
-        );
-        assert_eq!(at(&two), Some((12, 3)));
-        let param = format!(
-            "{MINIMAL}[fusion]\nmethod = \"fdbsc-ta\"\n[fusion.params.fdbsc-ta]\neps = -5.0\n"
-        );
-        assert_eq!(at(&param), Some((13, 1)));
-        let err = Scenario::from_toml(&param, "s.toml")
-            .unwrap_err()
-            .to_string();
+    fn stage_sections_belong_to_the_run_configuration() {
+        // a bare scenario is the simulator's input only
+        let e = Scenario::from_toml(&format!("{MINIMAL}[tracker]\nfilter = \"ekf\"\n"), "t")
+            .unwrap_err();
         assert!(
-            err.starts_with("s.toml: line 13, column 1: fusion.params.fdbsc-ta.eps:"),
-            "{err}"
+            matches!(&e, ScenarioError::Parse { at: Some((10, 2)), message, .. } if message.contains("tracker")),
+            "{e:?}"
         );
-        // top level, with an element index
-        let noise = MINIMAL.replace("scans = 10", "scans = 10\nprocess_noise = [-1.0, 0.0]");
-        assert_eq!(at(&noise), Some((4, 1)));
-        // a key written as a dotted key is not found: the error names the key only
-        let dotted = format!("{MINIMAL}[fusion]\nparams.fdbsc-ta.eps = -5.0\n");
-        assert_eq!(at(&dotted), None);
-    }
-
-    #[test]
-    fn builtins_are_valid() {
-        for (name, _) in BUILTIN_SCENARIOS {
-            assert!(Scenario::builtin(name).is_some());
-        }
-    }
-    #[test]
-    fn paper_001_scenarios_parse() {
-        for (name, density) in [("001-s1", 1.0), ("001-s1-l2", 2.0)] {
-            let text = Scenario::builtin_text(name).expect(name);
-            let s = Scenario::from_toml(text, name).expect(name);
-            assert_eq!(s.name, name);
-            assert_eq!(s.targets.len(), 3);
-            assert_eq!(s.targets[1].initial, [1000.0, 250.0, 4300.0, 100.0]);
-            let sensor = &s.sensor_table()[0];
-            assert_eq!(sensor.kind, SensorKind::Position);
-            assert_eq!((sensor.sigma_a, sensor.sigma_b), (150.0, 150.0));
-            assert_eq!(sensor.clutter_density, Some(density));
-            assert!(s.clutter.region.is_some());
-        }
-        for (name, density) in [("001-s2", 1.0), ("001-s2-l2", 2.0)] {
-            let s = Scenario::builtin(name).expect(name);
-            assert_eq!(s.targets.len(), 2);
-            assert_eq!(s.scans, 118);
-            assert_eq!(s.process_noise, [1.0, 1.0]);
-            let starts: Vec<f64> = s.targets[0].acceleration.iter().map(|a| a.start).collect();
-            assert_eq!(starts, [0.0, 21.0, 41.0, 74.0, 86.0]);
-            assert_eq!(s.targets[0].acceleration[2].accel, [3.0, 19.0]);
-            assert_eq!(s.targets[1].acceleration[4].accel, [10.0, 19.0]);
-            assert_eq!(s.sensor_table()[0].sigma_a, 60.0);
-            assert_eq!(s.sensor_table()[0].clutter_density, Some(density));
-        }
-    }
-
-    #[test]
-    fn paper_000_s1_s3_parse() {
-        let s = Scenario::builtin("000-s1").expect("registered");
-        assert_eq!((s.name.as_str(), s.dt, s.scans), ("000-s1", 1.0, 100));
-        assert_eq!(s.monte_carlo.runs, 100);
-        let ids: Vec<Id> = s.targets.iter().filter_map(|t| t.id).collect();
-        assert_eq!(ids, vec![1, 2, 3, 4]);
-        let table = s.sensor_table();
-        assert_eq!(table.len(), 5);
-        for x in &table {
-            assert_eq!(x.kind, SensorKind::RangeBearing);
-            assert_eq!((x.sigma_a, x.sigma_b, x.pd), (5.0, 1e-4, 0.95));
-            assert_eq!((x.bias_r, x.bias_theta), (0.0, 0.0));
-        }
-        // Table 2's coverage: T1 by S1; T2 by S1, S2; T3 by S2, S3, S4; T4 by S4, S5
-        let visible: Vec<Vec<Id>> = s
-            .sensors
-            .iter()
-            .map(|x| x.visible_targets.clone().expect("coverage"))
-            .collect();
-        assert_eq!(
-            visible,
-            vec![vec![1, 2], vec![2, 3], vec![3], vec![3, 4], vec![4]]
-        );
-        let mut sim = crate::sim::Simulation::new(&s, 0);
-        let (mut truth, mut z) = (Vec::new(), Vec::new());
-        let mut pairs = std::collections::BTreeSet::new();
-        for _ in 0..5 {
-            assert!(sim.next_scan(&mut truth, &mut z));
-            pairs.extend(
-                z.iter()
-                    .filter(|m| m.target_id >= 0)
-                    .map(|m| (m.target_id, m.sensor_id)),
-            );
-        }
-        let want: std::collections::BTreeSet<(Id, Id)> = [
-            (1, 1),
-            (2, 1),
-            (2, 2),
-            (3, 2),
-            (3, 3),
-            (3, 4),
-            (4, 4),
-            (4, 5),
-        ]
-        .into_iter()
-        .collect();
-        assert_eq!(pairs, want);
-        assert_eq!(
-            s.tracker.initiation.method,
-            crate::local::InitiationMethod::Known
-        );
-        assert_eq!(
-            (s.fusion.method.as_str(), s.fusion.rule.as_str()),
-            ("fdbsc-ta", "fuzzy")
-        );
-        assert!(s.fusion.params.contains_key("ftta"));
-
-        let s = Scenario::builtin("000-s3").expect("registered");
-        assert_eq!((s.name.as_str(), s.dt, s.scans), ("000-s3", 1.0, 118));
-        assert_eq!(s.targets.len(), 2);
-        assert_eq!(s.targets[0].initial, [100.0, 80.0, 1000.0, -100.0]);
-        assert_eq!(s.targets[1].initial, [100.0, 80.0, 400.0, 100.0]);
-        let starts: Vec<f64> = s.targets[1].acceleration.iter().map(|a| a.start).collect();
-        assert_eq!(starts, [0.0, 21.0, 41.0, 74.0, 86.0]);
-        assert_eq!(s.targets[0].acceleration[2].accel, [3.0, 19.0]);
-        assert_eq!(s.targets[1].acceleration[3].accel, [10.0, 7.0]);
-        let b: Vec<(f64, f64)> = s
-            .sensor_table()
-            .iter()
-            .map(|x| (x.bias_r, x.bias_theta))
-            .collect();
-        assert_eq!(b, vec![(400.0, 0.03), (500.0, 0.08)]);
-        assert_eq!(s.tracker.filter, "mie");
-        assert_eq!(s.fusion.bias.as_deref(), Some("fdbsc"));
-        assert!(s.fusion.params.contains_key("fdbsc"));
     }
 }

@@ -7,7 +7,7 @@ use trackfuse::io::{
     read_truth, write_sensors, InputError, LocalTrackWriter, MeasurementWriter, TruthWriter,
 };
 use trackfuse::sim::simulate;
-use trackfuse::Scenario;
+use trackfuse::RunConfig;
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
@@ -43,7 +43,7 @@ fn expect_err(
 #[test]
 fn simulated_files_have_exact_headers_and_round_trip_exactly() {
     let dir = tempfile::tempdir().expect("tmp");
-    let sc = Scenario::default_builtin();
+    let sc = RunConfig::default_builtin().scenario;
     let out = simulate(&sc, 3);
     let sp = dir.path().join("sensors.csv");
     write_sensors(&sp, &out.sensors).expect("sensors");

@@ -5,7 +5,7 @@
 use trackfuse::center::registry::{BIAS_ESTIMATORS, METHODS, RULES};
 use trackfuse::local::registry::{ASSOCIATORS, FILTERS};
 use trackfuse::pipeline::run_once;
-use trackfuse::Scenario;
+use trackfuse::RunConfig;
 
 /// Two targets, two sensors of `kind` (radars, or position sensors), light clutter,
 /// known initiation so that local tracks reach the center from the first scans.
@@ -30,7 +30,7 @@ fn scenario(kind: &str, tracker: &str, fusion: &str) -> String {
 
 fn run(kind: &str, tracker: &str, fusion: &str, what: &str) {
     let text = scenario(kind, tracker, fusion);
-    let sc = Scenario::from_toml(&text, "tiny.toml")
+    let sc = RunConfig::from_toml(&text, "tiny.toml")
         .unwrap_or_else(|e| panic!("{what} ({kind}): scenario rejected: {e}"));
     let out = run_once(&sc, 0).unwrap_or_else(|e| panic!("{what} ({kind}): {e}"));
     assert!(!out.local.is_empty(), "{what} ({kind}): no local tracks");
@@ -50,7 +50,7 @@ fn run(kind: &str, tracker: &str, fusion: &str, what: &str) {
 fn every_filter_runs_from_a_scenario_file() {
     for f in FILTERS {
         let tracker = format!("filter = \"{}\"", f.name);
-        let sc = Scenario::from_toml(&scenario("radar", &tracker, ""), "tiny.toml").expect("ok");
+        let sc = RunConfig::from_toml(&scenario("radar", &tracker, ""), "tiny.toml").expect("ok");
         assert_eq!(sc.tracker.filter, f.name);
         // `kf` is the linear filter of position sensors; every other filter also takes
         // radars.
@@ -65,7 +65,7 @@ fn every_filter_runs_from_a_scenario_file() {
 fn every_associator_runs_from_a_scenario_file() {
     for a in ASSOCIATORS {
         let tracker = format!("associator = \"{}\"", a.name);
-        let sc = Scenario::from_toml(&scenario("radar", &tracker, ""), "tiny.toml").expect("ok");
+        let sc = RunConfig::from_toml(&scenario("radar", &tracker, ""), "tiny.toml").expect("ok");
         assert_eq!(sc.tracker.associator, a.name);
         for kind in ["radar", "position"] {
             run(kind, &tracker, "", a.name);
@@ -79,7 +79,8 @@ fn every_method_with_every_rule_runs_from_a_scenario_file() {
         for r in RULES {
             let fusion = format!("method = \"{}\"\nrule = \"{}\"", m.name, r.name);
             let what = format!("{} + {}", m.name, r.name);
-            let sc = Scenario::from_toml(&scenario("radar", "", &fusion), "tiny.toml").expect("ok");
+            let sc =
+                RunConfig::from_toml(&scenario("radar", "", &fusion), "tiny.toml").expect("ok");
             assert_eq!(
                 (sc.fusion.method.as_str(), sc.fusion.rule.as_str()),
                 (m.name, r.name)
@@ -93,7 +94,7 @@ fn every_method_with_every_rule_runs_from_a_scenario_file() {
 fn every_bias_estimator_runs_from_a_scenario_file() {
     for b in BIAS_ESTIMATORS {
         let fusion = format!("bias = \"{}\"", b.name);
-        let sc = Scenario::from_toml(&scenario("radar", "", &fusion), "tiny.toml").expect("ok");
+        let sc = RunConfig::from_toml(&scenario("radar", "", &fusion), "tiny.toml").expect("ok");
         assert_eq!(sc.fusion.bias.as_deref(), Some(b.name));
         run("radar", "", &fusion, b.name);
     }
@@ -108,7 +109,7 @@ fn unknown_names_in_a_scenario_file_are_named() {
         ("", "rule = \"fuzy\"", "fuzy"),
         ("", "bias = \"fdbsc-ta\"", "fdbsc-ta"),
     ] {
-        let e = Scenario::from_toml(&scenario("radar", tracker, fusion), "tiny.toml")
+        let e = RunConfig::from_toml(&scenario("radar", tracker, fusion), "tiny.toml")
             .err()
             .unwrap_or_else(|| panic!("{needle} accepted"))
             .to_string();

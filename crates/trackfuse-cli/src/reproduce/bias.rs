@@ -280,7 +280,7 @@ without estimator.\n\n",
         per_run_ms(est.fuse_time)
     )?;
     md.push_str("## Bias estimates after the last scan (mean and spread over the runs)\n\n");
-    let truth = biased.sensor_table();
+    let truth = biased.scenario.sensor_table();
     let mut rows = Vec::new();
     for (label, ests) in [
         ("scenario's settings", &estimates),

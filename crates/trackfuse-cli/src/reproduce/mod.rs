@@ -15,7 +15,7 @@ use trackfuse::local::TrackerConfig;
 use trackfuse::metrics::{RunMetrics, Summary};
 use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::{run_with, RunOutput};
-use trackfuse::Scenario;
+use trackfuse::RunConfig;
 
 mod bias;
 mod p000;
@@ -139,14 +139,14 @@ pub struct McResult {
     pub runs: u32,
 }
 
-/// Run `runs` Monte Carlo runs of `sc` with the given configs (in parallel; the result
+/// Run `runs` Monte Carlo runs of `sc`'s scenario and evaluation with the given configs (in parallel; the result
 /// does not depend on the thread count) and aggregate them. `inspect` sees each run's
 /// full output before it is dropped (in run order is NOT guaranteed: keep it to
 /// order-free accumulation, or return what you need through the metrics).
 pub fn monte_carlo(
     ctx: &Ctx,
     label: &str,
-    sc: &Scenario,
+    sc: &RunConfig,
     tracker: &TrackerConfig,
     fusion: &FusionConfig,
     runs: u32,
@@ -158,7 +158,7 @@ pub fn monte_carlo(
 pub fn monte_carlo_with<T: Send>(
     ctx: &Ctx,
     label: &str,
-    sc: &Scenario,
+    sc: &RunConfig,
     tracker: &TrackerConfig,
     fusion: &FusionConfig,
     runs: u32,
@@ -175,7 +175,7 @@ pub fn monte_carlo_with<T: Send>(
         },
         || bar.inc(1),
     )
-    .with_context(|| format!("{label}: {}", sc.name))?;
+    .with_context(|| format!("{label}: {}", sc.scenario.name))?;
     bar.finish_and_clear();
     let mut metrics = RunMetrics::default();
     let (mut track_time, mut fuse_time) = (Duration::ZERO, Duration::ZERO);
@@ -199,7 +199,7 @@ pub fn monte_carlo_with<T: Send>(
 }
 
 /// A built-in scenario by name, or a file.
-pub fn scenario(name: &str) -> Result<Scenario> {
+pub fn scenario(name: &str) -> Result<RunConfig> {
     Ok(load_scenario(Some(name))?.0)
 }
 

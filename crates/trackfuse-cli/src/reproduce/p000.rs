@@ -52,7 +52,7 @@ use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::track_run;
 use trackfuse::sim::{simulate, SimulationOutput};
 use trackfuse::types::{position_of, Id, LocalTrack, Sensor, SensorKind, Vec2};
-use trackfuse::Scenario;
+use trackfuse::RunConfig;
 
 /// The paper's Monte Carlo run count (Sec. V).
 const PAPER_RUNS: u32 = 100;
@@ -114,7 +114,7 @@ const fn v(label: &'static str, method: &'static str, rule: &'static str, bias: 
 
 /// The fusion config of a variant on top of the scenario's (which carries the methods'
 /// parameter tables and the bias estimator).
-fn fusion_of(sc: &Scenario, var: &Variant) -> FusionConfig {
+fn fusion_of(sc: &RunConfig, var: &Variant) -> FusionConfig {
     let mut f = sc.fusion.clone();
     f.method = var.method.to_string();
     f.rule = var.rule.to_string();
@@ -395,7 +395,7 @@ fn extra_of(out: &RunView<'_>, gate: f64) -> Extra {
 /// shared. Runs in parallel; the result does not depend on the thread count.
 fn run_variants(
     ctx: &Ctx,
-    sc: &Scenario,
+    sc: &RunConfig,
     variants: &[Variant],
     runs: u32,
     tag: &str,
@@ -411,9 +411,9 @@ fn run_variants(
     let outs = run_parallel(
         runs as u64,
         |run| -> Result<PerRun> {
-            let sim = simulate(sc, run);
+            let sim = simulate(&sc.scenario, run);
             let t0 = Instant::now();
-            let local = track_run(sc, &sc.tracker, &sim, run)?;
+            let local = track_run(&sc.scenario, &sc.tracker, &sim, run)?;
             let track = t0.elapsed();
             let mut per = Vec::with_capacity(fusions.len());
             for (f, &truth) in fusions.iter().zip(&needs_truth) {
@@ -441,7 +441,7 @@ fn run_variants(
         },
         || bar.inc(1),
     )
-    .map_err(|e| e.context(format!("{tag}: {}", sc.name)))?;
+    .map_err(|e| e.context(format!("{tag}: {}", sc.scenario.name)))?;
     bar.finish_and_clear();
     let mut acc: Vec<(RunMetrics, Duration, Extra)> = (0..variants.len())
         .map(|_| (RunMetrics::default(), Duration::ZERO, Extra::default()))
@@ -524,9 +524,9 @@ fn sweep(step: f64, max: f64, full: bool) -> Vec<f64> {
 }
 
 /// `sc` with every radar's biases set.
-fn with_biases(sc: &Scenario, range: f64, bearing: f64) -> Scenario {
+fn with_biases(sc: &RunConfig, range: f64, bearing: f64) -> RunConfig {
     let mut s = sc.clone();
-    for x in &mut s.sensors {
+    for x in &mut s.scenario.sensors {
         x.bias_r = range;
         x.bias_theta = bearing;
     }
@@ -577,7 +577,7 @@ fn table2(ctx: &Ctx, runs: u32, md: &mut String) -> Result<()> {
         "Local trackers: `{}` + `{}`, known initial states; {} false alarms per km^2; \
          coverage as Table 2 (`visible_targets`). Position RMSE (m), eq. 11, over every \
          scan and run.\n",
-        sc.tracker.associator, sc.tracker.filter, sc.clutter.density
+        sc.tracker.associator, sc.tracker.filter, sc.scenario.clutter.density
     )?;
     let variants = [
         v("FTF", "ftta", "fuzzy", false),
@@ -740,7 +740,7 @@ fn table2(ctx: &Ctx, runs: u32, md: &mut String) -> Result<()> {
     Ok(())
 }
 
-fn table6(ctx: &Ctx, sc: &Scenario, runs: u32, md: &mut String) -> Result<()> {
+fn table6(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
     writeln!(
         md,
         "## Table 6: scenario III (two manoeuvring crossing targets, biased radars)\n"
@@ -865,7 +865,7 @@ fn table6(ctx: &Ctx, sc: &Scenario, runs: u32, md: &mut String) -> Result<()> {
         per_run_ms(results[1].0.track_time, results[1].0.runs),
         per_run_ms(results[1].0.fuse_time, results[1].0.runs),
         per_run_ms(results[0].0.fuse_time, results[0].0.runs),
-        sc.scans
+        sc.scenario.scans
     )?;
 
     // bias estimates
@@ -874,6 +874,7 @@ fn table6(ctx: &Ctx, sc: &Scenario, runs: u32, md: &mut String) -> Result<()> {
         "### Bias estimates (mean over runs of the final estimate)\n"
     )?;
     let truth: BTreeMap<Id, (f64, f64)> = sc
+        .scenario
         .sensor_table()
         .iter()
         .map(|s| (s.id, (s.bias_r, s.bias_theta)))
@@ -1034,7 +1035,7 @@ struct Sweep {
     show: fn(f64) -> String,
 }
 
-fn figs56(ctx: &Ctx, sc: &Scenario, runs: u32, md: &mut String) -> Result<()> {
+fn figs56(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
     let full = runs >= FULL_SWEEP_MIN_RUNS;
     let variants = [
         v("FDBSC-TA", "fdbsc-ta", "fuzzy", true),

@@ -228,8 +228,8 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     let results: Vec<RunResult> = run_parallel(
         runs as u64,
         |run| -> Result<RunResult> {
-            let sim = simulate(&sc, run);
-            let local = track_run(&sc, &sc.tracker, &sim, run)?;
+            let sim = simulate(&sc.scenario, run);
+            let local = track_run(&sc.scenario, &sc.tracker, &sim, run)?;
             let labels = biased_frame_labels(&sim.truth, &local, &sim.sensors, gate);
             let mut variants = Vec::with_capacity(fusions.len());
             for (f, &truth) in fusions.iter().zip(&needs_truth) {
@@ -323,7 +323,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     writeln!(md, "## Table 3: bias estimates after the last scan\n")?;
     let mut rows = Vec::new();
     let mut worst = (0.0f64, 0.0f64);
-    for (i, s) in sc.sensor_table().iter().enumerate() {
+    for (i, s) in sc.scenario.sensor_table().iter().enumerate() {
         let got: Vec<&BiasEstimate> = results
             .iter()
             .flat_map(|r| r.variants[FDBSC].1.iter())

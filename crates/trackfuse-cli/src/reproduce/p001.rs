@@ -17,7 +17,7 @@ use trackfuse::local::{InitiationConfig, InitiationMethod, TrackerConfig};
 use trackfuse::metrics::label_local_tracks;
 use trackfuse::pipeline::RunOutput;
 use trackfuse::types::{position_of, Id, StateCov, StateVec, Vec2};
-use trackfuse::Scenario;
+use trackfuse::RunConfig;
 
 /// The paper's Monte Carlo run count (001 Sec. 4).
 const PAPER_RUNS: u32 = 100;
@@ -66,7 +66,7 @@ impl Variant {
         }
     }
 
-    fn tracker(&self, sc: &Scenario) -> TrackerConfig {
+    fn tracker(&self, sc: &RunConfig) -> TrackerConfig {
         let mut cfg = sc.tracker.clone();
         cfg.associator = self.associator.into();
         if let Some(f) = self.filter {
@@ -364,11 +364,11 @@ impl Outcome {
     }
 }
 
-fn run_variant(ctx: &Ctx, sc: &Scenario, v: &Variant, runs: u32) -> Result<Outcome> {
+fn run_variant(ctx: &Ctx, sc: &RunConfig, v: &Variant, runs: u32) -> Result<Outcome> {
     let cfg = v.tracker(sc);
     let gate = sc.evaluation.label_gate;
     let known = cfg.initiation.method == InitiationMethod::Known;
-    let label = format!("{} {}", sc.name, v.label);
+    let label = format!("{} {}", sc.scenario.name, v.label);
     let (mc, ids) = monte_carlo_with(ctx, &label, sc, &cfg, &sc.fusion, runs, |o| {
         let mut id = identity(o, gate);
         if !known {
@@ -376,7 +376,7 @@ fn run_variant(ctx: &Ctx, sc: &Scenario, v: &Variant, runs: u32) -> Result<Outco
         }
         id
     })
-    .with_context(|| format!("{} with {}", sc.name, v.label))?;
+    .with_context(|| format!("{} with {}", sc.scenario.name, v.label))?;
     let n_targets = ids.first().map_or(0, |i| i.sq.len());
     let mut sq = vec![(0.0, 0u64); n_targets];
     let mut truth = vec![0u64; n_targets];
@@ -399,6 +399,7 @@ fn run_variant(ctx: &Ctx, sc: &Scenario, v: &Variant, runs: u32) -> Result<Outco
         lost_runs += u32::from(id.lost);
     }
     let mut targets: Vec<Id> = sc
+        .scenario
         .targets
         .iter()
         .enumerate()
@@ -566,11 +567,11 @@ fn scan_ranges(scans: &[u32]) -> String {
 }
 
 /// Clutter-free copy of a scenario.
-fn clutter_free(sc: &Scenario) -> Scenario {
+fn clutter_free(sc: &RunConfig) -> RunConfig {
     let mut c = sc.clone();
-    c.name = format!("{}-no-clutter", sc.name);
-    c.clutter.density = 0.0;
-    for s in &mut c.sensors {
+    c.scenario.name = format!("{}-no-clutter", sc.scenario.name);
+    c.scenario.clutter.density = 0.0;
+    for s in &mut c.scenario.sensors {
         s.clutter_density = Some(0.0);
     }
     c.tracker.clutter_density = Some(0.0);
@@ -586,8 +587,8 @@ type ScenarioOutcomes = (Vec<[Outcome; 2]>, Vec<[Outcome; 2]>, [Outcome; 2]);
 /// on `free` (its clutter-free copy).
 fn run_scenario(
     ctx: &Ctx,
-    sc: &[Scenario; 2],
-    free: &Scenario,
+    sc: &[RunConfig; 2],
+    free: &RunConfig,
     methods: &[&Variant],
     fdbs: &[Variant],
     fdb_all: &Variant,
@@ -778,8 +779,8 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     // ---- NEES ----
     let nees_known = run_variant(ctx, &s1_free, &Variant::plain("GNN", "gnn"), runs)?;
     let mut no_cross = s1_free.clone();
-    no_cross.name = "001-s1-no-clutter-targets-1-3".into();
-    no_cross.targets.remove(1);
+    no_cross.scenario.name = "001-s1-no-clutter-targets-1-3".into();
+    no_cross.scenario.targets.remove(1);
     no_cross.tracker.initiation.method = InitiationMethod::MOfN;
     // real track management: a track started badly (two-point velocity noise of 212 m/s)
     // and lost is deleted, not kept for the paper's "never delete"
@@ -803,11 +804,11 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     }
     // the same KF check on other random draws (master seed + 1)
     let mut other_seed = no_cross.clone();
-    other_seed.seed += 1;
+    other_seed.scenario.seed += 1;
     nees_rows.insert(
         1,
         (
-            format!("gnn + kf, master seed {}", other_seed.seed),
+            format!("gnn + kf, master seed {}", other_seed.scenario.seed),
             run_variant(ctx, &other_seed, &Variant::plain("GNN kf", "gnn"), runs)?,
         ),
     );

@@ -20,7 +20,7 @@ use std::time::Duration;
 use trackfuse::center::FusionConfig;
 use trackfuse::metrics::{evaluate_run, EvalInput, RunMetrics, Summary};
 use trackfuse::pipeline::RunOutput;
-use trackfuse::Scenario;
+use trackfuse::RunConfig;
 
 /// The paper's scenario.
 const SCENARIO: &str = "002-s1";
@@ -115,7 +115,7 @@ impl Outcome {
 }
 
 /// The metrics of the scans `lo..hi` of one run.
-fn window_metrics(o: &RunOutput, sc: &Scenario, lo: u32, hi: u32) -> RunMetrics {
+fn window_metrics(o: &RunOutput, sc: &RunConfig, lo: u32, hi: u32) -> RunMetrics {
     let keep = |s: u32| (lo..hi).contains(&s);
     let truth: Vec<_> = o
         .sim
@@ -150,7 +150,7 @@ fn window_metrics(o: &RunOutput, sc: &Scenario, lo: u32, hi: u32) -> RunMetrics 
     )
 }
 
-fn extract(o: &RunOutput, sc: &Scenario) -> RunExtra {
+fn extract(o: &RunOutput, sc: &RunConfig) -> RunExtra {
     let mut targets: BTreeMap<u32, u64> = BTreeMap::new();
     for t in &o.sim.truth {
         *targets.entry(t.scan).or_default() += 1;
@@ -166,7 +166,7 @@ fn extract(o: &RunOutput, sc: &Scenario) -> RunExtra {
         .count() as u64;
     RunExtra {
         updates: o.fused.fused.len() as u64,
-        scans: sc.scans as u64,
+        scans: sc.scenario.scans as u64,
         globals: globals.len() as u64,
         surplus_scans,
         early: window_metrics(o, sc, 0, EARLY_SCANS),
@@ -180,7 +180,7 @@ fn extract(o: &RunOutput, sc: &Scenario) -> RunExtra {
 /// passes (the machine is shared: what a run loses to other processes only adds).
 fn run_config(
     ctx: &Ctx,
-    sc: &Scenario,
+    sc: &RunConfig,
     label: &str,
     fusion: &FusionConfig,
     runs: u32,
@@ -383,7 +383,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
          garbled initial states of Sec. 5.1 are resolved there so that the targets cross: \
          targets 1-3 start 100-200 m apart and fan out at 45, 26.6 and 63.4 degrees; \
          targets 1 and 4 fly parallel, 1.2 km apart (0.85 km across track).\n",
-        sc.scans
+        sc.scenario.scans
     ));
     md.push_str(&format!(
         "- Local trackers (the scenario's `[tracker]`; 002 names none): `{}` + `{}`, white \
@@ -542,7 +542,11 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             "false %",
             "missed %",
             &format!("P_c scans 0-{} %", EARLY_SCANS - 1),
-            &format!("P_c scans {}-{} %", EARLY_SCANS, sc.scans.saturating_sub(1)),
+            &format!(
+                "P_c scans {}-{} %",
+                EARLY_SCANS,
+                sc.scenario.scans.saturating_sub(1)
+            ),
             "global tracks per run",
             "surplus %",
             "fused RMSE",

@@ -23,7 +23,7 @@ use trackfuse::center::FusionConfig;
 use trackfuse::local::TrackerConfig;
 use trackfuse::metrics::{gated_assignment, label_local_tracks};
 use trackfuse::pipeline::RunOutput;
-use trackfuse::{position_of, Id, LocalTrack, Scenario, TruthState, Vec2};
+use trackfuse::{position_of, Id, LocalTrack, RunConfig, TruthState, Vec2};
 
 /// The paper's run count (Table 5: "200 Monte Carlo simulations").
 const PAPER_RUNS: u32 = 200;
@@ -302,7 +302,7 @@ fn reports_of_run(out: &RunOutput, label_gate: f64) -> (CorrStats, Vec<(usize, u
 fn run_case(
     ctx: &Ctx,
     label: &str,
-    sc: &Scenario,
+    sc: &RunConfig,
     tracker: &TrackerConfig,
     fusion: &FusionConfig,
     with_reports: bool,
@@ -326,7 +326,7 @@ fn run_case(
             picks,
         }
     })?;
-    let scans = sc.scans as usize;
+    let scans = sc.scenario.scans as usize;
     let mut fused = [PerScan::new(scans), PerScan::new(scans)];
     let mut local = with_reports.then(|| vec![PerScan::new(scans); REPORTS.len()]);
     let mut corr: Option<CorrStats> = None;
@@ -372,8 +372,9 @@ fn with_q(tracker: &TrackerConfig, fusion: &FusionConfig, q: f64) -> (TrackerCon
 }
 
 /// The largest acceleration input of the scenario on any axis (a_M, m/s^2).
-fn max_acceleration(sc: &Scenario) -> f64 {
-    sc.targets
+fn max_acceleration(sc: &RunConfig) -> f64 {
+    sc.scenario
+        .targets
         .iter()
         .flat_map(|t| t.acceleration.iter())
         .flat_map(|a| a.accel.iter().map(|v| v.abs()))
@@ -427,7 +428,7 @@ type SensitivityRows = (Vec<Vec<String>>, Vec<[f64; 4]>);
 fn sensitivity_rows(
     ctx: &Ctx,
     label: &str,
-    scs: &[Scenario; 2],
+    scs: &[RunConfig; 2],
     q: f64,
 ) -> Result<SensitivityRows> {
     let mut rows = Vec::new();
@@ -508,8 +509,8 @@ pub fn run(ctx: &Ctx) -> Result<String> {
          - Fusion center: `{}` with the sensor resolutions ||Delta|| = sqrt(sigma_x^2 + \
          sigma_y^2) from sensors.csv, m = 2 (not given in the paper); global tracks \
          predicted with q = {} m/s^2.\n\n",
-        sc0.dt,
-        sc0.scans,
+        sc0.scenario.dt,
+        sc0.scenario.scans,
         sc0.tracker.filter,
         sc0.tracker.associator,
         num(Some(q), 2),
@@ -825,8 +826,8 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         a_m / 2.0,
     )?;
     sens_rows.extend(rows);
-    let unit_g: [Scenario; 2] = cases.clone().map(|mut sc| {
-        for t in sc.targets.iter_mut() {
+    let unit_g: [RunConfig; 2] = cases.clone().map(|mut sc| {
+        for t in sc.scenario.targets.iter_mut() {
             for a in t.acceleration.iter_mut() {
                 a.accel = a.accel.map(|v| v / G);
             }

@@ -21,7 +21,7 @@ use std::collections::HashMap;
 use trackfuse::center::FusionConfig;
 use trackfuse::metrics::label_local_tracks;
 use trackfuse::pipeline::RunOutput;
-use trackfuse::{Id, Scenario};
+use trackfuse::{Id, RunConfig};
 
 /// "50 Monte Carlo simulations" (Sec. III).
 const PAPER_RUNS: u32 = 50;
@@ -102,7 +102,7 @@ fn name(adaptive: bool) -> &'static str {
     }
 }
 
-fn rates(ctx: &Ctx, label: &str, sc: &Scenario, fusion: &FusionConfig) -> Result<Rates> {
+fn rates(ctx: &Ctx, label: &str, sc: &RunConfig, fusion: &FusionConfig) -> Result<Rates> {
     let runs = ctx.runs_or(PAPER_RUNS);
     let gate = sc.evaluation.label_gate;
     let (r, rows) = monte_carlo_with(ctx, label, sc, &sc.tracker, fusion, runs, |out| {
@@ -182,8 +182,8 @@ pub fn run(ctx: &Ctx) -> Result<String> {
          features and widths of eq. 10-11, weights a = {} (eq. 12), tau = {} (case 1), \
          eps_min = {}, eps_step = {}; N0 = {}, K = {} (the paper gives neither: the \
          method's defaults; see the sensitivity below).\n\n",
-        c1.dt,
-        c1.scans,
+        c1.scenario.dt,
+        c1.scenario.scans,
         c1.tracker.filter,
         c1.tracker.associator,
         c1.tracker.process_noise.unwrap_or([f64::NAN; 2]),
@@ -274,7 +274,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             ]
         })
         .fold(0.0f64, |a, d| a.max(d.abs()));
-    let full = 2 * c1.scans as u64 * c1.target_count() as u64 * runs as u64;
+    let full = 2 * c1.scenario.scans as u64 * c1.scenario.target_count() as u64 * runs as u64;
     md.push_str(&format!(
         "\nLargest difference: {} percentage points. The `track-scans` column counts the \
          local tracks that have a true partner in the other sensor at that scan ({} when \

@@ -2782,11 +2782,11 @@ mod tests {
     /// trackers track it, scan by scan (the center's view: true biases zeroed), and the
     /// simulation (whose sensors carry the true biases).
     fn estimator_on_builtin(
-        sc: &crate::Scenario,
+        sc: &crate::RunConfig,
         run: u64,
     ) -> (FdbscBias, crate::sim::SimulationOutput) {
-        let sim = crate::sim::simulate(sc, run);
-        let local = crate::pipeline::track_run(sc, &sc.tracker, &sim, run).unwrap();
+        let sim = crate::sim::simulate(&sc.scenario, run);
+        let local = crate::pipeline::track_run(&sc.scenario, &sc.tracker, &sim, run).unwrap();
         let mut sensors = sim.sensors.clone();
         for s in &mut sensors {
             s.bias_r = 0.0;
@@ -2807,8 +2807,8 @@ mod tests {
 
     #[test]
     fn wrong_early_pairs_are_revoked_on_scenario_000_s2() {
-        let mut sc = crate::Scenario::builtin("000-s2").unwrap();
-        sc.scans = 9;
+        let mut sc = crate::RunConfig::builtin("000-s2").unwrap();
+        sc.scenario.scans = 9;
         for run in [21u64, 83] {
             let (est, sim) = estimator_on_builtin(&sc, run);
             for s in &sim.sensors {
@@ -2857,8 +2857,8 @@ mod tests {
     /// 40 scans, to keep the test short).
     #[test]
     fn scenario_000_s2_runs_that_locked_in_before() {
-        let mut sc = crate::Scenario::builtin("000-s2").unwrap();
-        sc.scans = 40;
+        let mut sc = crate::RunConfig::builtin("000-s2").unwrap();
+        sc.scenario.scans = 40;
         for run in [7u64, 21] {
             let (est, sim) = estimator_on_builtin(&sc, run);
             for s in &sim.sensors {

@@ -460,14 +460,15 @@ impl FusionConfig {
         Ok(())
     }
 
-    /// [`FusionConfig::check`] as `Err((key, reason))`, for the scenario's validation.
-    pub fn validate(&self) -> Result<(), (String, String)> {
+    /// [`FusionConfig::check`] as a [`ParamError`] naming the key within `[fusion]`, for
+    /// the run configuration's validation.
+    pub fn validate(&self) -> Result<(), ParamError> {
         self.check().map_err(|e| match e {
-            CenterError::Config(ParamError { key, reason }) => (key, reason),
+            CenterError::Config(p) => p,
             CenterError::Unknown { kind, name, known } => {
-                (kind.to_string(), unknown_reason(kind, &name, &known))
+                ParamError::new(kind, unknown_reason(kind, &name, &known))
             }
-            other => ("fusion".to_string(), other.to_string()),
+            other => ParamError::new("fusion", other.to_string()),
         })
     }
 }
@@ -511,11 +512,11 @@ mod tests {
             }
             other => panic!("expected an unknown method, got {other:?}"),
         }
-        let (key, reason) = cfg.validate().unwrap_err();
-        assert_eq!(key, "method");
+        let e = cfg.validate().unwrap_err();
+        assert_eq!(e.key, "method");
         assert!(
-            reason.starts_with("unknown method \"nope\" (known: "),
-            "{reason}"
+            e.reason.starts_with("unknown method \"nope\" (known: "),
+            "{e}"
         );
         let cfg = FusionConfig {
             process_noise: -1.0,

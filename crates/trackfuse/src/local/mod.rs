@@ -163,9 +163,9 @@ impl Default for TrackerConfig {
 
 impl TrackerConfig {
     /// Range-check the values and that the named methods exist and accept their
-    /// parameters; `Err((key, reason))`.
-    pub fn validate(&self) -> Result<(), (String, String)> {
-        self.check().map_err(|e| (e.key, e.reason))
+    /// parameters; the error names the key within `[tracker]`.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        self.check()
     }
 
     fn check(&self) -> Result<(), ParamError> {

@@ -232,8 +232,7 @@ impl SensorTracker {
         run: u64,
         sensor_index: u64,
     ) -> Result<SensorTracker, TrackerError> {
-        cfg.validate()
-            .map_err(|(k, r)| TrackerError::Config(ParamError::new(k, r)))?;
+        cfg.validate().map_err(TrackerError::Config)?;
         // the tracker must not see the true biases
         let mut sensor = sensor.clone();
         sensor.bias_r = 0.0;
@@ -276,7 +275,7 @@ impl SensorTracker {
             ..cfg.clone()
         }
         .validate()
-        .map_err(|(k, r)| TrackerError::Config(ParamError::new(k, r)))?;
+        .map_err(TrackerError::Config)?;
         let mut sensor = sensor.clone();
         sensor.bias_r = 0.0;
         sensor.bias_theta = 0.0;

@@ -50,20 +50,24 @@ impl Default for EvaluationConfig {
 }
 
 impl EvaluationConfig {
-    /// Range-check the values; `Err((key, reason))`.
-    pub fn validate(&self) -> Result<(), (String, String)> {
+    /// Range-check the values; the error names the key within `[evaluation]`.
+    pub fn validate(&self) -> Result<(), crate::params::ParamError> {
+        use crate::params::ParamError;
         if !(self.gospa_c.is_finite() && self.gospa_c > 0.0) {
-            return Err((
-                "gospa_c".into(),
+            return Err(ParamError::new(
+                "gospa_c",
                 format!("{} must be positive", self.gospa_c),
             ));
         }
         if !(self.gospa_p.is_finite() && self.gospa_p >= 1.0) {
-            return Err(("gospa_p".into(), format!("{} must be >= 1", self.gospa_p)));
+            return Err(ParamError::new(
+                "gospa_p",
+                format!("{} must be >= 1", self.gospa_p),
+            ));
         }
         if !(self.label_gate.is_finite() && self.label_gate > 0.0) {
-            return Err((
-                "label_gate".into(),
+            return Err(ParamError::new(
+                "label_gate",
                 format!("{} must be positive", self.label_gate),
             ));
         }
