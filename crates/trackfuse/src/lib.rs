@@ -19,7 +19,9 @@ pub mod pipeline;
 pub mod rng;
 pub mod scenario;
 pub mod sim;
+pub mod spatial;
 pub mod types;
+pub mod union_find;
 
 pub use scenario::Scenario;
 pub use types::*;

@@ -247,7 +247,7 @@ impl SensorTracker {
         }
         self.used.clear();
         self.used.resize(measurements.len(), false);
-        self.index.build(&self.converted);
+        self.index.build(self.converted.iter().map(|z| z[0]));
         // 3. confirmed tracks (and known tracks not yet seen): associate, update
         self.predictions.clear();
         self.predicted_of.clear();
@@ -389,7 +389,7 @@ impl SensorTracker {
                 continue;
             };
             let half = (self.gamma * p.s[(0, 0)]).sqrt();
-            for &m in self.index.in_first_range(p.z[0] - half, p.z[0] + half) {
+            for &m in self.index.range(p.z[0] - half, p.z[0] + half) {
                 if self.used[m as usize] {
                     continue;
                 }
