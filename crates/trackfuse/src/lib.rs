@@ -23,7 +23,9 @@ pub mod pipeline;
 pub mod rng;
 pub mod scenario;
 pub mod sim;
+pub mod spatial;
 pub mod types;
+pub mod union_find;
 
 pub use config::RunConfig;
 pub use scenario::Scenario;

@@ -2,57 +2,19 @@
 //! pairs.
 //!
 //! Measurements are sorted by their first coordinate (x, or range) once per scan
-//! ([`MeasurementIndex`]); a track's gate `{nu : nu^T S^-1 nu <= gamma}` lies inside
-//! `|nu_0| <= sqrt(gamma S_00)`, so only the measurements in that slice of the sorted order
-//! are tested. With clutter spread over a large area that slice holds a handful of
-//! measurements. A sorted sweep, rather than a k-d tree crate, because the query is a
-//! one-dimensional interval whose width differs per track, which a binary search answers
-//! exactly with no allocation; the second coordinate may be an angle, which a k-d tree's
-//! Euclidean boxes would mishandle at the +-pi seam.
+//! ([`MeasurementIndex`], the crate's [`crate::spatial::SweepIndex`]); a track's gate
+//! `{nu : nu^T S^-1 nu <= gamma}` lies inside `|nu_0| <= sqrt(gamma S_00)`, so only the
+//! measurements in that slice of the sorted order are tested. With clutter spread over a
+//! large area that slice holds a handful of measurements. (Why a sorted sweep and not a
+//! k-d tree: the query is a one-dimensional interval whose width differs per track, and
+//! the second coordinate may be an angle; see [`crate::spatial`].)
 
 use super::filter::PredictedMeasurement;
 use crate::types::Vec2;
 
-/// Measurements sorted by first coordinate; rebuilt in place each scan.
-#[derive(Debug, Clone, Default)]
-pub struct MeasurementIndex {
-    keys: Vec<f64>,
-    order: Vec<u32>,
-}
-
-impl MeasurementIndex {
-    /// Index `measurements` (reuses the buffers).
-    pub fn build(&mut self, measurements: &[Vec2]) {
-        self.order.clear();
-        self.order.extend(0..measurements.len() as u32);
-        self.order.sort_unstable_by(|&a, &b| {
-            measurements[a as usize][0]
-                .total_cmp(&measurements[b as usize][0])
-                .then(a.cmp(&b))
-        });
-        self.keys.clear();
-        self.keys
-            .extend(self.order.iter().map(|&i| measurements[i as usize][0]));
-    }
-
-    /// Indices of the measurements whose first coordinate is in `[lo, hi]`, in sorted
-    /// order of that coordinate.
-    pub fn in_first_range(&self, lo: f64, hi: f64) -> &[u32] {
-        let a = self.keys.partition_point(|&k| k < lo);
-        let b = self.keys.partition_point(|&k| k <= hi);
-        &self.order[a..b.max(a)]
-    }
-
-    /// Number of indexed measurements.
-    pub fn len(&self) -> usize {
-        self.order.len()
-    }
-
-    /// Whether no measurement is indexed.
-    pub fn is_empty(&self) -> bool {
-        self.order.is_empty()
-    }
-}
+/// The scan's measurements sorted by their first coordinate (x, or range): the crate's
+/// sorted-sweep index, built with `index.build(measurements.iter().map(|z| z[0]))`.
+pub use crate::spatial::SweepIndex as MeasurementIndex;
 
 /// Validated measurements per track, in a flat buffer reused scan after scan.
 #[derive(Debug, Clone, Default)]
@@ -77,7 +39,7 @@ impl Gates {
             self.start.push(self.entries.len() as u32);
             let half = (gamma * p.s[(0, 0)]).sqrt();
             let first = self.entries.len();
-            for &m in index.in_first_range(p.z[0] - half, p.z[0] + half) {
+            for &m in index.range(p.z[0] - half, p.z[0] + half) {
                 let d2 = p.distance2(&measurements[m as usize]);
                 if d2 <= gamma {
                     self.entries.push((m, d2));
@@ -137,7 +99,7 @@ mod tests {
             })
             .collect();
         let mut index = MeasurementIndex::default();
-        index.build(&meas);
+        index.build(meas.iter().map(|z| z[0]));
         let mut gates = Gates::default();
         gates.compute(&preds, &meas, &index, 9.21);
         for (t, p) in preds.iter().enumerate() {

@@ -391,7 +391,7 @@ impl SensorTracker {
         }
         self.used.clear();
         self.used.resize(measurements.len(), false);
-        self.index.build(&self.converted);
+        self.index.build(self.converted.iter().map(|z| z[0]));
     }
 
     /// Step 2: the predicted measurement of every confirmed track (and known track not
@@ -548,7 +548,7 @@ impl SensorTracker {
                 continue;
             };
             let half = (self.gamma * p.s[(0, 0)]).sqrt();
-            for &m in self.index.in_first_range(p.z[0] - half, p.z[0] + half) {
+            for &m in self.index.range(p.z[0] - half, p.z[0] + half) {
                 if self.used[m as usize] {
                     continue;
                 }

@@ -1,23 +1,18 @@
 //! Gated optimal assignment between two point sets, for evaluation.
 //!
-//! Pairs farther apart than the gate never match. Candidate pairs are found with a uniform
-//! grid of cell size `gate` (no all-pairs comparison), the bipartite candidate graph is
-//! split into connected components, and each component is solved exactly with the `lsap`
-//! crate (a shortest-augmenting-path linear sum assignment) on the cost
+//! Pairs farther apart than the gate never match. Candidate pairs are found with the
+//! crate's fixed-radius grid ([`EpsGrid`], no all-pairs comparison), the bipartite
+//! candidate graph is split into connected components (the crate's union-find), and each
+//! component is solved exactly with the `lsap` crate (a shortest-augmenting-path linear
+//! sum assignment) on the cost
 //! `min(d^2, gate^2)`; a pair whose cost reaches the gate is left unassigned. With squared
 //! distances a common translation of all estimates (a sensor bias) never changes the
 //! optimal assignment, which matters when labelling biased local tracks.
 
+use crate::spatial::EpsGrid;
 use crate::types::Vec2;
+use crate::union_find::UnionFind;
 use std::collections::HashMap;
-
-fn find(parent: &mut [usize], mut i: usize) -> usize {
-    while parent[i] != i {
-        parent[i] = parent[parent[i]];
-        i = parent[i];
-    }
-    i
-}
 
 /// Optimal assignment of `rows` to `cols` minimising the sum of `min(d^2, gate^2)`;
 /// returns for each row the assigned column, or `None`. Pairs at distance `>= gate`
@@ -28,41 +23,31 @@ pub fn gated_assignment(rows: &[Vec2], cols: &[Vec2], gate: f64) -> Vec<Option<u
         return out;
     }
     let gate2 = gate * gate;
-    let cell = |p: &Vec2| ((p[0] / gate).floor() as i64, (p[1] / gate).floor() as i64);
-    let mut grid: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
-    for (j, c) in cols.iter().enumerate() {
-        grid.entry(cell(c)).or_default().push(j);
-    }
-    // union-find over rows (0..n) and cols (n..n+m)
+    let mut grid = EpsGrid::default();
+    grid.rebuild(gate, cols.iter().copied());
+    // union-find over rows (0..n) and cols (n..n+m); a component's root is its smallest
+    // row, so components are solved in the order of their first row
     let n = rows.len();
-    let mut parent: Vec<usize> = (0..n + cols.len()).collect();
+    let mut sets = UnionFind::default();
+    sets.reset(n + cols.len());
     let mut edges: Vec<(usize, usize, f64)> = Vec::new();
     for (i, r) in rows.iter().enumerate() {
-        let (cx, cy) = cell(r);
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                if let Some(js) = grid.get(&(cx + dx, cy + dy)) {
-                    for &j in js {
-                        let d2 = (r - cols[j]).norm_squared();
-                        if d2 < gate2 {
-                            edges.push((i, j, d2));
-                            let (a, b) = (find(&mut parent, i), find(&mut parent, n + j));
-                            if a != b {
-                                parent[a.max(b)] = a.min(b);
-                            }
-                        }
-                    }
-                }
+        // the grid's disc is inclusive; the gate is not
+        grid.for_each_within(r, |j, _| {
+            let d2 = (r - cols[j]).norm_squared();
+            if d2 < gate2 {
+                edges.push((i, j, d2));
+                sets.union(i as u32, (n + j) as u32);
             }
-        }
+        });
     }
     // group edges by component
-    let mut comps: HashMap<usize, Vec<(usize, usize, f64)>> = HashMap::new();
+    let mut comps: HashMap<u32, Vec<(usize, usize, f64)>> = HashMap::new();
     for e in edges {
-        let root = find(&mut parent, e.0);
+        let root = sets.find(e.0 as u32);
         comps.entry(root).or_default().push(e);
     }
-    let mut roots: Vec<usize> = comps.keys().copied().collect();
+    let mut roots: Vec<u32> = comps.keys().copied().collect();
     roots.sort_unstable();
     for root in roots {
         let es = &comps[&root];

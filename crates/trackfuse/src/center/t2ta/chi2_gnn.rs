@@ -71,6 +71,7 @@ use crate::center::linalg::{chol_inverse4, cholesky4, solve_lower_vec4};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::params::{parse_params, ParamError, ParamTables};
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
+use crate::union_find::UnionFind;
 use serde::Deserialize;
 
 /// Which part of the state the test uses.
@@ -310,7 +311,7 @@ pub struct Chi2Gnn {
     active_refs: Vec<Active>,
     active_tracks: Vec<Active>,
     edges: Vec<Edge>,
-    parent: Vec<u32>,
+    sets: UnionFind,
     matched: Vec<u32>,
     group_of: Vec<u32>,
     /// References given a member by the last sensor processed.
@@ -319,15 +320,6 @@ pub struct Chi2Gnn {
     comp_refs: Vec<u32>,
     cost: Vec<f64>,
     is_edge: Vec<bool>,
-}
-
-fn find(parent: &mut [u32], mut i: u32) -> u32 {
-    while parent[i as usize] != i {
-        let p = parent[i as usize];
-        parent[i as usize] = parent[p as usize];
-        i = p;
-    }
-    i
 }
 
 impl Chi2Gnn {
@@ -353,7 +345,7 @@ impl Chi2Gnn {
             active_refs: Vec::new(),
             active_tracks: Vec::new(),
             edges: Vec::new(),
-            parent: Vec::new(),
+            sets: UnionFind::default(),
             matched: Vec::new(),
             group_of: Vec::new(),
             touched: Vec::new(),
@@ -588,19 +580,16 @@ impl Chi2Gnn {
         if self.edges.is_empty() {
             return Ok(());
         }
-        // union-find over tracks (0..n_tracks) and references (n_tracks..)
-        self.parent.clear();
-        self.parent.extend(0..(n_tracks + n_refs) as u32);
+        // union-find over tracks (0..n_tracks) and references (n_tracks..); a
+        // component's root is its smallest track, so sorting by root solves the
+        // components in the order of their first track
+        self.sets.reset(n_tracks + n_refs);
         for e in &self.edges {
-            let a = find(&mut self.parent, e.track);
-            let b = find(&mut self.parent, n_tracks as u32 + e.reference);
-            if a != b {
-                self.parent[a.max(b) as usize] = a.min(b);
-            }
+            self.sets.union(e.track, n_tracks as u32 + e.reference);
         }
         for k in 0..self.edges.len() {
             let t = self.edges[k].track;
-            self.edges[k].root = find(&mut self.parent, t);
+            self.edges[k].root = self.sets.find(t);
         }
         self.edges.sort_unstable_by(|a, b| {
             (a.root, a.track, a.reference).cmp(&(b.root, b.track, b.reference))

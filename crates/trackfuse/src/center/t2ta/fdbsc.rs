@@ -25,21 +25,16 @@
 //! and the clustering is on positions, so positions it is.
 //!
 //! # Spatial index
-//! The Eps-neighbourhoods come from a uniform grid with cells of side (just over) Eps
-//! ([`EpsGrid`]), not from all pairs: the points are sorted by cell (no hash map, so
-//! nothing depends on hash iteration order), each as one `u128` (the cell's coordinates
-//! packed in order above the point's index), so the per-scan sort and the searches
-//! compare integers. The components are found by one sweep over
-//! the sorted cells, each cell compared with itself and its four forward neighbours
-//! ([`EpsComponents::build`]); the other neighbourhood queries (splitting, continuation)
-//! look at the 3 x 3 cells around a point with three binary searches. Building is one
-//! sort, `O(m log m)`; the sweep is `O(m)` plus the distance checks, so the clustering is
-//! `O(m log m)` for any bounded target density. A grid rather than the `kiddo` k-d tree
-//! because the radius is fixed per scan (the grid's natural case), the query is exact and
-//! inclusive (`d <= Eps`) with the very arithmetic the tests' brute force uses, it
-//! allocates nothing per query (all buffers live in `self`), and it is deterministic by
-//! construction. Components are kept in a union-find whose roots are the smallest member
-//! index, so the clusters come out ordered by their first track.
+//! The Eps-neighbourhoods come from the crate's uniform grid with cells of side (just
+//! over) Eps ([`crate::spatial::EpsGrid`]), not from all pairs. The components are found
+//! by one sweep over the sorted cells, each cell compared with itself and its four
+//! forward neighbours ([`crate::spatial::EpsComponents::build`]); the other neighbourhood
+//! queries (splitting, continuation) look at the 3 x 3 cells around a point with three
+//! binary searches. Building is one sort, `O(m log m)`; the sweep is `O(m)` plus the
+//! distance checks, so the clustering is `O(m log m)` for any bounded target density
+//! (why a grid and not a k-d tree: [`crate::spatial`]). Components are kept in the
+//! crate's union-find, whose roots are the smallest member index, so the clusters come
+//! out ordered by their first track.
 //!
 //! # Splitting
 //! Two local tracks of one sensor are never the same target (the center's convention).
@@ -125,6 +120,8 @@
 
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
+pub use crate::spatial::EpsGrid;
+use crate::spatial::{squared_distance, EpsComponents};
 use crate::types::{position_of, Id, LocalTrack, Vec2};
 use serde::Deserialize;
 use std::cmp::Ordering;
@@ -260,278 +257,6 @@ pub fn max_entropy_memberships(distances: &[f64], epsilon: f64, out: &mut [f64])
     // sum >= 1: the member at d_min contributes exp(0)
     for u in out.iter_mut() {
         *u /= sum;
-    }
-}
-
-/// A uniform grid over 2-D points for fixed-radius neighbourhood queries: cells of side
-/// (just over) the radius, points sorted by cell, so a query scans the 3 x 3 cells around
-/// it. Rebuilt per scan; its buffers are reused.
-#[derive(Debug, Clone, Default)]
-pub struct EpsGrid {
-    radius2: f64,
-    inv_cell: f64,
-    /// `pack(cell x, cell y) << 32 | point index`, sorted: one primitive per point, so
-    /// the per-scan sort and the cell searches compare integers (the order is that of
-    /// `(cell x, cell y, index)`).
-    cells: Vec<u128>,
-    points: Vec<Vec2>,
-    /// The occupied cells, ascending, and where each starts in `cells` (one more entry):
-    /// the queries binary-search this short array of 8-byte keys, which stays in the
-    /// cache where `cells` (16 bytes a point) would not.
-    dir_keys: Vec<u64>,
-    dir_start: Vec<u32>,
-}
-
-impl EpsGrid {
-    /// Rebuild for `points` and the query radius `radius` (> 0).
-    pub fn rebuild(&mut self, radius: f64, points: impl IntoIterator<Item = Vec2>) {
-        self.points.clear();
-        self.points.extend(points);
-        // a cell a hair larger than the radius, so that rounding in x / cell can never
-        // put two points within the radius more than one cell apart
-        self.inv_cell = 1.0 / (radius * (1.0 + 1e-6));
-        self.radius2 = radius * radius;
-        self.cells.clear();
-        for (i, p) in self.points.iter().enumerate() {
-            let (cx, cy) = cell_of(p, self.inv_cell);
-            self.cells.push(entry(pack(cx, cy), i as u32));
-        }
-        self.cells.sort_unstable();
-        self.dir_keys.clear();
-        self.dir_start.clear();
-        for (k, &c) in self.cells.iter().enumerate() {
-            if self.dir_keys.last() != Some(&key(c)) {
-                self.dir_keys.push(key(c));
-                self.dir_start.push(k as u32);
-            }
-        }
-        self.dir_start.push(self.cells.len() as u32);
-    }
-
-    /// Number of points.
-    pub fn len(&self) -> usize {
-        self.points.len()
-    }
-
-    /// Whether the grid holds no point.
-    pub fn is_empty(&self) -> bool {
-        self.points.is_empty()
-    }
-
-    /// Point `i`.
-    pub fn point(&self, i: usize) -> Vec2 {
-        self.points[i]
-    }
-
-    /// Call `f(index, squared distance)` for every point within the radius of `p`
-    /// (inclusive), in grid order.
-    pub fn for_each_within(&self, p: &Vec2, mut f: impl FnMut(usize, f64)) {
-        let (cx, cy) = cell_of(p, self.inv_cell);
-        for x in cx - 1..=cx + 1 {
-            let (lo, hi) = (pack(x, cy - 1), pack(x, cy + 1));
-            let first = self.dir_keys.partition_point(|&k| k < lo);
-            let last = first
-                + self.dir_keys[first..]
-                    .iter()
-                    .take(3)
-                    .take_while(|&&k| k <= hi)
-                    .count();
-            if first == last {
-                continue;
-            }
-            let (start, end) = (self.dir_start[first], self.dir_start[last]);
-            for &c in &self.cells[start as usize..end as usize] {
-                let i = index(c);
-                let q = self.points[i as usize];
-                let d2 = squared_distance(&q, p);
-                if d2 <= self.radius2 {
-                    f(i as usize, d2);
-                }
-            }
-        }
-    }
-}
-
-/// Cell coordinates are clamped to this range, so that a neighbour (+-1) still fits an
-/// `i32` and [`pack`] keeps their order. Points beyond it (farther than 2^31 cells from the
-/// origin) share the edge cells: the distance test is exact, so the result is the same.
-const CELL_MIN: i64 = i32::MIN as i64 + 2;
-const CELL_MAX: i64 = i32::MAX as i64 - 2;
-
-#[inline]
-fn cell_of(p: &Vec2, inv_cell: f64) -> (i64, i64) {
-    let c = |v: f64| ((v * inv_cell).floor() as i64).clamp(CELL_MIN, CELL_MAX);
-    (c(p[0]), c(p[1]))
-}
-
-/// Cell `(x, y)` (each within `CELL_MIN - 1 ..= CELL_MAX + 1`) as one integer ordered as
-/// `(x, y)`.
-#[inline]
-fn pack(x: i64, y: i64) -> u64 {
-    let u = |v: i64| ((v as i32 as u32) ^ 0x8000_0000) as u64;
-    (u(x) << 32) | u(y)
-}
-
-/// The coordinates of a packed cell.
-#[inline]
-fn unpack(k: u64) -> (i64, i64) {
-    let v = |u: u64| ((u as u32) ^ 0x8000_0000) as i32 as i64;
-    (v(k >> 32), v(k))
-}
-
-#[inline]
-fn entry(cell: u64, i: u32) -> u128 {
-    ((cell as u128) << 32) | i as u128
-}
-
-#[inline]
-fn key(c: u128) -> u64 {
-    (c >> 32) as u64
-}
-
-#[inline]
-fn index(c: u128) -> u32 {
-    c as u32
-}
-
-/// `dx^2 + dy^2`, the one distance formula of this module.
-#[inline]
-pub fn squared_distance(a: &Vec2, b: &Vec2) -> f64 {
-    let dx = a[0] - b[0];
-    let dy = a[1] - b[1];
-    dx * dx + dy * dy
-}
-
-/// Connected components of the Eps graph of a grid's points, by union-find.
-#[derive(Debug, Clone, Default)]
-pub struct EpsComponents {
-    parent: Vec<u32>,
-    count: Vec<usize>,
-    /// Start of each component in `members` (one more entry than components).
-    start: Vec<usize>,
-    /// Point indices, grouped by component, ascending within one; components ordered by
-    /// their smallest index.
-    members: Vec<u32>,
-}
-
-impl EpsComponents {
-    /// Compute the components of `grid`'s points (neighbours: within the grid radius).
-    ///
-    /// A sweep over the cells in sorted order: each cell is compared with itself and
-    /// with its four "forward" neighbours `(x, y+1)`, `(x+1, y-1)`, `(x+1, y)`,
-    /// `(x+1, y+1)`, so every pair of neighbouring cells is visited once, and the cursor
-    /// into column `x+1` only moves forward: `O(m)` after the grid's sort, plus the
-    /// distance checks.
-    pub fn build(&mut self, grid: &EpsGrid) {
-        let m = grid.len();
-        self.parent.clear();
-        self.parent.extend(0..m as u32);
-        let cells = &grid.cells;
-        let parent = &mut self.parent;
-        let mut link = |a: u32, b: u32| {
-            if squared_distance(&grid.points[a as usize], &grid.points[b as usize]) <= grid.radius2
-            {
-                union(parent, a, b);
-            }
-        };
-        let mut next_col = 0usize;
-        let mut b0 = 0usize;
-        while b0 < cells.len() {
-            let k0 = key(cells[b0]);
-            let (x, y) = unpack(k0);
-            let mut b1 = b0 + 1;
-            while b1 < cells.len() && key(cells[b1]) == k0 {
-                b1 += 1;
-            }
-            // within the cell
-            for a in b0..b1 {
-                for b in a + 1..b1 {
-                    link(index(cells[a]), index(cells[b]));
-                }
-            }
-            // (x, y+1): the cell right after this one, if it is that
-            let up = pack(x, y + 1);
-            let mut c = b1;
-            while c < cells.len() && key(cells[c]) == up {
-                for a in b0..b1 {
-                    link(index(cells[a]), index(cells[c]));
-                }
-                c += 1;
-            }
-            // column x+1, rows y-1 ..= y+1
-            let (lo, hi) = (pack(x + 1, y - 1), pack(x + 1, y + 1));
-            while next_col < cells.len() && key(cells[next_col]) < lo {
-                next_col += 1;
-            }
-            let mut c = next_col;
-            while c < cells.len() && key(cells[c]) <= hi {
-                for a in b0..b1 {
-                    link(index(cells[a]), index(cells[c]));
-                }
-                c += 1;
-            }
-            b0 = b1;
-        }
-        // roots are the smallest index of each component; bucket by root
-        self.count.clear();
-        self.count.resize(m + 1, 0);
-        for i in 0..m {
-            let r = find(&mut self.parent, i as u32) as usize;
-            self.parent[i] = r as u32;
-            self.count[r] += 1;
-        }
-        self.start.clear();
-        let mut offset = 0;
-        // component order = root order; reuse `count` as the write cursor per root
-        for r in 0..m {
-            if self.parent[r] as usize == r {
-                self.start.push(offset);
-                let c = self.count[r];
-                self.count[r] = offset;
-                offset += c;
-            }
-        }
-        self.start.push(offset);
-        self.members.clear();
-        self.members.resize(m, 0);
-        for i in 0..m {
-            let r = self.parent[i] as usize;
-            self.members[self.count[r]] = i as u32;
-            self.count[r] += 1;
-        }
-    }
-
-    /// Number of components.
-    pub fn len(&self) -> usize {
-        self.start.len().saturating_sub(1)
-    }
-
-    /// Whether there is no component.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// The point indices of component `c`, ascending.
-    pub fn component(&self, c: usize) -> &[u32] {
-        &self.members[self.start[c]..self.start[c + 1]]
-    }
-}
-
-fn find(parent: &mut [u32], mut i: u32) -> u32 {
-    while parent[i as usize] != i {
-        let gp = parent[parent[i as usize] as usize];
-        parent[i as usize] = gp;
-        i = gp;
-    }
-    i
-}
-
-fn union(parent: &mut [u32], a: u32, b: u32) {
-    let ra = find(parent, a);
-    let rb = find(parent, b);
-    if ra != rb {
-        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-        parent[hi as usize] = lo;
     }
 }
 
@@ -1355,88 +1080,7 @@ mod tests {
         assert_eq!((p.eps, p.adaptive, p.eps_scale), (250.0, false, 3.0));
     }
 
-    /// Points beyond the clamped cell range (2^31 cells from the origin) share the edge
-    /// cells; the exact distance test keeps the components right.
-    #[test]
-    fn far_points_share_edge_cells_exactly() {
-        let points = [
-            Vec2::new(1e12, 0.0),
-            Vec2::new(1e12 + 0.5, 0.0),
-            Vec2::new(-1e12, 0.0),
-            Vec2::new(1e12, 3.0),
-            Vec2::new(2e12, 0.25),
-        ];
-        let mut grid = EpsGrid::default();
-        grid.rebuild(1.0, points.iter().copied());
-        let mut comps = EpsComponents::default();
-        comps.build(&grid);
-        let sets: Vec<Vec<u32>> = (0..comps.len())
-            .map(|c| comps.component(c).to_vec())
-            .collect();
-        assert_eq!(sets, vec![vec![0, 1], vec![2], vec![3], vec![4]]);
-        assert_eq!(brute_components(&points, 1.0), vec![0, 0, 2, 3, 4]);
-        let mut near = Vec::new();
-        grid.for_each_within(&Vec2::new(1e12 + 0.25, 0.0), |i, _| near.push(i));
-        near.sort_unstable();
-        assert_eq!(near, vec![0, 1]);
-    }
-
-    /// Brute-force connected components of the Eps graph: labels = smallest index.
-    fn brute_components(points: &[Vec2], eps: f64) -> Vec<usize> {
-        let n = points.len();
-        let mut label = vec![usize::MAX; n];
-        for s in 0..n {
-            if label[s] != usize::MAX {
-                continue;
-            }
-            label[s] = s;
-            let mut stack = vec![s];
-            while let Some(i) = stack.pop() {
-                for j in 0..n {
-                    if label[j] == usize::MAX
-                        && squared_distance(&points[i], &points[j]) <= eps * eps
-                    {
-                        label[j] = s;
-                        stack.push(j);
-                    }
-                }
-            }
-        }
-        label
-    }
-
     proptest::proptest! {
-        /// The grid + union-find clustering equals brute-force connected components.
-        #[test]
-        fn grid_components_equal_brute_force(
-            pts in proptest::collection::vec((-2000f64..2000.0, -2000f64..2000.0), 0..80),
-            eps in 1f64..600.0,
-            snap in proptest::bool::ANY,
-        ) {
-            // `snap` puts points on a lattice of pitch eps: distances exactly eps
-            let points: Vec<Vec2> = pts
-                .iter()
-                .map(|&(x, y)| if snap {
-                    Vec2::new((x / eps).round() * eps, (y / eps).round() * eps)
-                } else {
-                    Vec2::new(x, y)
-                })
-                .collect();
-            let mut grid = EpsGrid::default();
-            grid.rebuild(eps, points.iter().copied());
-            let mut comps = EpsComponents::default();
-            comps.build(&grid);
-            let mut label = vec![usize::MAX; points.len()];
-            for c in 0..comps.len() {
-                let members = comps.component(c);
-                proptest::prop_assert!(members.windows(2).all(|w| w[0] < w[1]));
-                for &i in members {
-                    label[i as usize] = members[0] as usize;
-                }
-            }
-            proptest::prop_assert_eq!(label, brute_components(&points, eps));
-        }
-
         /// The invariants hold on random scans with repeated sensors and globals.
         #[test]
         fn invariants_on_random_scans(

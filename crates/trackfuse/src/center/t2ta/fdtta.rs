@@ -87,9 +87,9 @@
 //! (paper 004).
 
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
-use crate::local::gating::MeasurementIndex;
 use crate::models::wrap_angle;
 use crate::params::{in_range, parse_params, ParamError, ParamTables};
+use crate::spatial::SweepIndex;
 use crate::types::{position_of, Id, LocalTrack, StateCov, StateVec, Vec2};
 use nalgebra::DMatrix;
 use serde::Deserialize;
@@ -459,7 +459,7 @@ pub struct Fdtta {
     col_taken: Vec<bool>,
     col_ids: Vec<u32>,
     col_positions: Vec<Vec2>,
-    index: MeasurementIndex,
+    index: SweepIndex,
     entries: Vec<Entry>,
     chosen: Vec<usize>,
 }
@@ -481,7 +481,7 @@ impl Fdtta {
             col_taken: Vec::new(),
             col_ids: Vec::new(),
             col_positions: Vec::new(),
-            index: MeasurementIndex::default(),
+            index: SweepIndex::default(),
             entries: Vec::new(),
             chosen: Vec::new(),
         })
@@ -604,7 +604,7 @@ impl Fdtta {
                 max_tr = max_tr.max(cand.cov[(0, 0)] + cand.cov[(2, 2)]);
             }
         }
-        self.index.build(&self.col_positions);
+        self.index.build(self.col_positions.iter().map(|p| p[0]));
         self.entries.clear();
         for (r, &i) in self.rows.iter().enumerate() {
             let t = &tracks[i];
@@ -618,7 +618,7 @@ impl Fdtta {
             } else {
                 f64::INFINITY
             };
-            for &k in self.index.in_first_range(pos[0] - radius, pos[0] + radius) {
+            for &k in self.index.range(pos[0] - radius, pos[0] + radius) {
                 if (self.col_positions[k as usize][1] - pos[1]).abs() > radius {
                     continue;
                 }

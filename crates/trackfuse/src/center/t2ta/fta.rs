@@ -48,10 +48,11 @@
 //! # Parameters
 //! See [`FtaParams`]; `[fusion.params.fta]`.
 
-use super::grouping::{sensor_blocks, track_position, Candidate, GroupTable, SweepIndex};
+use super::grouping::{sensor_blocks, track_position, Candidate, GroupTable};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::models::wrap_angle;
 use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
+use crate::spatial::SweepIndex;
 use crate::types::{Id, LocalTrack, StateCov, StateVec, Vec2};
 use serde::{Deserialize, Serialize};
 

@@ -78,9 +78,11 @@
 //! Target Tracking" (paper 003), Sec. 3-5.
 
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
-use crate::local::gating::{gate_threshold, MeasurementIndex};
+use crate::local::gating::gate_threshold;
 use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
+use crate::spatial::SweepIndex;
 use crate::types::{position_cov_of, position_of, Id, LocalTrack, Mat2, Sensor, SensorKind, Vec2};
+use crate::union_find::UnionFind;
 use nalgebra::DMatrix;
 use serde::Deserialize;
 
@@ -384,8 +386,7 @@ pub struct Ftta {
     params: FttaParams,
     model: ResolutionModel,
     reports: Vec<Report>,
-    positions: Vec<Vec2>,
-    index: MeasurementIndex,
+    index: SweepIndex,
     pairs: Vec<(f64, u32, u32)>,
     head: Vec<usize>,
     next: Vec<usize>,
@@ -402,8 +403,7 @@ impl Ftta {
             model: params.model(),
             params,
             reports: Vec::new(),
-            positions: Vec::new(),
-            index: MeasurementIndex::default(),
+            index: SweepIndex::default(),
             pairs: Vec::new(),
             head: Vec::new(),
             next: Vec::new(),
@@ -456,10 +456,7 @@ impl Ftta {
         self.tail.clear();
         self.tail.extend(0..n);
         // candidate pairs through a sorted index on x
-        self.positions.clear();
-        self.positions
-            .extend(self.reports.iter().map(|r| r.position));
-        self.index.build(&self.positions);
+        self.index.build(self.reports.iter().map(|r| r.position[0]));
         let r_max = self
             .reports
             .iter()
@@ -469,7 +466,7 @@ impl Ftta {
             let ri = self.reports[i];
             for &j in self
                 .index
-                .in_first_range(ri.position[0] - r_max, ri.position[0] + r_max)
+                .range(ri.position[0] - r_max, ri.position[0] + r_max)
             {
                 let j = j as usize;
                 if j <= i || !correlated(&ri, &self.reports[j]) {
@@ -538,14 +535,6 @@ fn mahalanobis2(d: &Vec2, s: &Mat2) -> f64 {
     }
 }
 
-fn find(parent: &mut [usize], mut i: usize) -> usize {
-    while parent[i] != i {
-        parent[i] = parent[parent[i]];
-        i = parent[i];
-    }
-    i
-}
-
 /// Optimal assignment of rows to columns over the candidate `edges` `(row, col, cost)`
 /// (every cost below `gate`), minimising the total cost, component by component.
 fn assign_gated(
@@ -558,14 +547,13 @@ fn assign_gated(
     if edges.is_empty() {
         return out;
     }
-    let mut parent: Vec<usize> = (0..n_rows + n_cols).collect();
+    // a component's root is its smallest row: components are solved in row order
+    let mut sets = UnionFind::default();
+    sets.reset(n_rows + n_cols);
     for &(r, c, _) in edges.iter() {
-        let (a, b) = (find(&mut parent, r), find(&mut parent, n_rows + c));
-        if a != b {
-            parent[a.max(b)] = a.min(b);
-        }
+        sets.union(r as u32, (n_rows + c) as u32);
     }
-    let mut roots: Vec<usize> = edges.iter().map(|e| find(&mut parent, e.0)).collect();
+    let mut roots: Vec<u32> = edges.iter().map(|e| sets.find(e.0 as u32)).collect();
     let mut order: Vec<usize> = (0..edges.len()).collect();
     order.sort_unstable_by_key(|&e| (roots[e], edges[e].0, edges[e].1));
     roots = order.iter().map(|&e| roots[e]).collect();
@@ -656,10 +644,8 @@ impl TrackAssociator for Ftta {
         // group centres -> predicted globals
         if !globals.is_empty() && !groups.is_empty() {
             let gamma = gate_threshold(self.params.global_gate);
-            self.positions.clear();
-            self.positions
-                .extend(ctx.predicted.iter().map(|(x, _)| position_of(x)));
-            self.index.build(&self.positions);
+            self.index
+                .build(ctx.predicted.iter().map(|(x, _)| position_of(x)[0]));
             let max_tr = ctx
                 .predicted
                 .iter()
@@ -667,10 +653,7 @@ impl TrackAssociator for Ftta {
             self.edges.clear();
             for (g, (centre, cov)) in centres.iter().enumerate() {
                 let radius = (gamma * (cov.trace() + max_tr)).max(0.0).sqrt();
-                for &n in self
-                    .index
-                    .in_first_range(centre[0] - radius, centre[0] + radius)
-                {
+                for &n in self.index.range(centre[0] - radius, centre[0] + radius) {
                     let n = n as usize;
                     let (xs, cs) = &ctx.predicted[n];
                     let d = centre - position_of(xs);

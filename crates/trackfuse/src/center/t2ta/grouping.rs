@@ -1,47 +1,12 @@
 //! Building blocks shared by the associators of paper 002 (`ht-t2gt`, `wfc`, `fta`):
-//! a sorted-sweep index over positions, one-to-one greedy selection of scored
-//! (track, target) pairs within one sensor, and the group table that turns decisions
-//! into [`TrackGroup`]s while keeping the center's invariants (every track in exactly one
+//! one-to-one greedy selection of scored (track, target) pairs within one sensor, and the
+//! group table that turns decisions into [`TrackGroup`]s while keeping the center's invariants (every track in exactly one
 //! group, at most one track per sensor per group, at most one group per global track).
 
 use crate::center::TrackGroup;
+use crate::spatial::SweepIndex;
 use crate::types::{Id, LocalTrack, Vec2};
 use std::cmp::Ordering;
-
-/// Points sorted by one key (an x coordinate, an angle), for "all points whose key lies
-/// in `[lo, hi]`" without comparing all pairs. Rebuilt in place, reusing its buffers.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct SweepIndex {
-    unsorted: Vec<f64>,
-    keys: Vec<f64>,
-    order: Vec<u32>,
-}
-
-impl SweepIndex {
-    /// Index the keys (point `i` is the `i`-th item).
-    pub fn build(&mut self, keys: impl Iterator<Item = f64>) {
-        self.unsorted.clear();
-        self.unsorted.extend(keys);
-        self.order.clear();
-        self.order.extend(0..self.unsorted.len() as u32);
-        let unsorted = &self.unsorted;
-        self.order.sort_unstable_by(|&a, &b| {
-            unsorted[a as usize]
-                .total_cmp(&unsorted[b as usize])
-                .then(a.cmp(&b))
-        });
-        self.keys.clear();
-        self.keys
-            .extend(self.order.iter().map(|&i| unsorted[i as usize]));
-    }
-
-    /// Indices of the points whose key lies in `[lo, hi]`.
-    pub fn range(&self, lo: f64, hi: f64) -> &[u32] {
-        let a = self.keys.partition_point(|&k| k < lo);
-        let b = self.keys.partition_point(|&k| k <= hi);
-        &self.order[a..b.max(a)]
-    }
-}
 
 /// A scored pairing of a local track (index into the scan's tracks) with a target (a
 /// global track, or a group being formed this scan).
@@ -338,16 +303,6 @@ pub(crate) fn track_position(t: &LocalTrack) -> Vec2 {
 mod tests {
     use super::*;
     use crate::center::testing::{check_groups, local};
-
-    #[test]
-    fn sweep_index_finds_the_slice() {
-        let mut idx = SweepIndex::default();
-        idx.build([5.0, -1.0, 3.0, 3.0, 10.0].into_iter());
-        let mut got: Vec<u32> = idx.range(2.0, 5.0).to_vec();
-        got.sort_unstable();
-        assert_eq!(got, vec![0, 2, 3]);
-        assert!(idx.range(11.0, 12.0).is_empty());
-    }
 
     #[test]
     fn greedy_keeps_one_track_per_sensor_per_target() {

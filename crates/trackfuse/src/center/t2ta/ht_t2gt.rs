@@ -73,10 +73,11 @@
 //! Fan En, Shen Shi-gen, Hu Ke-li, Yuan Chang-hong, Wang Pin, "Tracklet-global track
 //! association and fusion methods in distributed sensor networks", IJSIP 9(6), 2016.
 
-use super::grouping::{sensor_blocks, track_position, Candidate, GroupTable, SweepIndex};
+use super::grouping::{sensor_blocks, track_position, Candidate, GroupTable};
 use crate::center::hough::{HoughPoint, HoughSpace};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
+use crate::spatial::SweepIndex;
 use crate::types::{Id, LocalTrack, Vec2};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};

@@ -44,9 +44,10 @@
 //! # Parameters
 //! See [`WfcParams`]; `[fusion.params.wfc]`.
 
-use super::grouping::{sensor_blocks, Candidate, GroupTable, SweepIndex};
+use super::grouping::{sensor_blocks, Candidate, GroupTable};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
+use crate::spatial::SweepIndex;
 use crate::types::{Id, LocalTrack, StateVec};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, VecDeque};

@@ -12,6 +12,7 @@
 //! allocation once the buffers have grown to the largest scan seen.
 
 use super::AssociationProblem;
+use crate::union_find::{Components, UnionFind};
 
 /// "No measurement" / "no track" in the `u32` index buffers.
 pub(crate) const NONE: u32 = u32::MAX;
@@ -44,22 +45,19 @@ pub(crate) fn nearest(gated: &[(u32, f64)]) -> Option<(u32, f64)> {
 /// Tracks grouped into clusters of the gate graph.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct GateClusters {
-    parent: Vec<u32>,
+    sets: UnionFind,
     owner: Vec<u32>,
-    cluster_of_root: Vec<u32>,
-    start: Vec<u32>,
-    tracks: Vec<u32>,
-    fill: Vec<u32>,
+    clusters: Components,
 }
 
 impl GateClusters {
     /// Cluster the tracks of `problem`. Clusters are numbered by their smallest track,
-    /// and list their tracks in increasing order (deterministic).
+    /// and list their tracks in increasing order (deterministic): the union-find's root
+    /// of a cluster is its smallest track.
     pub(crate) fn build(&mut self, problem: &AssociationProblem<'_>) {
         let n = problem.predictions.len();
         let m = problem.measurements.len();
-        self.parent.clear();
-        self.parent.extend(0..n as u32);
+        self.sets.reset(n);
         self.owner.clear();
         self.owner.resize(m, NONE);
         for t in 0..n {
@@ -71,70 +69,21 @@ impl GateClusters {
                     *owner = t as u32;
                 } else {
                     let o = *owner;
-                    self.union(o, t as u32);
+                    self.sets.union(o, t as u32);
                 }
             }
         }
-        // Number clusters by first appearance of their root, then counting-sort tracks.
-        self.cluster_of_root.clear();
-        self.cluster_of_root.resize(n, NONE);
-        self.start.clear();
-        let mut clusters = 0u32;
-        for t in 0..n as u32 {
-            let r = self.find(t) as usize;
-            if self.cluster_of_root[r] == NONE {
-                self.cluster_of_root[r] = clusters;
-                clusters += 1;
-                self.start.push(0);
-            }
-            self.start[self.cluster_of_root[r] as usize] += 1;
-        }
-        // Exclusive prefix sums: start[c] = first slot of cluster c; start[clusters] = n.
-        let mut acc = 0u32;
-        for s in self.start.iter_mut() {
-            let count = *s;
-            *s = acc;
-            acc += count;
-        }
-        self.start.push(acc);
-        self.tracks.clear();
-        self.tracks.resize(n, 0);
-        self.fill.clear();
-        self.fill
-            .extend_from_slice(&self.start[..clusters as usize]);
-        for t in 0..n as u32 {
-            let r = self.find(t) as usize;
-            let c = self.cluster_of_root[r] as usize;
-            self.tracks[self.fill[c] as usize] = t;
-            self.fill[c] += 1;
-        }
+        self.clusters.build(&mut self.sets);
     }
 
     /// Number of clusters.
     pub(crate) fn len(&self) -> usize {
-        self.start.len().saturating_sub(1)
+        self.clusters.len()
     }
 
     /// The tracks of cluster `c`, increasing.
     pub(crate) fn tracks_of(&self, c: usize) -> &[u32] {
-        &self.tracks[self.start[c] as usize..self.start[c + 1] as usize]
-    }
-
-    fn find(&mut self, mut t: u32) -> u32 {
-        while self.parent[t as usize] != t {
-            let grand = self.parent[self.parent[t as usize] as usize];
-            self.parent[t as usize] = grand;
-            t = grand;
-        }
-        t
-    }
-
-    fn union(&mut self, a: u32, b: u32) {
-        let (ra, rb) = (self.find(a), self.find(b));
-        if ra != rb {
-            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-            self.parent[hi as usize] = lo;
-        }
+        self.clusters.component(c)
     }
 }
 

@@ -233,7 +233,7 @@ impl FdbDaf {
         let half = self.eps * p.s[(0, 0)].max(0.0).sqrt();
         let min_pts = self.params.min_pts as usize;
         // seed: the Eps-neighbourhood of the prediction
-        for &m in index.in_first_range(p.z[0] - half, p.z[0] + half) {
+        for &m in index.range(p.z[0] - half, p.z[0] + half) {
             let Some(z) = meas.get(m as usize) else {
                 continue;
             };
@@ -248,7 +248,7 @@ impl FdbDaf {
             let q = self.queue[head] as usize;
             head += 1;
             let zq = meas[q];
-            let slice = index.in_first_range(zq[0] - half, zq[0] + half);
+            let slice = index.range(zq[0] - half, zq[0] + half);
             let count = slice
                 .iter()
                 .filter(|&&m| {

@@ -38,7 +38,7 @@ impl Scene {
         let meas: Vec<Vec2> = meas.iter().map(|m| Vec2::new(m[0], m[1])).collect();
         let gate = gate_threshold(pg);
         let mut index = MeasurementIndex::default();
-        index.build(&meas);
+        index.build(meas.iter().map(|z| z[0]));
         let mut gates = Gates::default();
         gates.compute(&preds, &meas, &index, gate);
         Scene {

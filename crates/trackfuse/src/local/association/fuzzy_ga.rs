@@ -11,6 +11,7 @@ use crate::local::registry::AssociatorSettings;
 use crate::params::{in_range, parse_params, positive, ParamError};
 use crate::rng::{stream, StreamRng};
 use crate::types::{Mat2, Vec2};
+use crate::union_find::UnionFind;
 use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
@@ -215,7 +216,7 @@ pub struct FuzzyGa {
     innovations: Vec<Vec2>,
     prediction_d2: Vec<f64>,
     entries: Vec<(u32, f64, f64)>,
-    parent: Vec<u32>,
+    sets: UnionFind,
     group_of: Vec<u32>,
     local_of: Vec<u32>,
     keyed: Vec<(u32, u32)>,
@@ -245,7 +246,7 @@ impl FuzzyGa {
             innovations: Vec::new(),
             prediction_d2: Vec::new(),
             entries: Vec::new(),
-            parent: Vec::new(),
+            sets: UnionFind::default(),
             group_of: Vec::new(),
             local_of: Vec::new(),
             keyed: Vec::new(),
@@ -290,38 +291,25 @@ impl FuzzyGa {
         self.best.get(t).copied().unwrap_or_else(Vec2::zeros)
     }
 
-    fn find(&mut self, mut t: u32) -> u32 {
-        while self.parent[t as usize] != t {
-            let up = self.parent[self.parent[t as usize] as usize];
-            self.parent[t as usize] = up;
-            t = up;
-        }
-        t
-    }
-
     /// Group the tracks that share validated measurements; list each group's tracks and
     /// measurement runs.
     fn build_groups(&mut self, n_tracks: usize) {
-        self.parent.clear();
-        self.parent.extend(0..n_tracks as u32);
+        self.sets.reset(n_tracks);
         for r in 0..self.pairs.measurement_runs() {
             let len = self.pairs.run(r).len();
             let track_at = |s: &Self, k: usize| s.pairs.pairs()[s.pairs.run(r)[k] as usize].track;
             let first = track_at(self, 0);
             for k in 1..len {
                 let other = track_at(self, k);
-                let (a, b) = (self.find(first), self.find(other));
-                if a != b {
-                    let (lo, hi) = (a.min(b), a.max(b));
-                    self.parent[hi as usize] = lo;
-                }
+                self.sets.union(first, other);
             }
         }
-        // tracks with validated measurements, ordered by (group root, track)
+        // tracks with validated measurements, ordered by (group root, track): a group's
+        // root is its smallest track, so groups come in the order of their first track
         self.keyed.clear();
         for t in 0..n_tracks {
             if !self.pairs.of_track(t).is_empty() {
-                let root = self.find(t as u32);
+                let root = self.sets.find(t as u32);
                 self.keyed.push((root, t as u32));
             }
         }

@@ -39,7 +39,7 @@ impl Fixture {
     ) -> Self {
         let measurements: Vec<Vec2> = points.iter().map(|p| Vec2::new(p[0], p[1])).collect();
         let mut index = MeasurementIndex::default();
-        index.build(&measurements);
+        index.build(measurements.iter().map(|z| z[0]));
         let mut gates = Gates::default();
         gates.compute(&predictions, &measurements, &index, gamma);
         Fixture {

@@ -1,0 +1,497 @@
+//! Neighbourhood queries without comparing all pairs: one sorted-sweep index for
+//! one-dimensional intervals, one uniform grid for fixed-radius discs in the plane.
+//!
+//! Both stages use them: the local tracker's validation gates (`local::gating`), the
+//! fusion center's associators (`ftta`, `fdtta`, `ht-t2gt`, `wfc`, `fta`, `fdbsc-ta`) and
+//! bias estimator, and the evaluation's gated assignment (`metrics::assignment`), so they
+//! sit below all three.
+//!
+//! # Which query each serves
+//! - [`SweepIndex`]: points sorted by one key (an x coordinate, a range, an angle); the
+//!   query is "every point whose key lies in `[lo, hi]`", with `lo`, `hi` chosen per query
+//!   (a track's gate half-width `sqrt(gamma S_00)`, a resolution, a chi-square radius).
+//!   Two binary searches answer it exactly and return a slice of the index, in key order
+//!   (ties by point index): no allocation, and the caller's iteration order is the same
+//!   on every run. The caller tests the second coordinate (or the full statistic) on the
+//!   slice, so that coordinate may be an angle that wraps at `+-pi`.
+//! - [`EpsGrid`]: 2-D points for a radius fixed per rebuild (`fdbsc-ta`'s Eps, the bias
+//!   estimator's pairing radius, the evaluation's gate); the query is the disc `|p - q| <= radius` (inclusive),
+//!   and [`EpsGrid::for_each_close_pair`] visits every pair within the radius once (the
+//!   Eps graph). A sorted sweep would hold a whole column of a grid of targets on its
+//!   sweep line (`O(n^1.5)` work); cells of side just over the radius look at 3 x 3 cells
+//!   instead, `O(n log n)` for any bounded target density.
+//!
+//! The sweep cannot serve the disc query at the grid's cost, nor the grid a per-query
+//! width (its cell is the radius), so both exist. The `chi2-gnn` associator runs a third
+//! shape, kept in its file: an overlap join of two sets of intervals that each have
+//! their own width (`|dx| <= h_i + h_j`), in horizontal strips; a point index would have
+//! to widen every query by the largest width of the other set.
+//!
+//! # Why hand-written
+//! A k-d tree (`kiddo`) answers Euclidean boxes and balls over all coordinates: it
+//! would not take a one-dimensional interval of per-query width without a box that spans
+//! the other axis, would mishandle a bearing axis at the `+-pi` seam, returns its results
+//! in tree order (or allocates to sort them), and rebuilds with allocation. Each query
+//! here is exact with the very arithmetic the tests' brute force uses, allocates nothing
+//! (all buffers live in the index and are reused scan after scan), and returns its
+//! results in a documented order that the callers' outputs depend on.
+
+use crate::types::Vec2;
+use crate::union_find::{Components, UnionFind};
+
+/// Points sorted by one key (an x coordinate, a range, an angle), for "all points whose
+/// key lies in `[lo, hi]`" without comparing all pairs. Rebuilt in place, reusing its
+/// buffers.
+#[derive(Debug, Clone, Default)]
+pub struct SweepIndex {
+    unsorted: Vec<f64>,
+    keys: Vec<f64>,
+    order: Vec<u32>,
+}
+
+impl SweepIndex {
+    /// Index the keys (point `i` is the `i`-th item). Keys are ordered by
+    /// `f64::total_cmp`, ties by point index.
+    pub fn build(&mut self, keys: impl IntoIterator<Item = f64>) {
+        self.unsorted.clear();
+        self.unsorted.extend(keys);
+        self.order.clear();
+        self.order.extend(0..self.unsorted.len() as u32);
+        let unsorted = &self.unsorted;
+        self.order.sort_unstable_by(|&a, &b| {
+            unsorted[a as usize]
+                .total_cmp(&unsorted[b as usize])
+                .then(a.cmp(&b))
+        });
+        self.keys.clear();
+        self.keys
+            .extend(self.order.iter().map(|&i| unsorted[i as usize]));
+    }
+
+    /// Indices of the points whose key lies in `[lo, hi]` (inclusive), in key order (ties
+    /// by index). Empty when `lo > hi` or `hi` is NaN.
+    pub fn range(&self, lo: f64, hi: f64) -> &[u32] {
+        let a = self.keys.partition_point(|&k| k < lo);
+        let b = self.keys.partition_point(|&k| k <= hi);
+        &self.order[a..b.max(a)]
+    }
+
+    /// Number of indexed points.
+    pub fn len(&self) -> usize {
+        self.order.len()
+    }
+
+    /// Whether no point is indexed.
+    pub fn is_empty(&self) -> bool {
+        self.order.is_empty()
+    }
+}
+
+/// A uniform grid over 2-D points for fixed-radius neighbourhood queries: cells of side
+/// (just over) the radius, points sorted by cell, so a query scans the 3 x 3 cells around
+/// it. Rebuilt per scan; its buffers are reused.
+///
+/// The points are sorted by cell (no hash map, so nothing depends on hash iteration
+/// order), each as one `u128` (the cell's coordinates packed in order above the point's
+/// index), so the per-scan sort and the searches compare integers.
+#[derive(Debug, Clone, Default)]
+pub struct EpsGrid {
+    radius2: f64,
+    inv_cell: f64,
+    /// `pack(cell x, cell y) << 32 | point index`, sorted: one primitive per point, so
+    /// the per-scan sort and the cell searches compare integers (the order is that of
+    /// `(cell x, cell y, index)`).
+    cells: Vec<u128>,
+    points: Vec<Vec2>,
+    /// The occupied cells, ascending, and where each starts in `cells` (one more entry):
+    /// the queries binary-search this short array of 8-byte keys, which stays in the
+    /// cache where `cells` (16 bytes a point) would not.
+    dir_keys: Vec<u64>,
+    dir_start: Vec<u32>,
+}
+
+impl EpsGrid {
+    /// Rebuild for `points` and the query radius `radius` (> 0).
+    pub fn rebuild(&mut self, radius: f64, points: impl IntoIterator<Item = Vec2>) {
+        self.points.clear();
+        self.points.extend(points);
+        // a cell a hair larger than the radius, so that rounding in x / cell can never
+        // put two points within the radius more than one cell apart
+        self.inv_cell = 1.0 / (radius * (1.0 + 1e-6));
+        self.radius2 = radius * radius;
+        self.cells.clear();
+        for (i, p) in self.points.iter().enumerate() {
+            let (cx, cy) = cell_of(p, self.inv_cell);
+            self.cells.push(entry(pack(cx, cy), i as u32));
+        }
+        self.cells.sort_unstable();
+        self.dir_keys.clear();
+        self.dir_start.clear();
+        for (k, &c) in self.cells.iter().enumerate() {
+            if self.dir_keys.last() != Some(&key(c)) {
+                self.dir_keys.push(key(c));
+                self.dir_start.push(k as u32);
+            }
+        }
+        self.dir_start.push(self.cells.len() as u32);
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether the grid holds no point.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Point `i`.
+    pub fn point(&self, i: usize) -> Vec2 {
+        self.points[i]
+    }
+
+    /// Call `f(index, squared distance)` for every point within the radius of `p`
+    /// (inclusive), in grid order.
+    pub fn for_each_within(&self, p: &Vec2, mut f: impl FnMut(usize, f64)) {
+        let (cx, cy) = cell_of(p, self.inv_cell);
+        for x in cx - 1..=cx + 1 {
+            let (lo, hi) = (pack(x, cy - 1), pack(x, cy + 1));
+            let first = self.dir_keys.partition_point(|&k| k < lo);
+            let last = first
+                + self.dir_keys[first..]
+                    .iter()
+                    .take(3)
+                    .take_while(|&&k| k <= hi)
+                    .count();
+            if first == last {
+                continue;
+            }
+            let (start, end) = (self.dir_start[first], self.dir_start[last]);
+            for &c in &self.cells[start as usize..end as usize] {
+                let i = index(c);
+                let q = self.points[i as usize];
+                let d2 = squared_distance(&q, p);
+                if d2 <= self.radius2 {
+                    f(i as usize, d2);
+                }
+            }
+        }
+    }
+
+    /// Call `f(a, b)` once for every pair of distinct points within the radius of each
+    /// other (inclusive), in grid order: the edges of the Eps graph.
+    ///
+    /// A sweep over the cells in sorted order: each cell is compared with itself and
+    /// with its four "forward" neighbours `(x, y+1)`, `(x+1, y-1)`, `(x+1, y)`,
+    /// `(x+1, y+1)`, so every pair of neighbouring cells is visited once, and the cursor
+    /// into column `x+1` only moves forward: `O(m)` after the grid's sort, plus the
+    /// distance checks.
+    pub fn for_each_close_pair(&self, mut f: impl FnMut(u32, u32)) {
+        let cells = &self.cells;
+        let mut link = |a: u32, b: u32| {
+            if squared_distance(&self.points[a as usize], &self.points[b as usize]) <= self.radius2
+            {
+                f(a, b);
+            }
+        };
+        let mut next_col = 0usize;
+        let mut b0 = 0usize;
+        while b0 < cells.len() {
+            let k0 = key(cells[b0]);
+            let (x, y) = unpack(k0);
+            let mut b1 = b0 + 1;
+            while b1 < cells.len() && key(cells[b1]) == k0 {
+                b1 += 1;
+            }
+            // within the cell
+            for a in b0..b1 {
+                for b in a + 1..b1 {
+                    link(index(cells[a]), index(cells[b]));
+                }
+            }
+            // (x, y+1): the cell right after this one, if it is that
+            let up = pack(x, y + 1);
+            let mut c = b1;
+            while c < cells.len() && key(cells[c]) == up {
+                for a in b0..b1 {
+                    link(index(cells[a]), index(cells[c]));
+                }
+                c += 1;
+            }
+            // column x+1, rows y-1 ..= y+1
+            let (lo, hi) = (pack(x + 1, y - 1), pack(x + 1, y + 1));
+            while next_col < cells.len() && key(cells[next_col]) < lo {
+                next_col += 1;
+            }
+            let mut c = next_col;
+            while c < cells.len() && key(cells[c]) <= hi {
+                for a in b0..b1 {
+                    link(index(cells[a]), index(cells[c]));
+                }
+                c += 1;
+            }
+            b0 = b1;
+        }
+    }
+}
+
+/// Cell coordinates are clamped to this range, so that a neighbour (+-1) still fits an
+/// `i32` and [`pack`] keeps their order. Points beyond it (farther than 2^31 cells from the
+/// origin) share the edge cells: the distance test is exact, so the result is the same.
+const CELL_MIN: i64 = i32::MIN as i64 + 2;
+const CELL_MAX: i64 = i32::MAX as i64 - 2;
+
+#[inline]
+fn cell_of(p: &Vec2, inv_cell: f64) -> (i64, i64) {
+    let c = |v: f64| ((v * inv_cell).floor() as i64).clamp(CELL_MIN, CELL_MAX);
+    (c(p[0]), c(p[1]))
+}
+
+/// Cell `(x, y)` (each within `CELL_MIN - 1 ..= CELL_MAX + 1`) as one integer ordered as
+/// `(x, y)`.
+#[inline]
+fn pack(x: i64, y: i64) -> u64 {
+    let u = |v: i64| ((v as i32 as u32) ^ 0x8000_0000) as u64;
+    (u(x) << 32) | u(y)
+}
+
+/// The coordinates of a packed cell.
+#[inline]
+fn unpack(k: u64) -> (i64, i64) {
+    let v = |u: u64| ((u as u32) ^ 0x8000_0000) as i32 as i64;
+    (v(k >> 32), v(k))
+}
+
+#[inline]
+fn entry(cell: u64, i: u32) -> u128 {
+    ((cell as u128) << 32) | i as u128
+}
+
+#[inline]
+fn key(c: u128) -> u64 {
+    (c >> 32) as u64
+}
+
+#[inline]
+fn index(c: u128) -> u32 {
+    c as u32
+}
+
+/// `dx^2 + dy^2`, the one distance formula of the grid (and of its callers' tests
+/// against it).
+#[inline]
+pub fn squared_distance(a: &Vec2, b: &Vec2) -> f64 {
+    let dx = a[0] - b[0];
+    let dy = a[1] - b[1];
+    dx * dx + dy * dy
+}
+
+/// Connected components of the Eps graph of a grid's points (two points are linked when
+/// within the grid radius): components ordered by their smallest point index, members
+/// ascending within one. Rebuilt in place.
+#[derive(Debug, Clone, Default)]
+pub struct EpsComponents {
+    sets: UnionFind,
+    components: Components,
+}
+
+impl EpsComponents {
+    /// Compute the components of `grid`'s points, by union-find over
+    /// [`EpsGrid::for_each_close_pair`].
+    pub fn build(&mut self, grid: &EpsGrid) {
+        self.sets.reset(grid.len());
+        let sets = &mut self.sets;
+        grid.for_each_close_pair(|a, b| {
+            sets.union(a, b);
+        });
+        self.components.build(&mut self.sets);
+    }
+
+    /// Number of components.
+    pub fn len(&self) -> usize {
+        self.components.len()
+    }
+
+    /// Whether there is no component.
+    pub fn is_empty(&self) -> bool {
+        self.components.is_empty()
+    }
+
+    /// The point indices of component `c`, ascending.
+    pub fn component(&self, c: usize) -> &[u32] {
+        self.components.component(c)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn sweep_index_finds_the_slice() {
+        let mut idx = SweepIndex::default();
+        idx.build([5.0, -1.0, 3.0, 3.0, 10.0]);
+        let mut got: Vec<u32> = idx.range(2.0, 5.0).to_vec();
+        got.sort_unstable();
+        assert_eq!(got, vec![0, 2, 3]);
+        assert!(idx.range(11.0, 12.0).is_empty());
+        // key order, ties by index
+        assert_eq!(idx.range(-5.0, 20.0), &[1, 2, 3, 0, 4]);
+        assert!(idx.range(4.0, 2.0).is_empty());
+        assert!(idx.range(-5.0, f64::NAN).is_empty());
+        assert_eq!(idx.len(), 5);
+        idx.build([]);
+        assert!(idx.is_empty() && idx.range(-1.0, 1.0).is_empty());
+    }
+
+    /// Points beyond the clamped cell range (2^31 cells from the origin) share the edge
+    /// cells; the exact distance test keeps the components right.
+    #[test]
+    fn far_points_share_edge_cells_exactly() {
+        let points = [
+            Vec2::new(1e12, 0.0),
+            Vec2::new(1e12 + 0.5, 0.0),
+            Vec2::new(-1e12, 0.0),
+            Vec2::new(1e12, 3.0),
+            Vec2::new(2e12, 0.25),
+        ];
+        let mut grid = EpsGrid::default();
+        grid.rebuild(1.0, points.iter().copied());
+        let mut comps = EpsComponents::default();
+        comps.build(&grid);
+        let sets: Vec<Vec<u32>> = (0..comps.len())
+            .map(|c| comps.component(c).to_vec())
+            .collect();
+        assert_eq!(sets, vec![vec![0, 1], vec![2], vec![3], vec![4]]);
+        assert_eq!(brute_components(&points, 1.0), vec![0, 0, 2, 3, 4]);
+        let mut near = Vec::new();
+        grid.for_each_within(&Vec2::new(1e12 + 0.25, 0.0), |i, _| near.push(i));
+        near.sort_unstable();
+        assert_eq!(near, vec![0, 1]);
+    }
+
+    /// Brute-force connected components of the Eps graph: labels = smallest index.
+    fn brute_components(points: &[Vec2], eps: f64) -> Vec<usize> {
+        let n = points.len();
+        let mut label = vec![usize::MAX; n];
+        for s in 0..n {
+            if label[s] != usize::MAX {
+                continue;
+            }
+            label[s] = s;
+            let mut stack = vec![s];
+            while let Some(i) = stack.pop() {
+                for j in 0..n {
+                    if label[j] == usize::MAX
+                        && squared_distance(&points[i], &points[j]) <= eps * eps
+                    {
+                        label[j] = s;
+                        stack.push(j);
+                    }
+                }
+            }
+        }
+        label
+    }
+
+    /// Points from proptest's pairs; `snap` puts them on a lattice of pitch `eps`, so
+    /// that distances are exactly `eps`.
+    fn snapped(pts: &[(f64, f64)], eps: f64, snap: bool) -> Vec<Vec2> {
+        pts.iter()
+            .map(|&(x, y)| {
+                if snap {
+                    Vec2::new((x / eps).round() * eps, (y / eps).round() * eps)
+                } else {
+                    Vec2::new(x, y)
+                }
+            })
+            .collect()
+    }
+
+    proptest! {
+        /// The grid + union-find clustering equals brute-force connected components.
+        #[test]
+        fn grid_components_equal_brute_force(
+            pts in proptest::collection::vec((-2000f64..2000.0, -2000f64..2000.0), 0..80),
+            eps in 1f64..600.0,
+            snap in proptest::bool::ANY,
+        ) {
+            let points = snapped(&pts, eps, snap);
+            let mut grid = EpsGrid::default();
+            grid.rebuild(eps, points.iter().copied());
+            let mut comps = EpsComponents::default();
+            comps.build(&grid);
+            let mut label = vec![usize::MAX; points.len()];
+            for c in 0..comps.len() {
+                let members = comps.component(c);
+                prop_assert!(members.windows(2).all(|w| w[0] < w[1]));
+                for &i in members {
+                    label[i as usize] = members[0] as usize;
+                }
+            }
+            prop_assert_eq!(label, brute_components(&points, eps));
+        }
+
+        /// The disc query and the pair sweep return exactly the all-pairs neighbours
+        /// within the radius (inclusive), each pair once.
+        #[test]
+        fn grid_queries_equal_all_pairs(
+            pts in proptest::collection::vec((-2000f64..2000.0, -2000f64..2000.0), 0..80),
+            probes in proptest::collection::vec((-2500f64..2500.0, -2500f64..2500.0), 1..10),
+            eps in 1f64..600.0,
+            snap in proptest::bool::ANY,
+        ) {
+            let points = snapped(&pts, eps, snap);
+            let mut grid = EpsGrid::default();
+            grid.rebuild(eps, points.iter().copied());
+            prop_assert_eq!(grid.len(), points.len());
+            let queries = points.iter().copied().chain(snapped(&probes, eps, snap));
+            for q in queries {
+                let mut got = Vec::new();
+                grid.for_each_within(&q, |i, d2| got.push((i, d2)));
+                got.sort_unstable_by_key(|e| e.0);
+                let brute: Vec<(usize, f64)> = (0..points.len())
+                    .map(|i| (i, squared_distance(&points[i], &q)))
+                    .filter(|&(_, d2)| d2 <= eps * eps)
+                    .collect();
+                prop_assert_eq!(got, brute);
+            }
+            let mut pairs = Vec::new();
+            grid.for_each_close_pair(|a, b| pairs.push((a.min(b), a.max(b))));
+            pairs.sort_unstable();
+            let mut brute = Vec::new();
+            for a in 0..points.len() as u32 {
+                for b in a + 1..points.len() as u32 {
+                    if squared_distance(&points[a as usize], &points[b as usize]) <= eps * eps {
+                        brute.push((a, b));
+                    }
+                }
+            }
+            prop_assert_eq!(pairs, brute);
+        }
+
+        /// The sweep's range is exactly the points whose key is in `[lo, hi]`, in key
+        /// order, ties by index.
+        #[test]
+        fn sweep_range_equals_brute_force(
+            raw in proptest::collection::vec(-100i32..100, 0..80),
+            queries in proptest::collection::vec((-120i32..120, 0i32..60), 1..10),
+            scale in 0.1f64..10.0,
+        ) {
+            // integer lattice keys, so that ties and inclusive ends occur
+            let keys: Vec<f64> = raw.iter().map(|&k| k as f64 * scale).collect();
+            let mut idx = SweepIndex::default();
+            idx.build(keys.iter().copied());
+            for &(centre, half) in &queries {
+                let (lo, hi) = ((centre - half) as f64 * scale, (centre + half) as f64 * scale);
+                let mut brute: Vec<u32> = (0..keys.len() as u32)
+                    .filter(|&i| keys[i as usize] >= lo && keys[i as usize] <= hi)
+                    .collect();
+                brute.sort_by(|&a, &b| keys[a as usize].total_cmp(&keys[b as usize]).then(a.cmp(&b)));
+                prop_assert_eq!(idx.range(lo, hi), brute.as_slice());
+            }
+        }
+    }
+}
