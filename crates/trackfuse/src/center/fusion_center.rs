@@ -19,7 +19,7 @@
 //! Carlo engine and a streaming service drive it the same way.
 
 use super::bias::{BiasEstimate, BiasEstimator};
-use super::registry::{make_bias, make_method, make_rule};
+use super::registry::CenterRegistry;
 use super::{
     AssociationContext, CenterError, FusionConfig, FusionContext, FusionRule, GlobalTrack,
     TrackAssociator, TrackGroup,
@@ -79,14 +79,24 @@ impl FusionCenter {
     /// A center configured by `cfg`; `sensors` is what it may know of the sensors (their
     /// true biases are zeroed here and never read).
     pub fn new(cfg: &FusionConfig, sensors: Option<&[Sensor]>) -> Result<Self, CenterError> {
-        cfg.validate()
+        Self::with_registry(cfg, sensors, &CenterRegistry::builtin())
+    }
+
+    /// [`FusionCenter::new`] with the method, rule and bias estimator `cfg` names looked
+    /// up in `registry` (the built-in methods plus a library user's).
+    pub fn with_registry(
+        cfg: &FusionConfig,
+        sensors: Option<&[Sensor]>,
+        registry: &CenterRegistry,
+    ) -> Result<Self, CenterError> {
+        cfg.validate_with(registry)
             .map_err(|(key, reason)| CenterError::Config { key, reason })?;
-        let method = make_method(&cfg.method, &cfg.params)?;
-        let rule = make_rule(&cfg.rule, &cfg.params)?;
+        let method = registry.make_method(&cfg.method, &cfg.params)?;
+        let rule = registry.make_rule(&cfg.rule, &cfg.params)?;
         let bias = cfg
             .bias
             .as_ref()
-            .map(|b| make_bias(b, &cfg.params))
+            .map(|b| registry.make_bias(b, &cfg.params))
             .transpose()?;
         Self::with_parts(cfg, method, rule, bias, sensors)
     }

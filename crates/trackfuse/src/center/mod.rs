@@ -257,6 +257,15 @@ impl FusionConfig {
     /// Range-check the values and that the named methods exist and accept their
     /// parameters; `Err((key, reason))`.
     pub fn validate(&self) -> Result<(), (String, String)> {
+        self.validate_with(&registry::CenterRegistry::builtin())
+    }
+
+    /// [`FusionConfig::validate`] with the methods of `registry` (the built-in ones plus
+    /// a library user's).
+    pub fn validate_with(
+        &self,
+        registry: &registry::CenterRegistry,
+    ) -> Result<(), (String, String)> {
         let err = |e: CenterError| match e {
             CenterError::Config { key, reason } => (key, reason),
             other => ("fusion".to_string(), other.to_string()),
@@ -270,16 +279,13 @@ impl FusionConfig {
         if self.delete_after == 0 {
             return Err(("delete_after".into(), "must be at least 1".into()));
         }
-        registry::make_method(&self.method, &self.params).map_err(err)?;
-        registry::make_rule(&self.rule, &self.params).map_err(err)?;
+        registry.make_method(&self.method, &self.params).map_err(err)?;
+        registry.make_rule(&self.rule, &self.params).map_err(err)?;
         if let Some(b) = &self.bias {
-            registry::make_bias(b, &self.params).map_err(err)?;
+            registry.make_bias(b, &self.params).map_err(err)?;
         }
         for name in self.params.keys() {
-            let known = registry::METHODS.iter().any(|m| m.name == name)
-                || registry::RULES.iter().any(|r| r.name == name)
-                || registry::BIAS_ESTIMATORS.iter().any(|b| b.name == name);
-            if !known {
+            if !registry.has(name) {
                 return Err((
                     format!("params.{name}"),
                     "no method, rule or bias estimator of that name".into(),

@@ -27,7 +27,7 @@
 use super::association::{AssociationProblem, AssociationWeights, DataAssociator};
 use super::filter::{Filter, FilterState, PredictedMeasurement};
 use super::gating::{gate_threshold, Gates, MeasurementIndex};
-use super::registry::{self, AssociatorSettings, FilterSettings};
+use super::registry::{AssociatorSettings, FilterSettings, LocalRegistry};
 use super::{InitiationMethod, TrackerConfig, DEFAULT_PROCESS_NOISE};
 use crate::models::range_bearing_to_position;
 use crate::params::ParamError;
@@ -105,6 +105,7 @@ pub struct SensorTracker {
 /// The filter a config names for a sensor (`auto`: `kf` for position sensors, `ekf` for
 /// range-bearing ones).
 fn filter_for(
+    registry: &LocalRegistry,
     cfg: &TrackerConfig,
     sensor: &Sensor,
     process_noise: [f64; 2],
@@ -114,7 +115,7 @@ fn filter_for(
         ("auto", SensorKind::RangeBearing) => "ekf",
         (n, _) => n,
     };
-    let filter = registry::make_filter(
+    let filter = registry.make_filter(
         name,
         &FilterSettings {
             process_noise,
@@ -148,7 +149,23 @@ impl SensorTracker {
         run: u64,
         sensor_index: u64,
     ) -> Result<SensorTracker, TrackerError> {
-        cfg.validate()
+        let registry = LocalRegistry::builtin();
+        let parts = (seed, run, sensor_index);
+        Self::with_registry(&registry, sensor, cfg, scenario_process_noise, known, parts)
+    }
+
+    /// [`SensorTracker::new`] with the filter and associator `cfg` names looked up in
+    /// `registry` (the built-in methods plus a library user's); `(seed, run,
+    /// sensor_index)` seed randomised associators.
+    pub fn with_registry(
+        registry: &LocalRegistry,
+        sensor: &Sensor,
+        cfg: &TrackerConfig,
+        scenario_process_noise: Option<[f64; 2]>,
+        known: &[KnownTarget],
+        (seed, run, sensor_index): (u64, u64, u64),
+    ) -> Result<SensorTracker, TrackerError> {
+        cfg.validate_with(registry)
             .map_err(|(k, r)| TrackerError::Config(ParamError::new(k, r)))?;
         // the tracker must not see the true biases
         let mut sensor = sensor.clone();
@@ -158,8 +175,8 @@ impl SensorTracker {
             .process_noise
             .or(scenario_process_noise.filter(|q| q.iter().any(|&v| v > 0.0)))
             .unwrap_or([DEFAULT_PROCESS_NOISE; 2]);
-        let filter = filter_for(cfg, &sensor, process_noise)?;
-        let associator = registry::make_associator(
+        let filter = filter_for(registry, cfg, &sensor, process_noise)?;
+        let associator = registry.make_associator(
             &cfg.associator,
             &AssociatorSettings {
                 seed,
