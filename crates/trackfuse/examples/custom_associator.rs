@@ -15,7 +15,7 @@
 //! with this method, both with the scenario's fusion rule, and prints the fused RMSE.
 
 #[path = "common/mod.rs"]
-mod common;
+pub mod common;
 
 use serde::Deserialize;
 use std::error::Error;

@@ -13,7 +13,7 @@
 //! once with this one, and prints the fused RMSE of each.
 
 #[path = "common/mod.rs"]
-mod common;
+pub mod common;
 
 use serde::Deserialize;
 use std::error::Error;

@@ -42,7 +42,10 @@ fn trace_weighted_rule_by_hand() {
         process_noise: 1.0,
     };
     let (x, p) = rule.fuse(&[&a, &b], &[1.0, 1.0], &ctx).unwrap();
-    assert!((x - StateVec::new(2.0, 0.0, 1.0, 0.0)).norm() < 1e-12, "{x}");
+    assert!(
+        (x - StateVec::new(2.0, 0.0, 1.0, 0.0)).norm() < 1e-12,
+        "{x}"
+    );
     assert!((p - StateCov::identity() * 0.75).norm() < 1e-12, "{p}");
     assert!(TraceWeighted::new(TraceWeightedParams { power: 0.0 }).is_err());
 }
@@ -72,7 +75,9 @@ fn registered_rule_is_used_by_name() {
     let mut bad = with(name);
     bad.params
         .insert(name.into(), toml::from_str("power = -1.0").unwrap());
-    let e = FusionCenter::with_registry(&bad, None, &registry).err().unwrap();
+    let e = FusionCenter::with_registry(&bad, None, &registry)
+        .err()
+        .unwrap();
     assert!(e.to_string().contains("params.trace-weighted.power"), "{e}");
     // the built-in registry does not know it
     assert!(FusionCenter::new(&with(name), None).is_err());

@@ -21,7 +21,7 @@ pub fn fused_rmse(
 ) -> Result<Option<f64>, Box<dyn Error>> {
     let sim = simulate(sc, run);
     let local = track_run(sc, &sc.tracker, &sim, run)?;
-    let mut center = FusionCenter::with_registry(fusion, Some(&sim.sensors), registry)?;
+    let mut center = FusionCenter::with_registry(fusion, Some(sim.sensors.as_slice()), registry)?;
     let mut by_scan: BTreeMap<u32, Vec<LocalTrack>> = BTreeMap::new();
     for t in &local {
         by_scan.entry(t.scan).or_default().push(*t);

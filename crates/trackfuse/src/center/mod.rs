@@ -279,7 +279,9 @@ impl FusionConfig {
         if self.delete_after == 0 {
             return Err(("delete_after".into(), "must be at least 1".into()));
         }
-        registry.make_method(&self.method, &self.params).map_err(err)?;
+        registry
+            .make_method(&self.method, &self.params)
+            .map_err(err)?;
         registry.make_rule(&self.rule, &self.params).map_err(err)?;
         if let Some(b) = &self.bias {
             registry.make_bias(b, &self.params).map_err(err)?;

@@ -135,7 +135,13 @@ pub const RULES: &[RuleInfo] = &[
     RuleInfo {
         name: convex_combination::NAME,
         summary: "convex combination: information-weighted mean, cross-covariance ignored",
-        make: |p| rule(p, convex_combination::NAME, convex_combination::ConvexCombination::new),
+        make: |p| {
+            rule(
+                p,
+                convex_combination::NAME,
+                convex_combination::ConvexCombination::new,
+            )
+        },
     },
     RuleInfo {
         name: covariance_intersection::NAME,
@@ -151,7 +157,13 @@ pub const RULES: &[RuleInfo] = &[
     RuleInfo {
         name: bar_shalom_campo::NAME,
         summary: "Bar-Shalom–Campo: BLUE with common-process-noise cross-covariances",
-        make: |p| rule(p, bar_shalom_campo::NAME, bar_shalom_campo::BarShalomCampo::new),
+        make: |p| {
+            rule(
+                p,
+                bar_shalom_campo::NAME,
+                bar_shalom_campo::BarShalomCampo::new,
+            )
+        },
     },
     RuleInfo {
         name: mmse::NAME,
@@ -252,11 +264,13 @@ impl CenterRegistry {
     /// ([`BIAS_ESTIMATORS`]).
     pub fn builtin() -> Self {
         CenterRegistry {
-            methods: entries(
-                METHODS
-                    .iter()
-                    .map(|m| (m.name, m.summary, Arc::new(m.make) as SharedMethodConstructor)),
-            ),
+            methods: entries(METHODS.iter().map(|m| {
+                (
+                    m.name,
+                    m.summary,
+                    Arc::new(m.make) as SharedMethodConstructor,
+                )
+            })),
             rules: entries(
                 RULES
                     .iter()
@@ -291,10 +305,7 @@ impl CenterRegistry {
         &mut self,
         name: &str,
         summary: &str,
-        make: impl Fn(&ParamTables) -> Result<Box<dyn FusionRule>, ParamError>
-            + Send
-            + Sync
-            + 'static,
+        make: impl Fn(&ParamTables) -> Result<Box<dyn FusionRule>, ParamError> + Send + Sync + 'static,
     ) -> Result<(), DuplicateName> {
         register(&mut self.rules, "rule", name, summary, Arc::new(make))
     }
@@ -430,7 +441,11 @@ mod tests {
     fn params_structs_default_and_deny_unknown_keys() {
         fn same<P: DeserializeOwned + Default + std::fmt::Debug>(name: &str) {
             let parsed: P = parse_params(&ParamTables::new(), name).unwrap();
-            assert_eq!(format!("{parsed:?}"), format!("{:?}", P::default()), "{name}");
+            assert_eq!(
+                format!("{parsed:?}"),
+                format!("{:?}", P::default()),
+                "{name}"
+            );
             let mut tables = ParamTables::new();
             tables.insert(name.into(), toml::from_str("no_such_key = 1").unwrap());
             let e = parse_params::<P>(&tables, name).unwrap_err();
@@ -475,14 +490,22 @@ mod tests {
         let e = registry
             .register_method(fdbsc::NAME, "", |_| unreachable!())
             .unwrap_err();
-        assert_eq!(e.to_string(), "a method named \"fdbsc-ta\" is already registered");
+        assert_eq!(
+            e.to_string(),
+            "a method named \"fdbsc-ta\" is already registered"
+        );
         registry
             .register_method("my-chi2", "chi2-gnn again", |t| {
-                Ok(Box::new(chi2_gnn::Chi2Gnn::new(parse_params(t, "my-chi2")?)?))
+                Ok(Box::new(chi2_gnn::Chi2Gnn::new(parse_params(
+                    t, "my-chi2",
+                )?)?))
             })
             .unwrap();
         assert!(registry.has("my-chi2") && !CenterRegistry::builtin().has("my-chi2"));
-        assert_eq!(registry.make_method("my-chi2", &none).unwrap().name(), "chi2-gnn");
+        assert_eq!(
+            registry.make_method("my-chi2", &none).unwrap().name(),
+            "chi2-gnn"
+        );
     }
 
     #[test]

@@ -16,9 +16,7 @@
 //! trackers from it ([`super::SensorTracker::with_registry`]). The free functions
 //! ([`make_filter`], [`make_associator`], ...) work on the built-in methods.
 
-use super::association::{
-    fdb_daf, fnn, fuzzy_ga, gnn, jpda, mef_jpda, nn, pda, DataAssociator,
-};
+use super::association::{fdb_daf, fnn, fuzzy_ga, gnn, jpda, mef_jpda, nn, pda, DataAssociator};
 use super::filter::{cmkf, ekf, imm, input_estimation, kalman, Filter};
 use crate::params::{parse_params, register, DuplicateName, Entry, ParamError};
 use serde::de::DeserializeOwned;
@@ -209,12 +207,22 @@ impl LocalRegistry {
         LocalRegistry {
             filters: FILTERS
                 .iter()
-                .map(|f| Entry::new(f.name, f.summary, Arc::new(f.make) as SharedFilterConstructor))
+                .map(|f| {
+                    Entry::new(
+                        f.name,
+                        f.summary,
+                        Arc::new(f.make) as SharedFilterConstructor,
+                    )
+                })
                 .collect(),
             associators: ASSOCIATORS
                 .iter()
                 .map(|a| {
-                    Entry::new(a.name, a.summary, Arc::new(a.make) as SharedAssociatorConstructor)
+                    Entry::new(
+                        a.name,
+                        a.summary,
+                        Arc::new(a.make) as SharedAssociatorConstructor,
+                    )
                 })
                 .collect(),
         }
@@ -396,7 +404,11 @@ mod tests {
     fn params_structs_default_and_deny_unknown_keys() {
         fn same<P: DeserializeOwned + Default + std::fmt::Debug>(name: &str) {
             let parsed: P = parse_params(&ParamTables::new(), name).unwrap();
-            assert_eq!(format!("{parsed:?}"), format!("{:?}", P::default()), "{name}");
+            assert_eq!(
+                format!("{parsed:?}"),
+                format!("{:?}", P::default()),
+                "{name}"
+            );
             let mut tables = ParamTables::new();
             tables.insert(name.into(), toml::from_str("no_such_key = 1").unwrap());
             let e = parse_params::<P>(&tables, name).unwrap_err();
@@ -463,7 +475,9 @@ mod tests {
                 name: "gnn".into()
             }
         );
-        assert!(registry.register_filter("imm", "", |_| unreachable!()).is_err());
+        assert!(registry
+            .register_filter("imm", "", |_| unreachable!())
+            .is_err());
         assert!(!LocalRegistry::default().has_filter("kf"));
     }
 }

@@ -27,7 +27,7 @@
 use super::association::{AssociationProblem, AssociationWeights, DataAssociator};
 use super::filter::{Filter, FilterState, PredictedMeasurement};
 use super::gating::{gate_threshold, Gates, MeasurementIndex};
-use super::registry::{AssociatorSettings, FilterSettings, LocalRegistry};
+use super::registry::{AssociatorContext, AssociatorSettings, FilterSettings, LocalRegistry};
 use super::{InitiationMethod, TrackerConfig, DEFAULT_PROCESS_NOISE};
 use crate::models::range_bearing_to_position;
 use crate::params::ParamError;
@@ -149,22 +149,31 @@ impl SensorTracker {
         run: u64,
         sensor_index: u64,
     ) -> Result<SensorTracker, TrackerError> {
+        let seeds = AssociatorContext {
+            seed,
+            run,
+            sensor_index,
+        };
         let registry = LocalRegistry::builtin();
-        let parts = (seed, run, sensor_index);
-        Self::with_registry(&registry, sensor, cfg, scenario_process_noise, known, parts)
+        Self::with_registry(&registry, sensor, cfg, scenario_process_noise, known, seeds)
     }
 
     /// [`SensorTracker::new`] with the filter and associator `cfg` names looked up in
-    /// `registry` (the built-in methods plus a library user's); `(seed, run,
-    /// sensor_index)` seed randomised associators.
+    /// `registry` (the built-in methods plus a library user's); `seeds` (seed, run,
+    /// sensor index) seed randomised associators.
     pub fn with_registry(
         registry: &LocalRegistry,
         sensor: &Sensor,
         cfg: &TrackerConfig,
         scenario_process_noise: Option<[f64; 2]>,
         known: &[KnownTarget],
-        (seed, run, sensor_index): (u64, u64, u64),
+        seeds: AssociatorContext,
     ) -> Result<SensorTracker, TrackerError> {
+        let AssociatorContext {
+            seed,
+            run,
+            sensor_index,
+        } = seeds;
         cfg.validate_with(registry)
             .map_err(|(k, r)| TrackerError::Config(ParamError::new(k, r)))?;
         // the tracker must not see the true biases

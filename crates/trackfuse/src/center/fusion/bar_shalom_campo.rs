@@ -526,7 +526,10 @@ impl BarShalomCampo {
 
     /// [`BarShalomCampo::new`] for parameters read from table `table` (`bc`, or `mmse`
     /// for the reference); errors name `params.<table>.<key>`.
-    pub(crate) fn checked_in(params: BarShalomCampoParams, table: &str) -> Result<Self, ParamError> {
+    pub(crate) fn checked_in(
+        params: BarShalomCampoParams,
+        table: &str,
+    ) -> Result<Self, ParamError> {
         params.check_in(table)?;
         Ok(BarShalomCampo {
             params,

@@ -112,8 +112,8 @@ impl FusionRule for ConvexCombination {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::ParamTables;
     use crate::center::testing::local;
+    use crate::params::ParamTables;
 
     use crate::center::testing::fusion_ctx as ctx;
 
@@ -169,6 +169,8 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("rho".into(), toml::Value::Float(0.3));
         t.insert("cc".into(), table);
-        assert!(crate::params::parse_params(&t, NAME).and_then(ConvexCombination::new).is_err());
+        assert!(crate::params::parse_params(&t, NAME)
+            .and_then(ConvexCombination::new)
+            .is_err());
     }
 }

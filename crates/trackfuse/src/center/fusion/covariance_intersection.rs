@@ -313,7 +313,8 @@ mod tests {
     fn two_track_optimum_matches_a_grid_search() {
         let (a, b) = two_tracks();
         for criterion in [CiCriterion::Det, CiCriterion::Trace] {
-            let ci = CovarianceIntersection::new(CovarianceIntersectionParams { criterion }).unwrap();
+            let ci =
+                CovarianceIntersection::new(CovarianceIntersectionParams { criterion }).unwrap();
             let (x, p) = ci.fuse(&[&a, &b], &[1.0, 1.0], &ctx()).unwrap();
             let value = |p: &StateCov| match criterion {
                 CiCriterion::Det => p.determinant(),
@@ -377,7 +378,8 @@ mod tests {
         let mut c = local(3, 1, 98.0, 11.0, 199.0, -6.0, 1.0);
         c.cov = StateCov::from_diagonal(&StateVec::new(30.0, 1.0, 30.0, 8.0));
         for criterion in [CiCriterion::Det, CiCriterion::Trace] {
-            let ci = CovarianceIntersection::new(CovarianceIntersectionParams { criterion }).unwrap();
+            let ci =
+                CovarianceIntersection::new(CovarianceIntersectionParams { criterion }).unwrap();
             let value = |p: &StateCov| match criterion {
                 CiCriterion::Det => p.determinant(),
                 CiCriterion::Trace => p.trace(),

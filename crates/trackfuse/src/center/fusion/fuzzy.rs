@@ -121,8 +121,8 @@ pub fn weighted_fusion(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::{parse_params, ParamTables};
     use crate::center::testing::local;
+    use crate::params::{parse_params, ParamTables};
     use approx::assert_relative_eq;
 
     fn ctx() -> FusionContext<'static> {

@@ -79,9 +79,9 @@ impl FusionRule for Mmse {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::ParamTables;
     use crate::center::fusion::bar_shalom_campo::steady_state_kalman_filters;
     use crate::center::testing::local;
+    use crate::params::ParamTables;
     use nalgebra::{DMatrix, DVector};
 
     #[test]
@@ -146,8 +146,12 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("rho".into(), toml::Value::Float(1.5));
         t.insert("mmse".into(), table);
-        let e = crate::params::parse_params(&t, NAME).and_then(Mmse::new).unwrap_err();
+        let e = crate::params::parse_params(&t, NAME)
+            .and_then(Mmse::new)
+            .unwrap_err();
         assert!(e.key.contains("mmse"), "{e}");
-        assert!(crate::params::parse_params(&ParamTables::new(), NAME).and_then(Mmse::new).is_ok());
+        assert!(crate::params::parse_params(&ParamTables::new(), NAME)
+            .and_then(Mmse::new)
+            .is_ok());
     }
 }

@@ -109,8 +109,8 @@ impl FusionRule for SimpleFusion {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::ParamTables;
     use crate::center::testing::local;
+    use crate::params::ParamTables;
 
     use crate::center::testing::fusion_ctx as ctx;
 
@@ -173,11 +173,17 @@ mod tests {
         table.insert("covariance".into(), toml::Value::String("spread".into()));
         t.insert("sf".into(), table.clone());
         assert_eq!(
-            crate::params::parse_params(&t, NAME).and_then(SimpleFusion::new).unwrap().params.covariance,
+            crate::params::parse_params(&t, NAME)
+                .and_then(SimpleFusion::new)
+                .unwrap()
+                .params
+                .covariance,
             SimpleCovariance::Spread
         );
         table.insert("covariance".into(), toml::Value::String("nope".into()));
         t.insert("sf".into(), table);
-        assert!(crate::params::parse_params(&t, NAME).and_then(SimpleFusion::new).is_err());
+        assert!(crate::params::parse_params(&t, NAME)
+            .and_then(SimpleFusion::new)
+            .is_err());
     }
 }

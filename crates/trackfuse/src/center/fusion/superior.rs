@@ -176,8 +176,8 @@ impl FusionRule for Superior {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::{parse_params, ParamTables};
     use crate::center::testing::local;
+    use crate::params::{parse_params, ParamTables};
     use crate::types::{Id, Sensor, SensorKind};
 
     fn sensor(id: Id, kind: SensorKind, x: f64, a: f64, b: f64) -> Sensor {

@@ -788,8 +788,8 @@ impl TrackAssociator for Chi2Gnn {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::ParamTables;
     use crate::center::testing::{associate_checked, check_groups, ctx, global, local, predicted};
+    use crate::params::ParamTables;
     use crate::rng::stream;
     use crate::types::Id;
     use rand::RngExt;
@@ -819,11 +819,15 @@ mod tests {
         table.insert("gate_on".into(), toml::Value::String("position".into()));
         table.insert("gate_probability".into(), toml::Value::Float(0.95));
         t.insert("chi2-gnn".into(), table.clone());
-        let a = crate::params::parse_params(&t, NAME).and_then(Chi2Gnn::new).unwrap();
+        let a = crate::params::parse_params(&t, NAME)
+            .and_then(Chi2Gnn::new)
+            .unwrap();
         assert!((a.gate() - chi2_gate(GateOn::Position, 0.95)).abs() < 1e-12);
         table.insert("gate".into(), toml::Value::Float(3.0));
         t.insert("chi2-gnn".into(), table);
-        assert!(crate::params::parse_params(&t, NAME).and_then(Chi2Gnn::new).is_err());
+        assert!(crate::params::parse_params(&t, NAME)
+            .and_then(Chi2Gnn::new)
+            .is_err());
     }
 
     /// Sensors 1 and 2 each see target A near (0, 0) moving +x and target B near

@@ -1032,10 +1032,10 @@ impl TrackAssociator for FdbscTa {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::{parse_params, ParamTables};
     use crate::center::fusion::fuzzy::FuzzyFusion;
     use crate::center::testing::{self, check_groups, ctx, local, predicted};
     use crate::center::{FusionContext, FusionRule};
+    use crate::params::{parse_params, ParamTables};
     use crate::rng::stream;
     use crate::types::{StateCov, StateVec};
     use approx::assert_relative_eq;
@@ -1316,7 +1316,10 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("epss".into(), toml::Value::Float(1.0));
         tables.insert(NAME.into(), table);
-        let e = parse_params(&tables, NAME).and_then(FdbscTa::new).err().unwrap();
+        let e = parse_params(&tables, NAME)
+            .and_then(FdbscTa::new)
+            .err()
+            .unwrap();
         assert!(e.to_string().contains("epss"), "{e}");
         let bad = [
             FdbscParams {

@@ -861,8 +861,8 @@ impl TrackAssociator for Fdtta {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::{parse_params, ParamTables};
     use crate::center::testing::{self, associate_checked, check_groups, ctx, local, predicted};
+    use crate::params::{parse_params, ParamTables};
 
     fn diag(px: f64, pv: f64) -> StateCov {
         StateCov::from_diagonal(&nalgebra::Vector4::new(px, pv, px, pv))

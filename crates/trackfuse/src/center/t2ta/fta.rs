@@ -359,8 +359,8 @@ impl TrackAssociator for Fta {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::ParamTables;
     use crate::center::testing::{self, associate_checked, ctx, local, predicted};
+    use crate::params::ParamTables;
     use approx::assert_relative_eq;
 
     /// A global track at scan 0 fused from `sources`, covariance `100 I`.
@@ -538,9 +538,14 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("threshold".into(), toml::Value::Float(2.0));
         t.insert(NAME.into(), table);
-        assert!(crate::params::parse_params(&t, NAME).and_then(Fta::new).unwrap_err().key.contains("threshold"));
+        assert!(crate::params::parse_params(&t, NAME)
+            .and_then(Fta::new)
+            .unwrap_err()
+            .key
+            .contains("threshold"));
         assert_eq!(
-            crate::params::parse_params(&ParamTables::new(), NAME).and_then(Fta::new)
+            crate::params::parse_params(&ParamTables::new(), NAME)
+                .and_then(Fta::new)
                 .unwrap()
                 .params
                 .quality,

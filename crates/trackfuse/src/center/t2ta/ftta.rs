@@ -695,8 +695,8 @@ impl TrackAssociator for Ftta {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::{parse_params, ParamTables};
     use crate::center::testing::{self, associate_checked, local, predicted};
+    use crate::params::{parse_params, ParamTables};
     use crate::types::{StateCov, StateVec};
 
     fn position_sensor(id: Id, sigma: f64) -> Sensor {
@@ -1020,7 +1020,8 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("m".into(), toml::Value::Float(1.0));
         t.insert(NAME.into(), table.clone());
-        assert!(parse_params(&t, NAME).and_then(Ftta::new)
+        assert!(parse_params(&t, NAME)
+            .and_then(Ftta::new)
             .err()
             .unwrap()
             .to_string()
@@ -1029,10 +1030,20 @@ mod tests {
         table.insert("resolution".into(), toml::Value::String("sensor".into()));
         table.insert("global_gate".into(), toml::Value::Float(1.5));
         t.insert(NAME.into(), table.clone());
-        assert!(parse_params(&t, NAME).and_then(Ftta::new).err().unwrap().to_string().contains("global_gate"));
+        assert!(parse_params(&t, NAME)
+            .and_then(Ftta::new)
+            .err()
+            .unwrap()
+            .to_string()
+            .contains("global_gate"));
         table.insert("bogus".into(), toml::Value::Float(1.5));
         t.insert(NAME.into(), table);
-        assert!(parse_params(&t, NAME).and_then(Ftta::new).err().unwrap().to_string().contains("bogus"));
+        assert!(parse_params(&t, NAME)
+            .and_then(Ftta::new)
+            .err()
+            .unwrap()
+            .to_string()
+            .contains("bogus"));
     }
 
     #[test]

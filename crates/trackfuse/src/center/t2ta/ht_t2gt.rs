@@ -642,10 +642,10 @@ impl TrackAssociator for HtT2gt {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::ParamTables;
     use crate::center::testing::{
         self, associate_checked, at, check_groups, ctx, local, predicted,
     };
+    use crate::params::ParamTables;
     use crate::types::{StateCov, StateVec};
     use approx::assert_relative_eq;
 
@@ -911,15 +911,20 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("epsilon".into(), toml::Value::Float(1.5));
         t.insert(NAME.into(), table);
-        let e = crate::params::parse_params(&t, NAME).and_then(HtT2gt::new).unwrap_err();
+        let e = crate::params::parse_params(&t, NAME)
+            .and_then(HtT2gt::new)
+            .unwrap_err();
         assert!(e.key.contains("epsilon"), "{e}");
         let mut table = toml::Table::new();
         table.insert("gat".into(), toml::Value::Float(1.0));
         t.insert(NAME.into(), table);
-        assert!(crate::params::parse_params(&t, NAME).and_then(HtT2gt::new)
+        assert!(crate::params::parse_params(&t, NAME)
+            .and_then(HtT2gt::new)
             .unwrap_err()
             .to_string()
             .contains("gat"));
-        assert!(crate::params::parse_params(&ParamTables::new(), NAME).and_then(HtT2gt::new).is_ok());
+        assert!(crate::params::parse_params(&ParamTables::new(), NAME)
+            .and_then(HtT2gt::new)
+            .is_ok());
     }
 }

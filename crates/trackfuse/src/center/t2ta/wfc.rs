@@ -534,10 +534,10 @@ impl TrackAssociator for Wfc {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::ParamTables;
     use crate::center::testing::{
         associate_checked, at, check_groups, ctx, global_at, local, predicted,
     };
+    use crate::params::ParamTables;
     use crate::types::StateCov;
     use approx::assert_relative_eq;
 
@@ -662,7 +662,8 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("windo".into(), toml::Value::Integer(3));
         t.insert(NAME.into(), table);
-        assert!(crate::params::parse_params(&t, NAME).and_then(Wfc::new)
+        assert!(crate::params::parse_params(&t, NAME)
+            .and_then(Wfc::new)
             .unwrap_err()
             .to_string()
             .contains("windo"));

@@ -256,7 +256,11 @@ mod tests {
         let truth = sensor.position() + r * Vec2::new(theta.cos(), theta.sin());
         let n = 20_000;
         for conv in [Conversion::Additive, Conversion::Multiplicative] {
-            let f = ConvertedMeasurementKalmanFilter::new(CmkfParams { conversion: conv }, &[1.0, 1.0].into()).unwrap();
+            let f = ConvertedMeasurementKalmanFilter::new(
+                CmkfParams { conversion: conv },
+                &[1.0, 1.0].into(),
+            )
+            .unwrap();
             let mut rng = stream(5, 0, "cmkf-test", 0);
             let (mut mean, mut raw) = (Vec2::zeros(), Vec2::zeros());
             let mut second = Mat2::zeros();
@@ -306,7 +310,13 @@ mod tests {
 
     #[test]
     fn position_sensor_is_plain_kalman_filter() {
-        let cm = ConvertedMeasurementKalmanFilter::new(CmkfParams { conversion: Conversion::Additive }, &[1.0, 2.0].into()).unwrap();
+        let cm = ConvertedMeasurementKalmanFilter::new(
+            CmkfParams {
+                conversion: Conversion::Additive,
+            },
+            &[1.0, 2.0].into(),
+        )
+        .unwrap();
         let kf = KalmanFilter::new(Default::default(), &[1.0, 2.0].into()).unwrap();
         let sensor = position_sensor(15.0, 25.0);
         let mut a = cm.init(
@@ -336,7 +346,13 @@ mod tests {
     /// 140 m cross-range against 10 m in range).
     #[test]
     fn nees_consistent_on_cv_target() {
-        let f = ConvertedMeasurementKalmanFilter::new(CmkfParams { conversion: Conversion::Additive }, &[2.0, 2.0].into()).unwrap();
+        let f = ConvertedMeasurementKalmanFilter::new(
+            CmkfParams {
+                conversion: Conversion::Additive,
+            },
+            &[2.0, 2.0].into(),
+        )
+        .unwrap();
         let sensor = radar(-500.0, 300.0, 10.0, 0.02);
         assert_nees_in_band(
             &f,

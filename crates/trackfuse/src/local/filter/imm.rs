@@ -675,7 +675,10 @@ mod tests {
             },
         ];
         for p in bad {
-            assert!(ImmFilter::new(p.clone(), &[1.0, 1.0].into()).is_err(), "{p:?}");
+            assert!(
+                ImmFilter::new(p.clone(), &[1.0, 1.0].into()).is_err(),
+                "{p:?}"
+            );
         }
         let keys = [
             ("omega", toml::Value::Float(0.05)),

@@ -526,7 +526,8 @@ mod tests {
             }
         };
         let sensor = position_sensor(60.0, 60.0);
-        let f = InputEstimationFilter::new(InputEstimationParams::default(), &[1.0, 1.0].into()).unwrap();
+        let f = InputEstimationFilter::new(InputEstimationParams::default(), &[1.0, 1.0].into())
+            .unwrap();
         let kf = KalmanFilter::new(Default::default(), &[1.0, 1.0].into()).unwrap();
         let rmse = |filter: &dyn Filter, manoeuvre: bool| -> f64 {
             let mut sq = 0.0;
@@ -576,7 +577,8 @@ mod tests {
     #[test]
     fn works_with_range_bearing() {
         let sensor = radar(0.0, -2000.0, 10.0, 2e-3);
-        let f = InputEstimationFilter::new(InputEstimationParams::default(), &[1.0, 1.0].into()).unwrap();
+        let f = InputEstimationFilter::new(InputEstimationParams::default(), &[1.0, 1.0].into())
+            .unwrap();
         let ekf = ExtendedKalmanFilter::new(Default::default(), &[1.0, 1.0].into()).unwrap();
         let err = |filter: &dyn Filter| -> f64 {
             let mut rng = stream(4, 0, "mie-test", 0);
@@ -628,7 +630,10 @@ mod tests {
             },
         ];
         for p in bad {
-            assert!(InputEstimationFilter::new(p.clone(), &[1.0, 1.0].into()).is_err(), "{p:?}");
+            assert!(
+                InputEstimationFilter::new(p.clone(), &[1.0, 1.0].into()).is_err(),
+                "{p:?}"
+            );
         }
         let f = mie(5, true);
         assert!((f.threshold() - 13.8155).abs() < 1e-3); // chi^2_2 at 0.999

@@ -41,9 +41,9 @@ pub(crate) fn make_with(
     make_filter(
         name,
         &FilterSettings {
-        process_noise: [1.0, 1.0],
-        params: &tables,
-    },
+            process_noise: [1.0, 1.0],
+            params: &tables,
+        },
     )
 }
 
