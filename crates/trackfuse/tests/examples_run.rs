@@ -2,6 +2,10 @@
 //! cases, and registered by name, picked up through `FusionConfig` on a built-in
 //! scenario (the examples' `main` prints what these tests assert on).
 
+// Each example includes `examples/common/mod.rs` itself (an example is a crate of its
+// own), so including both examples here loads it twice, once per example: on purpose.
+#![allow(clippy::duplicate_mod)]
+
 #[allow(dead_code)]
 #[path = "../examples/custom_fusion_rule.rs"]
 mod custom_fusion_rule;
