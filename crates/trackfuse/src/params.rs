@@ -1,6 +1,7 @@
 //! Method parameters: each method reads its own TOML table (`[tracker.params.fdb-daf]`,
 //! `[fusion.params.fdbsc-ta]`, or `--param key=value` on the command line) into a serde
 //! struct with `deny_unknown_fields`, so an unknown or mistyped key is an error naming it.
+//! Also the named entries the registries (`local::registry`, `center::registry`) hold.
 
 use serde::de::DeserializeOwned;
 use std::collections::BTreeMap;
@@ -30,8 +31,60 @@ impl ParamError {
     }
 }
 
+/// Registering a method under a name the registry already holds (a registry never
+/// silently replaces a method).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("a {kind} named {name:?} is already registered")]
+pub struct DuplicateName {
+    /// What kind of method (`filter`, `associator`, `method`, `rule`, `bias`).
+    pub kind: &'static str,
+    pub name: String,
+}
+
 /// The parameter tables of a config section, by method name.
 pub type ParamTables = BTreeMap<String, toml::Table>;
+
+/// One named entry of a registry value.
+#[derive(Clone)]
+pub struct Entry<C> {
+    pub name: String,
+    pub summary: String,
+    make: C,
+}
+
+impl<C> Entry<C> {
+    /// An entry (the registries add them with [`register`], which refuses a taken name).
+    pub(crate) fn new(name: &str, summary: &str, make: C) -> Self {
+        Entry {
+            name: name.to_string(),
+            summary: summary.to_string(),
+            make,
+        }
+    }
+
+    /// The constructor.
+    pub fn constructor(&self) -> &C {
+        &self.make
+    }
+}
+
+/// Add `(name, summary, make)` to `entries` unless `name` is taken.
+pub(crate) fn register<C>(
+    entries: &mut Vec<Entry<C>>,
+    kind: &'static str,
+    name: &str,
+    summary: &str,
+    make: C,
+) -> Result<(), DuplicateName> {
+    if entries.iter().any(|e| e.name == name) {
+        return Err(DuplicateName {
+            kind,
+            name: name.to_string(),
+        });
+    }
+    entries.push(Entry::new(name, summary, make));
+    Ok(())
+}
 
 /// Parse method `name`'s table (absent = all defaults) into `P`. Errors name
 /// `params.<name>.<key>` (`params.<name>` when no single key is at fault, e.g. a missing

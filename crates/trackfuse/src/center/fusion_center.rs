@@ -22,7 +22,7 @@
 //! Carlo engine and a streaming service drive it the same way.
 
 use super::bias::{BiasEstimate, BiasEstimator};
-use super::registry::{make_bias, make_method, make_rule};
+use super::registry::{make_rule, CenterRegistry};
 use super::t2ta::truth::{self, TruthAssociator, TruthSource};
 use super::{
     AssociationContext, CenterError, FusionConfig, FusionContext, FusionRule, GlobalTrack,
@@ -130,7 +130,17 @@ impl FusionCenter {
     /// A center configured by `cfg`; `sensors` is what it may know of the sensors (their
     /// true biases are zeroed here and never read).
     pub fn new(cfg: &FusionConfig, sensors: Option<&[Sensor]>) -> Result<Self, CenterError> {
-        Self::configured(cfg, sensors, None)
+        Self::configured(cfg, sensors, None, &CenterRegistry::builtin())
+    }
+
+    /// [`FusionCenter::new`] with the method, rule and bias estimator `cfg` names looked
+    /// up in `registry` (the built-in methods plus a library user's).
+    pub fn with_registry(
+        cfg: &FusionConfig,
+        sensors: Option<&[Sensor]>,
+        registry: &CenterRegistry,
+    ) -> Result<Self, CenterError> {
+        Self::configured(cfg, sensors, None, registry)
     }
 
     /// As [`FusionCenter::new`], with the truth labels of the local tracks for a config
@@ -141,28 +151,34 @@ impl FusionCenter {
         sensors: Option<&[Sensor]>,
         truth: impl TruthSource + 'static,
     ) -> Result<Self, CenterError> {
-        Self::configured(cfg, sensors, Some(Box::new(truth)))
+        Self::configured(
+            cfg,
+            sensors,
+            Some(Box::new(truth)),
+            &CenterRegistry::builtin(),
+        )
     }
 
     fn configured(
         cfg: &FusionConfig,
         sensors: Option<&[Sensor]>,
         truth: Option<Box<dyn TruthSource>>,
+        registry: &CenterRegistry,
     ) -> Result<Self, CenterError> {
-        cfg.check()?;
-        let rule = make_rule(&cfg.rule, &cfg.params)?;
+        cfg.check_with(registry)?;
+        let rule = registry.make_rule(&cfg.rule, &cfg.params)?;
         let wants_truth = cfg.method == truth::NAME || rule.needs_true_association();
         let (method, truth_missing): (Box<dyn TrackAssociator>, bool) = if wants_truth {
             let method = TruthAssociator::with_source(truth);
             let missing = !method.has_labels();
             (Box::new(method), missing)
         } else {
-            (make_method(&cfg.method, &cfg.params)?, false)
+            (registry.make_method(&cfg.method, &cfg.params)?, false)
         };
         let bias = cfg
             .bias
             .as_ref()
-            .map(|b| make_bias(b, &cfg.params))
+            .map(|b| registry.make_bias(b, &cfg.params))
             .transpose()?;
         let mut center = Self::with_parts(cfg, method, rule, bias, sensors)?;
         center.truth_missing = truth_missing;

@@ -189,7 +189,7 @@ pub enum CenterError {
     Unknown {
         kind: &'static str,
         name: String,
-        known: Vec<&'static str>,
+        known: Vec<String>,
     },
     /// A method, rule, bias estimator or the two-pass run (`method` names it) needs
     /// something the input does not give: the sensors, the truth, a bias estimator (see
@@ -323,7 +323,7 @@ pub enum Missing {
 }
 
 /// `unknown <kind> "<name>" (known: a, b)`: the reason of [`CenterError::Unknown`].
-fn unknown_reason(kind: &str, name: &str, known: &[&str]) -> String {
+fn unknown_reason(kind: &str, name: &str, known: &[String]) -> String {
     format!("unknown {kind} {name:?} (known: {})", known.join(", "))
 }
 
@@ -430,6 +430,12 @@ impl FusionConfig {
     /// parameters: [`CenterError::Config`] for a value or parameter,
     /// [`CenterError::Unknown`] for a name not in the registry.
     pub fn check(&self) -> Result<(), CenterError> {
+        self.check_with(&registry::CenterRegistry::builtin())
+    }
+
+    /// [`FusionConfig::check`] with the methods of `registry` (the built-in ones plus a
+    /// library user's).
+    pub fn check_with(&self, registry: &registry::CenterRegistry) -> Result<(), CenterError> {
         if !(self.process_noise.is_finite() && self.process_noise >= 0.0) {
             return Err(ParamError::new(
                 "process_noise",
@@ -440,16 +446,13 @@ impl FusionConfig {
         if self.delete_after == 0 {
             return Err(ParamError::new("delete_after", "must be at least 1").into());
         }
-        registry::make_method(&self.method, &self.params)?;
-        registry::make_rule(&self.rule, &self.params)?;
+        registry.make_method(&self.method, &self.params)?;
+        registry.make_rule(&self.rule, &self.params)?;
         if let Some(b) = &self.bias {
-            registry::make_bias(b, &self.params)?;
+            registry.make_bias(b, &self.params)?;
         }
         for name in self.params.keys() {
-            let known = registry::METHODS.iter().any(|m| m.name == name)
-                || registry::RULES.iter().any(|r| r.name == name)
-                || registry::BIAS_ESTIMATORS.iter().any(|b| b.name == name);
-            if !known {
+            if !registry.has(name) {
                 return Err(ParamError::new(
                     format!("params.{name}"),
                     "no method, rule or bias estimator of that name",
@@ -463,7 +466,13 @@ impl FusionConfig {
     /// [`FusionConfig::check`] as a [`ParamError`] naming the key within `[fusion]`, for
     /// the run configuration's validation.
     pub fn validate(&self) -> Result<(), ParamError> {
-        self.check().map_err(|e| match e {
+        self.validate_with(&registry::CenterRegistry::builtin())
+    }
+
+    /// [`FusionConfig::validate`] with the methods of `registry` (the built-in ones plus
+    /// a library user's).
+    pub fn validate_with(&self, registry: &registry::CenterRegistry) -> Result<(), ParamError> {
+        self.check_with(registry).map_err(|e| match e {
             CenterError::Config(p) => p,
             CenterError::Unknown { kind, name, known } => {
                 ParamError::new(kind, unknown_reason(kind, &name, &known))
@@ -508,7 +517,7 @@ mod tests {
         match cfg.check() {
             Err(CenterError::Unknown { kind, name, known }) => {
                 assert_eq!((kind, name.as_str()), ("method", "nope"));
-                assert!(known.contains(&"fdbsc-ta"), "{known:?}");
+                assert!(known.iter().any(|k| k == "fdbsc-ta"), "{known:?}");
             }
             other => panic!("expected an unknown method, got {other:?}"),
         }

@@ -165,10 +165,16 @@ impl TrackerConfig {
     /// Range-check the values and that the named methods exist and accept their
     /// parameters; the error names the key within `[tracker]`.
     pub fn validate(&self) -> Result<(), ParamError> {
-        self.check()
+        self.validate_with(&registry::LocalRegistry::builtin())
     }
 
-    fn check(&self) -> Result<(), ParamError> {
+    /// [`TrackerConfig::validate`] with the filters and associators of `registry` (the
+    /// built-in ones plus a library user's).
+    pub fn validate_with(&self, registry: &registry::LocalRegistry) -> Result<(), ParamError> {
+        self.check(registry)
+    }
+
+    fn check(&self, registry: &registry::LocalRegistry) -> Result<(), ParamError> {
         use crate::params::{in_range, positive};
         in_range("gate_probability", self.gate_probability, 0.5, 1.0 - 1e-12)?;
         if let Some(q) = self.process_noise {
@@ -210,9 +216,9 @@ impl TrackerConfig {
             params: &self.params,
         };
         if self.filter != "auto" {
-            registry::make_filter(&self.filter, &settings)?;
+            registry.make_filter(&self.filter, &settings)?;
         }
-        registry::make_associator(
+        registry.make_associator(
             &self.associator,
             &registry::AssociatorSettings {
                 seed: 0,
@@ -222,8 +228,7 @@ impl TrackerConfig {
             },
         )?;
         for name in self.params.keys() {
-            let known = registry::FILTERS.iter().any(|f| f.name == name)
-                || registry::ASSOCIATORS.iter().any(|a| a.name == name);
+            let known = registry.has_filter(name) || registry.has_associator(name);
             if !known {
                 return Err(ParamError::new(
                     format!("params.{name}"),

@@ -27,7 +27,7 @@
 use super::association::{AssociationProblem, AssociationWeights, DataAssociator};
 use super::filter::{Filter, FilterState, PredictedMeasurement};
 use super::gating::{gate_threshold, Gates, MeasurementIndex};
-use super::registry::{self, AssociatorSettings, FilterSettings};
+use super::registry::{AssociatorContext, AssociatorSettings, FilterSettings, LocalRegistry};
 use super::{InitiationMethod, TrackerConfig, DEFAULT_PROCESS_NOISE};
 use crate::models::range_bearing_to_position;
 use crate::params::{ParamError, ParamTables};
@@ -192,6 +192,7 @@ pub struct SensorTracker {
 /// The filter a config names for a sensor (`auto`: `kf` for position sensors, `ekf` for
 /// range-bearing ones).
 fn filter_for(
+    registry: &LocalRegistry,
     cfg: &TrackerConfig,
     sensor: &Sensor,
     process_noise: [f64; 2],
@@ -201,7 +202,7 @@ fn filter_for(
         ("auto", SensorKind::RangeBearing) => "ekf",
         (n, _) => n,
     };
-    let filter = registry::make_filter(
+    let filter = registry.make_filter(
         name,
         &FilterSettings {
             process_noise,
@@ -232,7 +233,32 @@ impl SensorTracker {
         run: u64,
         sensor_index: u64,
     ) -> Result<SensorTracker, TrackerError> {
-        cfg.validate().map_err(TrackerError::Config)?;
+        let seeds = AssociatorContext {
+            seed,
+            run,
+            sensor_index,
+        };
+        let registry = LocalRegistry::builtin();
+        Self::with_registry(&registry, sensor, cfg, scenario_process_noise, known, seeds)
+    }
+
+    /// [`SensorTracker::new`] with the filter and associator `cfg` names looked up in
+    /// `registry` (the built-in methods plus a library user's); `seeds` (seed, run,
+    /// sensor index) seed randomised associators.
+    pub fn with_registry(
+        registry: &LocalRegistry,
+        sensor: &Sensor,
+        cfg: &TrackerConfig,
+        scenario_process_noise: Option<[f64; 2]>,
+        known: &[KnownTarget],
+        seeds: AssociatorContext,
+    ) -> Result<SensorTracker, TrackerError> {
+        let AssociatorContext {
+            seed,
+            run,
+            sensor_index,
+        } = seeds;
+        cfg.validate_with(registry).map_err(TrackerError::Config)?;
         // the tracker must not see the true biases
         let mut sensor = sensor.clone();
         sensor.bias_r = 0.0;
@@ -241,8 +267,8 @@ impl SensorTracker {
             .process_noise
             .or(scenario_process_noise.filter(|q| q.iter().any(|&v| v > 0.0)))
             .unwrap_or([DEFAULT_PROCESS_NOISE; 2]);
-        let filter = filter_for(cfg, &sensor, process_noise)?;
-        let associator = registry::make_associator(
+        let filter = filter_for(registry, cfg, &sensor, process_noise)?;
+        let associator = registry.make_associator(
             &cfg.associator,
             &AssociatorSettings {
                 seed,
@@ -977,7 +1003,7 @@ pd = 0.95
             state: StateVec::new(1000.0, 20.0, 500.0, 0.0),
         }];
         let filter = || {
-            registry::make_filter(
+            crate::local::registry::make_filter(
                 "kf",
                 &FilterSettings {
                     process_noise: [0.5, 0.5],

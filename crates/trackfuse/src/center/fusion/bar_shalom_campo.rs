@@ -79,7 +79,7 @@ use crate::center::linalg::{
 };
 use crate::center::{CenterError, FusionContext, FusionRule};
 use crate::models::{cv_transition, process_noise};
-use crate::params::{parse_params, ParamError, ParamTables};
+use crate::params::ParamError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
 use nalgebra::DMatrix;
 use serde::Deserialize;
@@ -98,6 +98,9 @@ pub enum CrossCovarianceModel {
     Correlation,
 }
 
+/// The ALGORITHMS.md name, also the key of the parameter table `[fusion.params.bc]`.
+pub const NAME: &str = "bc";
+
 /// Parameters of `bc` (`[fusion.params.bc]`) and `mmse` (`[fusion.params.mmse]`).
 ///
 /// - `model` = `"steady-state"` (default) | `"correlation"`.
@@ -109,15 +112,11 @@ pub enum CrossCovarianceModel {
 /// - `max_correlation` (default 0.95, in `(0, 1)`): bound on the normalised
 ///   steady-state cross-covariances of a group (see the module docs).
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct BarShalomCampoParams {
-    #[serde(default)]
     pub model: CrossCovarianceModel,
-    #[serde(default = "default_rho")]
     pub rho: f64,
-    #[serde(default)]
     pub interval: f64,
-    #[serde(default = "default_max_correlation")]
     pub max_correlation: f64,
 }
 
@@ -141,8 +140,15 @@ impl Default for BarShalomCampoParams {
 }
 
 impl BarShalomCampoParams {
-    /// Range-check; errors name `params.<table>.<key>`.
-    pub fn check(&self, table: &str) -> Result<(), ParamError> {
+    /// Range-check; errors name `params.bc.<key>`.
+    pub fn check(&self) -> Result<(), ParamError> {
+        self.check_in(NAME)
+    }
+
+    /// [`BarShalomCampoParams::check`] for the parameters read from table `table` (`bc`,
+    /// or `mmse` for the reference, which takes the keys of `bc`); errors name
+    /// `params.<table>.<key>`.
+    pub(crate) fn check_in(&self, table: &str) -> Result<(), ParamError> {
         if !(self.rho.is_finite() && (0.0..1.0).contains(&self.rho)) {
             return Err(ParamError::new(
                 format!("params.{table}.rho"),
@@ -515,28 +521,21 @@ fn sqrt_psd(p: &StateCov) -> StateCov {
 impl BarShalomCampo {
     /// Bar-Shalom–Campo with checked parameters.
     pub fn new(params: BarShalomCampoParams) -> Result<Self, ParamError> {
-        params.check("bc")?;
+        Self::checked_in(params, NAME)
+    }
+
+    /// [`BarShalomCampo::new`] for parameters read from table `table` (`bc`, or `mmse`
+    /// for the reference); errors name `params.<table>.<key>`.
+    pub(crate) fn checked_in(
+        params: BarShalomCampoParams,
+        table: &str,
+    ) -> Result<Self, ParamError> {
+        params.check_in(table)?;
         Ok(BarShalomCampo {
             params,
             fallbacks: AtomicU64::new(0),
             scratch: Mutex::new(Scratch::default()),
         })
-    }
-
-    /// Build from `[fusion.params.<table>]` (`bc`, or `mmse` for the reference).
-    pub fn from_table(tables: &ParamTables, table: &str) -> Result<Self, ParamError> {
-        let params: BarShalomCampoParams = parse_params(tables, table)?;
-        params.check(table)?;
-        Ok(BarShalomCampo {
-            params,
-            fallbacks: AtomicU64::new(0),
-            scratch: Mutex::new(Scratch::default()),
-        })
-    }
-
-    /// Build from `[fusion.params.bc]`.
-    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
-        Self::from_table(tables, "bc")
     }
 
     /// The modelled cross-covariances of the (canonically ordered) members, one per pair
@@ -661,7 +660,7 @@ impl BarShalomCampo {
 
 impl FusionRule for BarShalomCampo {
     fn name(&self) -> &'static str {
-        "bc"
+        NAME
     }
 
     fn fallback_count(&self) -> u64 {
@@ -674,7 +673,7 @@ impl FusionRule for BarShalomCampo {
         weights: &[f64],
         ctx: &FusionContext<'_>,
     ) -> Result<(StateVec, StateCov), CenterError> {
-        self.fuse_group("bc", members, weights, ctx)
+        self.fuse_group(NAME, members, weights, ctx)
     }
 }
 

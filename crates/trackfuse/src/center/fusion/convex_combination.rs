@@ -23,23 +23,33 @@
 use super::blue::{blue, canonical, validate};
 use crate::center::linalg::{chol_inverse4, cholesky4};
 use crate::center::{CenterError, FusionContext, FusionRule};
-use crate::params::{parse_params, ParamError, ParamTables};
+use crate::params::ParamError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
 use serde::Deserialize;
 
+/// The ALGORITHMS.md name, also the key of the parameter table `[fusion.params.cc]`.
+pub const NAME: &str = "cc";
+
 /// Parameters of `cc` (`[fusion.params.cc]`): none; a key given there is an error.
 #[derive(Debug, Clone, Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct ConvexCombinationParams {}
+
+impl ConvexCombinationParams {
+    /// Nothing to check.
+    pub fn check(&self) -> Result<(), ParamError> {
+        Ok(())
+    }
+}
 
 /// Convex combination (information-weighted mean, cross-covariance ignored).
 #[derive(Debug, Clone, Default)]
 pub struct ConvexCombination;
 
 impl ConvexCombination {
-    /// Build from `[fusion.params.cc]` (which must be empty).
-    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
-        let _: ConvexCombinationParams = parse_params(tables, "cc")?;
+    /// The rule (its parameter table must be empty).
+    pub fn new(params: ConvexCombinationParams) -> Result<Self, ParamError> {
+        params.check()?;
         Ok(ConvexCombination)
     }
 }
@@ -80,7 +90,7 @@ pub(crate) fn convex_combination(members: &[&LocalTrack]) -> Option<(StateVec, S
 
 impl FusionRule for ConvexCombination {
     fn name(&self) -> &'static str {
-        "cc"
+        NAME
     }
 
     fn fuse(
@@ -102,6 +112,7 @@ impl FusionRule for ConvexCombination {
 mod tests {
     use super::*;
     use crate::center::testing::local;
+    use crate::params::ParamTables;
 
     use crate::center::testing::fusion_ctx as ctx;
 
@@ -157,6 +168,8 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("rho".into(), toml::Value::Float(0.3));
         t.insert("cc".into(), table);
-        assert!(ConvexCombination::from_params(&t).is_err());
+        assert!(crate::params::parse_params(&t, NAME)
+            .and_then(ConvexCombination::new)
+            .is_err());
     }
 }

@@ -42,7 +42,7 @@
 
 use super::blue::{canonical, validate};
 use crate::center::{CenterError, FusionContext, FusionRule};
-use crate::params::{parse_params, ParamError, ParamTables};
+use crate::params::ParamError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
 use serde::Deserialize;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -58,14 +58,23 @@ pub enum CiCriterion {
     Trace,
 }
 
+/// The ALGORITHMS.md name, also the key of the parameter table `[fusion.params.ci]`.
+pub const NAME: &str = "ci";
+
 /// Parameters of `ci` (`[fusion.params.ci]`).
 ///
 /// - `criterion` = `"det"` (default) | `"trace"`: what the weights minimise.
 #[derive(Debug, Clone, Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct CovarianceIntersectionParams {
-    #[serde(default)]
     pub criterion: CiCriterion,
+}
+
+impl CovarianceIntersectionParams {
+    /// Nothing to check (both criteria are valid).
+    pub fn check(&self) -> Result<(), ParamError> {
+        Ok(())
+    }
 }
 
 /// Covariance intersection with optimised weights.
@@ -82,16 +91,12 @@ const MAX_STEPS: usize = 200;
 
 impl CovarianceIntersection {
     /// CI with the given parameters.
-    pub fn new(params: CovarianceIntersectionParams) -> Self {
-        CovarianceIntersection {
+    pub fn new(params: CovarianceIntersectionParams) -> Result<Self, ParamError> {
+        params.check()?;
+        Ok(CovarianceIntersection {
             criterion: params.criterion,
             fallbacks: AtomicU64::new(0),
-        }
-    }
-
-    /// Build from `[fusion.params.ci]`.
-    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
-        Ok(CovarianceIntersection::new(parse_params(tables, "ci")?))
+        })
     }
 
     /// The criterion of the fused covariance `Y^-1` of information matrix `y`:
@@ -223,7 +228,7 @@ fn best_on_segment(f: &dyn Fn(f64) -> f64, len: f64) -> f64 {
 
 impl FusionRule for CovarianceIntersection {
     fn name(&self) -> &'static str {
-        "ci"
+        NAME
     }
 
     fn fallback_count(&self) -> u64 {
@@ -309,7 +314,8 @@ mod tests {
     fn two_track_optimum_matches_a_grid_search() {
         let (a, b) = two_tracks();
         for criterion in [CiCriterion::Det, CiCriterion::Trace] {
-            let ci = CovarianceIntersection::new(CovarianceIntersectionParams { criterion });
+            let ci =
+                CovarianceIntersection::new(CovarianceIntersectionParams { criterion }).unwrap();
             let (x, p) = ci.fuse(&[&a, &b], &[1.0, 1.0], &ctx()).unwrap();
             let value = |p: &StateCov| match criterion {
                 CiCriterion::Det => p.determinant(),
@@ -373,7 +379,8 @@ mod tests {
         let mut c = local(3, 1, 98.0, 11.0, 199.0, -6.0, 1.0);
         c.cov = StateCov::from_diagonal(&StateVec::new(30.0, 1.0, 30.0, 8.0));
         for criterion in [CiCriterion::Det, CiCriterion::Trace] {
-            let ci = CovarianceIntersection::new(CovarianceIntersectionParams { criterion });
+            let ci =
+                CovarianceIntersection::new(CovarianceIntersectionParams { criterion }).unwrap();
             let value = |p: &StateCov| match criterion {
                 CiCriterion::Det => p.determinant(),
                 CiCriterion::Trace => p.trace(),

@@ -32,27 +32,36 @@
 //! eq. 5.4.
 
 use crate::center::{CenterError, FusionContext, FusionRule};
-use crate::params::{parse_params, ParamError, ParamTables};
+use crate::params::ParamError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
 use serde::Deserialize;
 
-/// The ALGORITHMS.md name.
+/// The ALGORITHMS.md name, also the key of the parameter table `[fusion.params.fuzzy]`.
 pub const NAME: &str = "fuzzy";
 
 /// `[fusion.params.fuzzy]`: the rule has no parameters (an unknown key is an error).
 #[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct FuzzyParams {}
 
-/// Build the rule from the `[fusion.params.*]` tables (the registry's constructor).
-pub fn make(tables: &ParamTables) -> Result<Box<dyn FusionRule>, ParamError> {
-    let _: FuzzyParams = parse_params(tables, NAME)?;
-    Ok(Box::new(FuzzyFusion))
+impl FuzzyParams {
+    /// Nothing to check.
+    pub fn check(&self) -> Result<(), ParamError> {
+        Ok(())
+    }
 }
 
 /// Membership-weighted fusion, 000 eq. 9-10 (see the module documentation).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct FuzzyFusion;
+
+impl FuzzyFusion {
+    /// The rule (its parameter table must be empty).
+    pub fn new(params: FuzzyParams) -> Result<Self, ParamError> {
+        params.check()?;
+        Ok(FuzzyFusion)
+    }
+}
 
 impl FusionRule for FuzzyFusion {
     fn name(&self) -> &'static str {
@@ -114,6 +123,7 @@ pub fn weighted_fusion(
 mod tests {
     use super::*;
     use crate::center::testing::local;
+    use crate::params::{parse_params, ParamTables};
     use approx::assert_relative_eq;
 
     fn ctx() -> FusionContext<'static> {
@@ -175,11 +185,11 @@ mod tests {
         assert!(FuzzyFusion.fuse(&[&a], &[-1.0], &ctx()).is_err());
         assert!(FuzzyFusion.fuse(&[&a], &[f64::NAN], &ctx()).is_err());
         let mut t = ParamTables::new();
-        assert!(make(&t).is_ok());
+        assert!(parse_params(&t, NAME).and_then(FuzzyFusion::new).is_ok());
         let mut table = toml::Table::new();
         table.insert("typo".into(), toml::Value::Integer(1));
         t.insert(NAME.into(), table);
-        assert!(make(&t).is_err());
+        assert!(parse_params(&t, NAME).and_then(FuzzyFusion::new).is_err());
     }
 
     proptest::proptest! {

@@ -29,10 +29,17 @@
 //! reference here is the ML/BLUE fuser they show the Bar-Shalom–Campo formula to be.
 //! The member weights and the prior global state are not used.
 
-use super::bar_shalom_campo::BarShalomCampo;
+use super::bar_shalom_campo::{BarShalomCampo, BarShalomCampoParams};
 use crate::center::{CenterError, FusionContext, FusionRule};
-use crate::params::{ParamError, ParamTables};
+use crate::params::ParamError;
 use crate::types::{LocalTrack, StateCov, StateVec};
+
+/// The ALGORITHMS.md name, also the key of the parameter table `[fusion.params.mmse]`.
+pub const NAME: &str = "mmse";
+
+/// Parameters of `mmse` (`[fusion.params.mmse]`): the keys of `bc`, checked under the
+/// name `mmse` by [`Mmse::new`].
+pub type MmseParams = BarShalomCampoParams;
 
 /// Optimal (BLUE with cross-covariances) fusion given the true association.
 #[derive(Debug, Default)]
@@ -41,17 +48,18 @@ pub struct Mmse {
 }
 
 impl Mmse {
-    /// Build from `[fusion.params.mmse]` (the keys of `bc`).
-    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
+    /// The reference with checked parameters (the keys of `bc`; errors name
+    /// `params.mmse.<key>`).
+    pub fn new(params: MmseParams) -> Result<Self, ParamError> {
         Ok(Mmse {
-            fuser: BarShalomCampo::from_table(tables, "mmse")?,
+            fuser: BarShalomCampo::checked_in(params, NAME)?,
         })
     }
 }
 
 impl FusionRule for Mmse {
     fn name(&self) -> &'static str {
-        "mmse"
+        NAME
     }
 
     fn needs_true_association(&self) -> bool {
@@ -68,7 +76,7 @@ impl FusionRule for Mmse {
         weights: &[f64],
         ctx: &FusionContext<'_>,
     ) -> Result<(StateVec, StateCov), CenterError> {
-        self.fuser.fuse_group("mmse", members, weights, ctx)
+        self.fuser.fuse_group(NAME, members, weights, ctx)
     }
 }
 
@@ -77,6 +85,7 @@ mod tests {
     use super::*;
     use crate::center::fusion::bar_shalom_campo::steady_state_kalman_filters;
     use crate::center::testing::local;
+    use crate::params::ParamTables;
     use nalgebra::{DMatrix, DVector};
 
     #[test]
@@ -141,8 +150,12 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("rho".into(), toml::Value::Float(1.5));
         t.insert("mmse".into(), table);
-        let e = Mmse::from_params(&t).unwrap_err();
+        let e = crate::params::parse_params(&t, NAME)
+            .and_then(Mmse::new)
+            .unwrap_err();
         assert!(e.key.contains("mmse"), "{e}");
-        assert!(Mmse::from_params(&ParamTables::new()).is_ok());
+        assert!(crate::params::parse_params(&ParamTables::new(), NAME)
+            .and_then(Mmse::new)
+            .is_ok());
     }
 }

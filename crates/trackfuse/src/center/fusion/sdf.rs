@@ -36,9 +36,9 @@
 //! `signed_rho`, `origin`), with the same defaults as `ht-t2gt`.
 
 use crate::center::hough::{HoughPoint, HoughSpace};
-use crate::center::t2ta::ht_t2gt::{default_rho_max, default_theta_max, default_true};
+use crate::center::t2ta::ht_t2gt::{default_rho_max, default_theta_max};
 use crate::center::{CenterError, FusionContext, FusionRule};
-use crate::params::{parse_params, positive, ParamError, ParamTables};
+use crate::params::{positive, ParamError};
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec, Vec2};
 use serde::{Deserialize, Serialize};
 
@@ -52,15 +52,11 @@ const STACK_MEMBERS: usize = 16;
 /// Parameters of `sdf` (`[fusion.params.sdf]`); defaults as `ht-t2gt`'s:
 /// `rho_max = 30000` m, `theta_max = pi/2`, `signed_rho = true`, `origin = [0, 0]` m.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct SdfParams {
-    #[serde(default = "default_rho_max")]
     pub rho_max: f64,
-    #[serde(default = "default_theta_max")]
     pub theta_max: f64,
-    #[serde(default = "default_true")]
     pub signed_rho: bool,
-    #[serde(default)]
     pub origin: [f64; 2],
 }
 
@@ -77,7 +73,7 @@ impl Default for SdfParams {
 
 impl SdfParams {
     /// Range-check every value; errors name the key.
-    pub fn validate(&self) -> Result<(), ParamError> {
+    pub fn check(&self) -> Result<(), ParamError> {
         let key = |k: &str| format!("params.{NAME}.{k}");
         positive(&key("rho_max"), self.rho_max)?;
         positive(&key("theta_max"), self.theta_max)?;
@@ -105,7 +101,7 @@ enum Point {
 impl Sdf {
     /// A new rule with validated parameters.
     pub fn new(params: SdfParams) -> Result<Self, ParamError> {
-        params.validate()?;
+        params.check()?;
         Ok(Sdf {
             space: HoughSpace {
                 origin: Vec2::new(params.origin[0], params.origin[1]),
@@ -114,11 +110,6 @@ impl Sdf {
                 signed: params.signed_rho,
             },
         })
-    }
-
-    /// Build from the `[fusion.params.*]` tables.
-    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
-        Self::new(parse_params(tables, NAME)?)
     }
 
     fn line_of(&self, state: &StateVec) -> Option<HoughPoint> {

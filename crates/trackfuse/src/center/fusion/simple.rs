@@ -22,7 +22,7 @@
 
 use super::blue::{canonical, validate};
 use crate::center::{CenterError, FusionContext, FusionRule};
-use crate::params::{parse_params, ParamError, ParamTables};
+use crate::params::ParamError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
 use serde::Deserialize;
 
@@ -37,14 +37,23 @@ pub enum SimpleCovariance {
     Spread,
 }
 
+/// The ALGORITHMS.md name, also the key of the parameter table `[fusion.params.sf]`.
+pub const NAME: &str = "sf";
+
 /// Parameters of `sf` (`[fusion.params.sf]`).
 ///
 /// - `covariance` = `"independent"` (default) | `"spread"`, see the module docs.
 #[derive(Debug, Clone, Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct SimpleFusionParams {
-    #[serde(default)]
     pub covariance: SimpleCovariance,
+}
+
+impl SimpleFusionParams {
+    /// Nothing to check (both covariances are valid).
+    pub fn check(&self) -> Result<(), ParamError> {
+        Ok(())
+    }
 }
 
 /// Simple fusion: equal-weight mean of the members' states.
@@ -55,19 +64,15 @@ pub struct SimpleFusion {
 
 impl SimpleFusion {
     /// Simple fusion with the given parameters.
-    pub fn new(params: SimpleFusionParams) -> Self {
-        SimpleFusion { params }
-    }
-
-    /// Build from `[fusion.params.sf]`.
-    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
-        Ok(SimpleFusion::new(parse_params(tables, "sf")?))
+    pub fn new(params: SimpleFusionParams) -> Result<Self, ParamError> {
+        params.check()?;
+        Ok(SimpleFusion { params })
     }
 }
 
 impl FusionRule for SimpleFusion {
     fn name(&self) -> &'static str {
-        "sf"
+        NAME
     }
 
     fn fuse(
@@ -105,6 +110,7 @@ impl FusionRule for SimpleFusion {
 mod tests {
     use super::*;
     use crate::center::testing::local;
+    use crate::params::ParamTables;
 
     use crate::center::testing::fusion_ctx as ctx;
 
@@ -127,7 +133,8 @@ mod tests {
         // spread: (1/2)[(4 + 25) + (16 + 25)] = 35 in x; vx: (4+1 + 16+1)/2 = 11
         let spread = SimpleFusion::new(SimpleFusionParams {
             covariance: SimpleCovariance::Spread,
-        });
+        })
+        .unwrap();
         let (_, p) = spread.fuse(&[&a, &b], &[1.0, 1.0], &ctx()).unwrap();
         assert!((p[(0, 0)] - 35.0).abs() < 1e-12);
         assert!((p[(1, 1)] - 11.0).abs() < 1e-12);
@@ -149,7 +156,8 @@ mod tests {
         assert!((p[(2, 2)] - 2.0).abs() < 1e-12);
         let spread = SimpleFusion::new(SimpleFusionParams {
             covariance: SimpleCovariance::Spread,
-        });
+        })
+        .unwrap();
         let (_, p) = spread.fuse(&[&a, &b, &c], &[1.0; 3], &ctx()).unwrap();
         assert!((p[(2, 2)] - 32.0 / 3.0).abs() < 1e-12);
         assert!((p[(0, 0)] - 6.0).abs() < 1e-12);
@@ -165,11 +173,17 @@ mod tests {
         table.insert("covariance".into(), toml::Value::String("spread".into()));
         t.insert("sf".into(), table.clone());
         assert_eq!(
-            SimpleFusion::from_params(&t).unwrap().params.covariance,
+            crate::params::parse_params(&t, NAME)
+                .and_then(SimpleFusion::new)
+                .unwrap()
+                .params
+                .covariance,
             SimpleCovariance::Spread
         );
         table.insert("covariance".into(), toml::Value::String("nope".into()));
         t.insert("sf".into(), table);
-        assert!(SimpleFusion::from_params(&t).is_err());
+        assert!(crate::params::parse_params(&t, NAME)
+            .and_then(SimpleFusion::new)
+            .is_err());
     }
 }

@@ -31,7 +31,7 @@ use crate::center::t2ta::ftta::{
     ResolutionModel, ResolutionSource,
 };
 use crate::center::{CenterError, FusionContext, FusionRule};
-use crate::params::{parse_params, positive, ParamError, ParamTables};
+use crate::params::{positive, ParamError};
 use crate::types::{position_of, LocalTrack, StateCov, StateVec};
 use serde::Deserialize;
 
@@ -59,17 +59,12 @@ pub enum Select {
 /// | `resolution_scale` | 1.0 | multiplies a sensor-noise resolution, as in `ftta` |
 /// | `covariance_scale` | 3.0 | multiplies `sqrt(P_xx + P_yy)`, as in `ftta` |
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct SuperiorParams {
-    #[serde(default)]
     pub select: Select,
-    #[serde(default = "default_m")]
     pub m: f64,
-    #[serde(default)]
     pub resolution: ResolutionSource,
-    #[serde(default = "default_one")]
     pub resolution_scale: f64,
-    #[serde(default = "default_covariance_scale")]
     pub covariance_scale: f64,
 }
 
@@ -178,16 +173,11 @@ impl FusionRule for Superior {
     }
 }
 
-/// Build `superior` from `[fusion.params.superior]`.
-pub fn make(tables: &ParamTables) -> Result<Box<dyn FusionRule>, ParamError> {
-    let params: SuperiorParams = parse_params(tables, NAME)?;
-    Ok(Box::new(Superior::new(params)?))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::center::testing::local;
+    use crate::params::{parse_params, ParamTables};
     use crate::types::{Id, Sensor, SensorKind};
 
     fn sensor(id: Id, kind: SensorKind, x: f64, a: f64, b: f64) -> Sensor {
@@ -327,10 +317,10 @@ mod tests {
             "{e}"
         );
         let mut t = ParamTables::new();
-        assert!(make(&t).is_ok());
+        assert!(parse_params(&t, NAME).and_then(Superior::new).is_ok());
         let mut table = toml::Table::new();
         table.insert("select".into(), toml::Value::String("best".into()));
         t.insert(NAME.into(), table);
-        assert!(make(&t).is_err());
+        assert!(parse_params(&t, NAME).and_then(Superior::new).is_err());
     }
 }

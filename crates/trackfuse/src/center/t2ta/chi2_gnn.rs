@@ -69,7 +69,7 @@
 
 use crate::center::linalg::{chol_inverse4, cholesky4, solve_lower_vec4};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
-use crate::params::{parse_params, ParamError, ParamTables};
+use crate::params::ParamError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
 use crate::union_find::UnionFind;
 use serde::Deserialize;
@@ -85,17 +85,18 @@ pub enum GateOn {
     Position,
 }
 
+/// The ALGORITHMS.md name, also the key of the parameter table `[fusion.params.chi2-gnn]`.
+pub const NAME: &str = "chi2-gnn";
+
 /// Parameters of `chi2-gnn` (`[fusion.params.chi2-gnn]`).
 ///
 /// - `gate_probability` (default 0.99, in `(0, 1)`): probability that the difference of
 ///   two tracks of one target passes the test.
 /// - `gate_on` = `"state"` (default, 4 dof) | `"position"` (2 dof).
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct Chi2GnnParams {
-    #[serde(default = "default_gate_probability")]
     pub gate_probability: f64,
-    #[serde(default)]
     pub gate_on: GateOn,
 }
 
@@ -322,18 +323,26 @@ pub struct Chi2Gnn {
     is_edge: Vec<bool>,
 }
 
-impl Chi2Gnn {
-    /// The associator with checked parameters.
-    pub fn new(params: Chi2GnnParams) -> Result<Self, ParamError> {
-        let p = params.gate_probability;
+impl Chi2GnnParams {
+    /// `gate_probability` in `(0, 1)`; errors name `params.chi2-gnn.<key>`.
+    pub fn check(&self) -> Result<(), ParamError> {
+        let p = self.gate_probability;
         if !(p.is_finite() && p > 0.0 && p < 1.0) {
             return Err(ParamError::new(
-                "params.chi2-gnn.gate_probability",
+                format!("params.{NAME}.gate_probability"),
                 format!("{p} must be in (0, 1)"),
             ));
         }
+        Ok(())
+    }
+}
+
+impl Chi2Gnn {
+    /// The associator with checked parameters.
+    pub fn new(params: Chi2GnnParams) -> Result<Self, ParamError> {
+        params.check()?;
         Ok(Chi2Gnn {
-            gamma: chi2_gate(params.gate_on, p),
+            gamma: chi2_gate(params.gate_on, params.gate_probability),
             gate_on: params.gate_on,
             refs: Vec::new(),
             intervals: Vec::new(),
@@ -354,11 +363,6 @@ impl Chi2Gnn {
             cost: Vec::new(),
             is_edge: Vec::new(),
         })
-    }
-
-    /// Build from `[fusion.params.chi2-gnn]`.
-    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
-        Chi2Gnn::new(parse_params(tables, "chi2-gnn")?)
     }
 
     /// The gate threshold `gamma` in use.
@@ -683,7 +687,7 @@ fn finite(state: &StateVec, cov: &StateCov) -> bool {
 
 impl TrackAssociator for Chi2Gnn {
     fn name(&self) -> &'static str {
-        "chi2-gnn"
+        NAME
     }
 
     fn associate(
@@ -780,6 +784,7 @@ impl TrackAssociator for Chi2Gnn {
 mod tests {
     use super::*;
     use crate::center::testing::{associate_checked, check_groups, ctx, global, local, predicted};
+    use crate::params::ParamTables;
     use crate::rng::stream;
     use crate::types::Id;
     use rand::RngExt;
@@ -809,11 +814,15 @@ mod tests {
         table.insert("gate_on".into(), toml::Value::String("position".into()));
         table.insert("gate_probability".into(), toml::Value::Float(0.95));
         t.insert("chi2-gnn".into(), table.clone());
-        let a = Chi2Gnn::from_params(&t).unwrap();
+        let a = crate::params::parse_params(&t, NAME)
+            .and_then(Chi2Gnn::new)
+            .unwrap();
         assert!((a.gate() - chi2_gate(GateOn::Position, 0.95)).abs() < 1e-12);
         table.insert("gate".into(), toml::Value::Float(3.0));
         t.insert("chi2-gnn".into(), table);
-        assert!(Chi2Gnn::from_params(&t).is_err());
+        assert!(crate::params::parse_params(&t, NAME)
+            .and_then(Chi2Gnn::new)
+            .is_err());
     }
 
     /// Sensors 1 and 2 each see target A near (0, 0) moving +x and target B near

@@ -119,8 +119,8 @@
 //! eq. 6-8 and 12.
 
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
-use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
 pub use crate::spatial::EpsGrid;
+use crate::params::{in_range, positive, ParamError};
 use crate::spatial::{squared_distance, EpsComponents};
 use crate::types::{position_of, Id, LocalTrack, Vec2};
 use serde::Deserialize;
@@ -153,7 +153,7 @@ const OFFSET_PENALTY: f64 = 0.01;
 ///   eq. 12 adaptation (see the module doc for why).
 /// - `membership_epsilon = 1e-6`: the epsilon of eq. 8.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(default, deny_unknown_fields)]
 pub struct FdbscParams {
     /// Initial Eps (m), the neighbourhood radius of the clustering.
     pub eps: f64,
@@ -187,7 +187,7 @@ impl Default for FdbscParams {
 
 impl FdbscParams {
     /// Range-check the values; errors name `params.fdbsc-ta.<key>`.
-    pub fn validate(&self) -> Result<(), ParamError> {
+    pub fn check(&self) -> Result<(), ParamError> {
         let key = |k: &str| format!("params.{NAME}.{k}");
         positive(&key("eps"), self.eps)?;
         positive(&key("eps_scale"), self.eps_scale)?;
@@ -212,12 +212,6 @@ impl FdbscParams {
         }
         Ok(())
     }
-}
-
-/// Build `fdbsc-ta` from the `[fusion.params.*]` tables (the registry's constructor).
-pub fn make(tables: &ParamTables) -> Result<Box<dyn TrackAssociator>, ParamError> {
-    let params: FdbscParams = parse_params(tables, NAME)?;
-    Ok(Box::new(FdbscTa::new(params)?))
 }
 
 /// Maximum-entropy memberships of 000 eq. 6 with the discriminating factor of eq. 8,
@@ -308,7 +302,7 @@ pub struct FdbscTa {
 impl FdbscTa {
     /// A new associator; `params` are validated.
     pub fn new(params: FdbscParams) -> Result<Self, ParamError> {
-        params.validate()?;
+        params.check()?;
         Ok(FdbscTa {
             eps: params.eps,
             params,
@@ -768,6 +762,7 @@ mod tests {
     use crate::center::fusion::fuzzy::FuzzyFusion;
     use crate::center::testing::{self, check_groups, ctx, local, predicted};
     use crate::center::{FusionContext, FusionRule};
+    use crate::params::{parse_params, ParamTables};
     use crate::rng::stream;
     use crate::types::{StateCov, StateVec};
     use approx::assert_relative_eq;
@@ -1044,11 +1039,14 @@ mod tests {
     #[test]
     fn params_are_validated() {
         let mut tables = ParamTables::new();
-        assert!(make(&tables).is_ok());
+        assert!(parse_params(&tables, NAME).and_then(FdbscTa::new).is_ok());
         let mut table = toml::Table::new();
         table.insert("epss".into(), toml::Value::Float(1.0));
         tables.insert(NAME.into(), table);
-        let e = make(&tables).err().unwrap();
+        let e = parse_params(&tables, NAME)
+            .and_then(FdbscTa::new)
+            .err()
+            .unwrap();
         assert!(e.to_string().contains("epss"), "{e}");
         let bad = [
             FdbscParams {

@@ -88,7 +88,7 @@
 
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::models::wrap_angle;
-use crate::params::{in_range, parse_params, ParamError, ParamTables};
+use crate::params::{in_range, ParamError};
 use crate::spatial::SweepIndex;
 use crate::types::{position_of, Id, LocalTrack, StateCov, StateVec, Vec2};
 use nalgebra::DMatrix;
@@ -126,25 +126,17 @@ pub enum ThresholdMode {
 /// | `k` | 7 | a pair passing more than `k` times in the window becomes fixed (`k < n0`; the paper gives no value: 8 of 10) |
 /// | `release` | 0.0 | a fixed pair whose similarity falls below this is released (0 = never, the paper) |
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct FdttaParams {
-    #[serde(default = "default_tau")]
     pub tau: [f64; 3],
-    #[serde(default = "default_weights")]
     pub weights: [f64; 3],
-    #[serde(default)]
     pub threshold: ThresholdMode,
-    #[serde(default = "default_eps", alias = "eps_0")]
+    #[serde(alias = "eps_0")]
     pub eps: f64,
-    #[serde(default = "default_eps_min")]
     pub eps_min: f64,
-    #[serde(default = "default_eps_step")]
     pub eps_step: f64,
-    #[serde(default = "default_n0")]
     pub n0: u32,
-    #[serde(default = "default_k")]
     pub k: u32,
-    #[serde(default)]
     pub release: f64,
 }
 
@@ -867,16 +859,11 @@ impl TrackAssociator for Fdtta {
     }
 }
 
-/// Build `fdtta` from `[fusion.params.fdtta]`.
-pub fn make(tables: &ParamTables) -> Result<Box<dyn TrackAssociator>, ParamError> {
-    let params: FdttaParams = parse_params(tables, NAME)?;
-    Ok(Box::new(Fdtta::new(params)?))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::center::testing::{self, associate_checked, check_groups, ctx, local, predicted};
+    use crate::params::{parse_params, ParamTables};
 
     fn diag(px: f64, pv: f64) -> StateCov {
         StateCov::from_diagonal(&nalgebra::Vector4::new(px, pv, px, pv))
@@ -1175,11 +1162,11 @@ mod tests {
     #[test]
     fn params_are_checked() {
         let mut t = ParamTables::new();
-        assert!(make(&t).is_ok());
-        let parse = |text: &str| -> Result<Box<dyn TrackAssociator>, ParamError> {
+        assert!(parse_params(&t, NAME).and_then(Fdtta::new).is_ok());
+        let parse = |text: &str| -> Result<Fdtta, ParamError> {
             let mut t = ParamTables::new();
             t.insert(NAME.into(), toml::from_str(text).unwrap());
-            make(&t)
+            parse_params(&t, NAME).and_then(Fdtta::new)
         };
         assert!(parse("threshold = \"fixed\"\neps_0 = 0.8").is_ok());
         let e = parse("weights = [0.5, 0.5, 0.5]").err().unwrap();

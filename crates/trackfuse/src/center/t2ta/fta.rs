@@ -51,7 +51,7 @@
 use super::grouping::{sensor_blocks, track_position, Candidate, GroupTable};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::models::wrap_angle;
-use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
+use crate::params::{in_range, positive, ParamError};
 use crate::spatial::SweepIndex;
 use crate::types::{Id, LocalTrack, StateCov, StateVec, Vec2};
 use serde::{Deserialize, Serialize};
@@ -71,17 +71,12 @@ pub const NAME: &str = "fta";
 ///   pre-gate; at the defaults a pair beyond about 3 sigma of position has `f` below the
 ///   threshold anyway, since speed and heading alone give at most 0.4).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct FtaParams {
-    #[serde(default = "default_quality")]
     pub quality: u32,
-    #[serde(default = "default_threshold")]
     pub threshold: f64,
-    #[serde(default = "default_weights")]
     pub weights: [f64; 3],
-    #[serde(default = "default_tau")]
     pub tau: [f64; 3],
-    #[serde(default = "default_position_gate")]
     pub position_gate: f64,
 }
 
@@ -115,7 +110,7 @@ impl Default for FtaParams {
 
 impl FtaParams {
     /// Range-check every value; errors name the key.
-    pub fn validate(&self) -> Result<(), ParamError> {
+    pub fn check(&self) -> Result<(), ParamError> {
         let key = |k: &str| format!("params.{NAME}.{k}");
         if self.quality == 0 {
             return Err(ParamError::new(key("quality"), "must be at least 1"));
@@ -208,7 +203,7 @@ pub struct Fta {
 impl Fta {
     /// A new associator with validated parameters.
     pub fn new(params: FtaParams) -> Result<Self, ParamError> {
-        params.validate()?;
+        params.check()?;
         Ok(Fta {
             params,
             quality: Vec::new(),
@@ -219,11 +214,6 @@ impl Fta {
             table: GroupTable::default(),
             candidates: Vec::new(),
         })
-    }
-
-    /// Build from the `[fusion.params.*]` tables.
-    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
-        Self::new(parse_params(tables, NAME)?)
     }
 
     fn quality_of(&self, key: (Id, Id)) -> u32 {
@@ -371,6 +361,7 @@ impl TrackAssociator for Fta {
 mod tests {
     use super::*;
     use crate::center::testing::{self, associate_checked, ctx, local, predicted};
+    use crate::params::ParamTables;
     use approx::assert_relative_eq;
 
     /// A global track at scan 0 fused from `sources`, covariance `100 I`.
@@ -548,9 +539,14 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("threshold".into(), toml::Value::Float(2.0));
         t.insert(NAME.into(), table);
-        assert!(Fta::from_params(&t).unwrap_err().key.contains("threshold"));
+        assert!(crate::params::parse_params(&t, NAME)
+            .and_then(Fta::new)
+            .unwrap_err()
+            .key
+            .contains("threshold"));
         assert_eq!(
-            Fta::from_params(&ParamTables::new())
+            crate::params::parse_params(&ParamTables::new(), NAME)
+                .and_then(Fta::new)
                 .unwrap()
                 .params
                 .quality,

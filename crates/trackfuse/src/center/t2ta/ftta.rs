@@ -79,7 +79,7 @@
 
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::local::gating::gate_threshold;
-use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
+use crate::params::{in_range, positive, ParamError};
 use crate::spatial::SweepIndex;
 use crate::types::{position_cov_of, position_of, Id, LocalTrack, Mat2, Sensor, SensorKind, Vec2};
 use crate::union_find::UnionFind;
@@ -306,17 +306,12 @@ pub fn correlated(a: &Report, b: &Report) -> bool {
 /// | `covariance_scale` | 3.0 | multiplies `sqrt(P_xx + P_yy)` for a covariance resolution |
 /// | `global_gate` | 0.9999 | gate probability (chi-square, 2 dof) of a group centre against a predicted global |
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct FttaParams {
-    #[serde(default = "default_m")]
     pub m: f64,
-    #[serde(default)]
     pub resolution: ResolutionSource,
-    #[serde(default = "default_one")]
     pub resolution_scale: f64,
-    #[serde(default = "default_covariance_scale")]
     pub covariance_scale: f64,
-    #[serde(default = "default_global_gate")]
     pub global_gate: f64,
 }
 
@@ -676,16 +671,11 @@ impl TrackAssociator for Ftta {
     }
 }
 
-/// Build `ftta` from `[fusion.params.ftta]`.
-pub fn make(tables: &ParamTables) -> Result<Box<dyn TrackAssociator>, ParamError> {
-    let params: FttaParams = parse_params(tables, NAME)?;
-    Ok(Box::new(Ftta::new(params)?))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::center::testing::{self, associate_checked, local, predicted};
+    use crate::params::{parse_params, ParamTables};
     use crate::types::{StateCov, StateVec};
 
     fn position_sensor(id: Id, sigma: f64) -> Sensor {
@@ -1024,11 +1014,12 @@ mod tests {
     #[test]
     fn params_are_checked() {
         let mut t = ParamTables::new();
-        assert!(make(&t).is_ok());
+        assert!(parse_params(&t, NAME).and_then(Ftta::new).is_ok());
         let mut table = toml::Table::new();
         table.insert("m".into(), toml::Value::Float(1.0));
         t.insert(NAME.into(), table.clone());
-        assert!(make(&t)
+        assert!(parse_params(&t, NAME)
+            .and_then(Ftta::new)
             .err()
             .unwrap()
             .to_string()
@@ -1037,10 +1028,20 @@ mod tests {
         table.insert("resolution".into(), toml::Value::String("sensor".into()));
         table.insert("global_gate".into(), toml::Value::Float(1.5));
         t.insert(NAME.into(), table.clone());
-        assert!(make(&t).err().unwrap().to_string().contains("global_gate"));
+        assert!(parse_params(&t, NAME)
+            .and_then(Ftta::new)
+            .err()
+            .unwrap()
+            .to_string()
+            .contains("global_gate"));
         table.insert("bogus".into(), toml::Value::Float(1.5));
         t.insert(NAME.into(), table);
-        assert!(make(&t).err().unwrap().to_string().contains("bogus"));
+        assert!(parse_params(&t, NAME)
+            .and_then(Ftta::new)
+            .err()
+            .unwrap()
+            .to_string()
+            .contains("bogus"));
     }
 
     #[test]

@@ -76,7 +76,7 @@
 use super::grouping::{sensor_blocks, track_position, Candidate, GroupTable};
 use crate::center::hough::{HoughPoint, HoughSpace};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
-use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
+use crate::params::{in_range, positive, ParamError};
 use crate::spatial::SweepIndex;
 use crate::types::{Id, LocalTrack, Vec2};
 use serde::{Deserialize, Serialize};
@@ -106,29 +106,18 @@ pub const NAME: &str = "ht-t2gt";
 /// - `max_gap_scans = 5`: the oldest previous estimate (in scans) that still forms a
 ///   tracklet with the current one.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct HtT2gtParams {
-    #[serde(default = "default_epsilon")]
     pub epsilon: f64,
-    #[serde(default = "default_gate")]
     pub gate: f64,
-    #[serde(default = "default_rho_max")]
     pub rho_max: f64,
-    #[serde(default = "default_theta_max")]
     pub theta_max: f64,
-    #[serde(default = "default_true")]
     pub signed_rho: bool,
-    #[serde(default)]
     pub origin: [f64; 2],
-    #[serde(default = "default_iterations")]
     pub max_iterations: u32,
-    #[serde(default = "default_tolerance")]
     pub tolerance: f64,
-    #[serde(default = "default_position_gate")]
     pub position_gate: f64,
-    #[serde(default)]
     pub position_gate_tracklets: bool,
-    #[serde(default = "default_max_gap")]
     pub max_gap_scans: u32,
 }
 
@@ -167,7 +156,7 @@ impl Default for HtT2gtParams {
             gate: default_gate(),
             rho_max: default_rho_max(),
             theta_max: default_theta_max(),
-            signed_rho: true,
+            signed_rho: default_true(),
             origin: [0.0, 0.0],
             max_iterations: default_iterations(),
             tolerance: default_tolerance(),
@@ -180,7 +169,7 @@ impl Default for HtT2gtParams {
 
 impl HtT2gtParams {
     /// Range-check every value; errors name the key.
-    pub fn validate(&self) -> Result<(), ParamError> {
+    pub fn check(&self) -> Result<(), ParamError> {
         let key = |k: &str| format!("params.{NAME}.{k}");
         positive(&key("epsilon"), self.epsilon)?;
         if self.epsilon >= 1.0 {
@@ -288,7 +277,7 @@ pub struct HtT2gt {
 impl HtT2gt {
     /// A new associator with validated parameters.
     pub fn new(params: HtT2gtParams) -> Result<Self, ParamError> {
-        params.validate()?;
+        params.check()?;
         Ok(HtT2gt {
             space: params.space(),
             params,
@@ -309,11 +298,6 @@ impl HtT2gt {
             table: GroupTable::default(),
             candidates: Vec::new(),
         })
-    }
-
-    /// Build from the `[fusion.params.*]` tables.
-    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
-        Self::new(parse_params(tables, NAME)?)
     }
 
     /// The parameters in use.
@@ -662,6 +646,7 @@ mod tests {
     use crate::center::testing::{
         self, associate_checked, at, check_groups, ctx, local, predicted,
     };
+    use crate::params::ParamTables;
     use crate::types::{StateCov, StateVec};
     use approx::assert_relative_eq;
 
@@ -927,15 +912,20 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("epsilon".into(), toml::Value::Float(1.5));
         t.insert(NAME.into(), table);
-        let e = HtT2gt::from_params(&t).unwrap_err();
+        let e = crate::params::parse_params(&t, NAME)
+            .and_then(HtT2gt::new)
+            .unwrap_err();
         assert!(e.key.contains("epsilon"), "{e}");
         let mut table = toml::Table::new();
         table.insert("gat".into(), toml::Value::Float(1.0));
         t.insert(NAME.into(), table);
-        assert!(HtT2gt::from_params(&t)
+        assert!(crate::params::parse_params(&t, NAME)
+            .and_then(HtT2gt::new)
             .unwrap_err()
             .to_string()
             .contains("gat"));
-        assert!(HtT2gt::from_params(&ParamTables::new()).is_ok());
+        assert!(crate::params::parse_params(&ParamTables::new(), NAME)
+            .and_then(HtT2gt::new)
+            .is_ok());
     }
 }

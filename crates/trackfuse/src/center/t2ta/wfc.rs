@@ -46,7 +46,7 @@
 
 use super::grouping::{sensor_blocks, Candidate, GroupTable};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
-use crate::params::{in_range, parse_params, positive, ParamError, ParamTables};
+use crate::params::{in_range, positive, ParamError};
 use crate::spatial::SweepIndex;
 use crate::types::{Id, LocalTrack, StateVec};
 use serde::{Deserialize, Serialize};
@@ -68,19 +68,13 @@ const DISPERSION_FLOOR: f64 = 1e-9;
 /// - `gate = 1000` m: the largest RMS position distance over the window between a track
 ///   and a cluster centre (or another sensor's new track) it may join.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct WfcParams {
-    #[serde(default = "default_window")]
     pub window: u32,
-    #[serde(default = "default_two")]
     pub fuzzifier: f64,
-    #[serde(default = "default_two")]
     pub weight_exponent: f64,
-    #[serde(default = "default_iterations")]
     pub max_iterations: u32,
-    #[serde(default = "default_tolerance")]
     pub tolerance: f64,
-    #[serde(default = "default_gate")]
     pub gate: f64,
 }
 
@@ -104,8 +98,8 @@ impl Default for WfcParams {
     fn default() -> Self {
         WfcParams {
             window: default_window(),
-            fuzzifier: 2.0,
-            weight_exponent: 2.0,
+            fuzzifier: default_two(),
+            weight_exponent: default_two(),
             max_iterations: default_iterations(),
             tolerance: default_tolerance(),
             gate: default_gate(),
@@ -115,7 +109,7 @@ impl Default for WfcParams {
 
 impl WfcParams {
     /// Range-check every value; errors name the key.
-    pub fn validate(&self) -> Result<(), ParamError> {
+    pub fn check(&self) -> Result<(), ParamError> {
         let key = |k: &str| format!("params.{NAME}.{k}");
         if self.window == 0 {
             return Err(ParamError::new(key("window"), "must be at least 1"));
@@ -196,7 +190,7 @@ pub struct Wfc {
 impl Wfc {
     /// A new associator with validated parameters.
     pub fn new(params: WfcParams) -> Result<Self, ParamError> {
-        params.validate()?;
+        params.check()?;
         Ok(Wfc {
             params,
             scans: VecDeque::new(),
@@ -216,11 +210,6 @@ impl Wfc {
             table: GroupTable::default(),
             candidates: Vec::new(),
         })
-    }
-
-    /// Build from the `[fusion.params.*]` tables.
-    pub fn from_params(tables: &ParamTables) -> Result<Self, ParamError> {
-        Self::new(parse_params(tables, NAME)?)
     }
 
     fn features(&self) -> usize {
@@ -549,6 +538,7 @@ mod tests {
     use crate::center::testing::{
         associate_checked, at, check_groups, ctx, global_at, local, predicted,
     };
+    use crate::params::ParamTables;
     use crate::types::StateCov;
     use approx::assert_relative_eq;
 
@@ -673,7 +663,8 @@ mod tests {
         let mut table = toml::Table::new();
         table.insert("windo".into(), toml::Value::Integer(3));
         t.insert(NAME.into(), table);
-        assert!(Wfc::from_params(&t)
+        assert!(crate::params::parse_params(&t, NAME)
+            .and_then(Wfc::new)
             .unwrap_err()
             .to_string()
             .contains("windo"));

@@ -5,8 +5,7 @@ use super::membership::{distance2_between, push_normalised, NoMeasurement, PairT
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
 use crate::local::filter::PredictedMeasurement;
 use crate::local::gating::MeasurementIndex;
-use crate::local::registry::AssociatorSettings;
-use crate::params::{in_range, parse_params, positive, ParamError};
+use crate::params::{in_range, positive, ParamError};
 use crate::types::Vec2;
 use serde::{Deserialize, Serialize};
 
@@ -23,37 +22,34 @@ pub enum Selection {
     Threshold,
 }
 
+/// The ALGORITHMS.md name, also the key of the parameter table
+/// `[tracker.params.fdb-daf]`.
+pub const NAME: &str = "fdb-daf";
+
 /// Parameters of `fdb-daf`, table `[tracker.params.fdb-daf]`.
 ///
 /// Defaults: `selection = "all"`, `k = 3`, `xi = 0.1`, `min_pts = 3` (001 Sec. 4),
 /// `eps_scale = 0.55` (001 Sec. 4: Eps = 0.55 C), `no_measurement = "none"`,
 /// `beta0 = 0.0`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct FdbDafParams {
     /// `"all"`, `"top-k"` (eq. 14) or `"threshold"` (eq. 15).
-    #[serde(default)]
     pub selection: Selection,
     /// `k` of the top-k selection (>= 1).
-    #[serde(default = "default_k")]
     pub k: u32,
     /// Membership threshold `xi` of eq. 15, in `[0, 1]`.
-    #[serde(default = "default_xi")]
     pub xi: f64,
     /// MinPts: a cluster member whose Eps-neighbourhood (itself included) holds at least
     /// this many measurements brings its neighbours into the cluster (>= 1).
-    #[serde(default = "default_min_pts")]
     pub min_pts: u32,
     /// Eps in units of `C`, the volume of the unit validation-gate hypersphere of the
     /// 2-D measurement space (`C = pi`); Eps is a Mahalanobis distance.
-    #[serde(default = "default_eps_scale")]
     pub eps_scale: f64,
     /// Share of probability left to "no measurement": `"none"` (001 eq. 16, the
     /// default), `"pd"` (`beta_0 = 1 - P_D`) or `"fixed"` (`beta0`).
-    #[serde(default)]
     pub no_measurement: NoMeasurement,
     /// `beta_0` when `no_measurement = "fixed"`, in `[0, 1)`.
-    #[serde(default)]
     pub beta0: f64,
 }
 
@@ -203,14 +199,6 @@ impl FdbDaf {
         })
     }
 
-    /// Registry constructor: reads `[tracker.params.fdb-daf]`.
-    pub fn from_settings(
-        s: &AssociatorSettings<'_>,
-    ) -> Result<Box<dyn DataAssociator>, ParamError> {
-        let p: FdbDafParams = parse_params(s.params, "fdb-daf")?;
-        Ok(Box::new(FdbDaf::new(p)?))
-    }
-
     /// Eps (Mahalanobis distance).
     pub fn eps(&self) -> f64 {
         self.eps
@@ -285,7 +273,7 @@ impl FdbDaf {
 
 impl DataAssociator for FdbDaf {
     fn name(&self) -> &'static str {
-        "fdb-daf"
+        NAME
     }
 
     fn associate(&mut self, problem: &AssociationProblem<'_>, out: &mut AssociationWeights) {
@@ -355,6 +343,7 @@ impl DataAssociator for FdbDaf {
 mod tests {
     use super::super::testing::{check_weights, close, weight, Fixture};
     use super::*;
+    use crate::params::parse_params;
     use crate::types::Mat2;
 
     fn fdb(selection: Selection, f: impl FnOnce(&mut FdbDafParams)) -> FdbDaf {

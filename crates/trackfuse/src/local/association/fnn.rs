@@ -13,18 +13,20 @@
 
 use super::membership::PairTable;
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
-use crate::local::registry::AssociatorSettings;
-use crate::params::{parse_params, ParamError};
+use crate::params::ParamError;
 use serde::{Deserialize, Serialize};
+
+/// The ALGORITHMS.md name, also the key of the parameter table
+/// `[tracker.params.fnn]`.
+pub const NAME: &str = "fnn";
 
 /// Parameters of `fnn`, table `[tracker.params.fnn]`.
 ///
 /// Defaults: `fuzzifier = 2.0` (the usual fuzzy c-means weighting exponent `m`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct FnnParams {
     /// Fuzzy c-means weighting exponent `m > 1`.
-    #[serde(default = "default_fuzzifier")]
     pub fuzzifier: f64,
 }
 
@@ -94,14 +96,6 @@ impl Fnn {
         })
     }
 
-    /// Registry constructor: reads `[tracker.params.fnn]`.
-    pub fn from_settings(
-        s: &AssociatorSettings<'_>,
-    ) -> Result<Box<dyn DataAssociator>, ParamError> {
-        let p: FnnParams = parse_params(s.params, "fnn")?;
-        Ok(Box::new(Fnn::new(p)?))
-    }
-
     /// The membership of measurement `m` in track `t` in the last scan (0 if not
     /// validated).
     pub fn membership(&self, t: usize, m: u32) -> f64 {
@@ -135,7 +129,7 @@ pub(crate) fn pairs_from_gates(pairs: &mut PairTable, problem: &AssociationProbl
 
 impl DataAssociator for Fnn {
     fn name(&self) -> &'static str {
-        "fnn"
+        NAME
     }
 
     fn associate(&mut self, problem: &AssociationProblem<'_>, out: &mut AssociationWeights) {

@@ -5,16 +5,19 @@
 
 use super::fnn::pairs_from_gates;
 use super::membership::{push_normalised, push_revised_pda, NoMeasurement, PairTable, Weighting};
-use super::{AssociationProblem, AssociationWeights, DataAssociator};
+use super::{AssociationProblem, AssociationWeights, AssociatorContext, DataAssociator};
 use crate::local::filter::PredictedMeasurement;
-use crate::local::registry::AssociatorSettings;
-use crate::params::{in_range, parse_params, positive, ParamError};
+use crate::params::{in_range, positive, ParamError};
 use crate::rng::{stream, StreamRng};
 use crate::types::{Mat2, Vec2};
 use crate::union_find::UnionFind;
 use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
+
+/// The ALGORITHMS.md name, also the key of the parameter table
+/// `[tracker.params.fuzzy-ga]`.
+pub const NAME: &str = "fuzzy-ga";
 
 /// Parameters of `fuzzy-ga`, table `[tracker.params.fuzzy-ga]`.
 ///
@@ -24,46 +27,35 @@ use serde::{Deserialize, Serialize};
 /// `no_measurement = "pd"` (`beta_0 = 1 - P_D P_G`) for `weighting = "membership"`,
 /// `beta0 = 0.0`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct FuzzyGaParams {
     /// `"revised-pda"` (memberships scale the PDA likelihoods) or `"membership"`
     /// (memberships are the weights).
-    #[serde(default)]
     pub weighting: Weighting,
     /// Chromosomes per generation, 2 to 1000.
-    #[serde(default = "default_population")]
     pub population: u32,
     /// Generations after the initial one, 0 to 1000 (0: the best initial chromosome).
-    #[serde(default = "default_generations")]
     pub generations: u32,
     /// Fuzzy c-means weighting exponent `m > 1`.
-    #[serde(default = "default_fuzzifier")]
     pub fuzzifier: f64,
     /// Probability that a child's centre is a blend of its parents' (else the first
     /// parent's), per track.
-    #[serde(default = "default_crossover")]
     pub crossover_rate: f64,
     /// Probability that a child's centre is perturbed, per track.
-    #[serde(default = "default_mutation")]
     pub mutation_rate: f64,
     /// Standard deviation of a mutation, in innovation standard deviations (`S^(1/2)`).
-    #[serde(default = "default_mutation_scale")]
     pub mutation_scale: f64,
     /// Standard deviation of the random initial centres about the prediction, in
     /// innovation standard deviations.
-    #[serde(default = "default_init_scale")]
     pub init_scale: f64,
     /// With `weighting = "membership"`: add a noise cluster at squared distance `gamma`
     /// (the gate) from every measurement (Dave 1991), so that clutter far from every
     /// centre has low membership everywhere. (`"revised-pda"` has PDA's clutter
     /// hypothesis instead and uses no noise cluster.)
-    #[serde(default = "default_true")]
     pub noise_cluster: bool,
     /// No-measurement share for `weighting = "membership"`: `"pd"` (`1 - P_D P_G`), `"none"` or `"fixed"` (`beta0`).
-    #[serde(default = "default_no_measurement")]
     pub no_measurement: NoMeasurement,
     /// `beta_0` when `no_measurement = "fixed"`, in `[0, 1)`.
-    #[serde(default)]
     pub beta0: f64,
 }
 
@@ -106,7 +98,7 @@ impl Default for FuzzyGaParams {
             mutation_rate: default_mutation(),
             mutation_scale: default_mutation_scale(),
             init_scale: default_init_scale(),
-            noise_cluster: true,
+            noise_cluster: default_true(),
             no_measurement: default_no_measurement(),
             beta0: 0.0,
         }
@@ -236,8 +228,15 @@ pub struct FuzzyGa {
 }
 
 impl FuzzyGa {
-    /// A new associator with its random stream (parameters range-checked).
-    pub fn new(params: FuzzyGaParams, rng: StreamRng) -> Result<Self, ParamError> {
+    /// A new associator (parameters range-checked); its random stream is
+    /// `(seed, run, "fuzzy-ga", sensor_index)` of the context.
+    pub fn new(params: FuzzyGaParams, context: &AssociatorContext) -> Result<Self, ParamError> {
+        let rng = stream(context.seed, context.run, NAME, context.sensor_index);
+        Self::with_stream(params, rng)
+    }
+
+    /// A new associator with the given random stream (parameters range-checked).
+    pub fn with_stream(params: FuzzyGaParams, rng: StreamRng) -> Result<Self, ParamError> {
         params.check()?;
         Ok(FuzzyGa {
             params,
@@ -264,16 +263,6 @@ impl FuzzyGa {
             scratch: Vec::new(),
             evaluations: 0,
         })
-    }
-
-    /// Registry constructor: reads `[tracker.params.fuzzy-ga]`; the stream is
-    /// `(seed, run, "fuzzy-ga", sensor_index)`.
-    pub fn from_settings(
-        s: &AssociatorSettings<'_>,
-    ) -> Result<Box<dyn DataAssociator>, ParamError> {
-        let p: FuzzyGaParams = parse_params(s.params, "fuzzy-ga")?;
-        let rng = stream(s.seed, s.run, "fuzzy-ga", s.sensor_index);
-        Ok(Box::new(FuzzyGa::new(p, rng)?))
     }
 
     /// Objective evaluations of the last scan.
@@ -526,7 +515,7 @@ fn clamp_to_gate(delta: Vec2, s_inv: &Mat2, gamma: f64) -> Vec2 {
 
 impl DataAssociator for FuzzyGa {
     fn name(&self) -> &'static str {
-        "fuzzy-ga"
+        NAME
     }
 
     fn associate(&mut self, problem: &AssociationProblem<'_>, out: &mut AssociationWeights) {
@@ -624,7 +613,7 @@ mod tests {
     fn ga(seed: u64, f: impl FnOnce(&mut FuzzyGaParams)) -> FuzzyGa {
         let mut p = FuzzyGaParams::default();
         f(&mut p);
-        FuzzyGa::new(p, stream(seed, 0, "fuzzy-ga", 0)).unwrap()
+        FuzzyGa::with_stream(p, stream(seed, 0, "fuzzy-ga", 0)).unwrap()
     }
 
     /// Two crossing tracks sharing measurements, plus an isolated one.
@@ -810,7 +799,7 @@ mod tests {
                 ..FuzzyGaParams::default()
             },
         ] {
-            assert!(FuzzyGa::new(bad, rng()).is_err());
+            assert!(FuzzyGa::with_stream(bad, rng()).is_err());
         }
     }
 }

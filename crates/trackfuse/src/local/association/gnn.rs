@@ -14,15 +14,25 @@ use super::clusters::{
     gated, greedy_assign, nearest, ClusterMeasurements, GateClusters, Marks, NONE,
 };
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
-use crate::local::registry::AssociatorSettings;
-use crate::params::{parse_params, ParamError};
+use crate::params::ParamError;
 use serde::Deserialize;
+
+/// The ALGORITHMS.md name, also the key of the parameter table
+/// `[tracker.params.gnn]`.
+pub const NAME: &str = "gnn";
 
 /// Parameters of `gnn` (`[tracker.params.gnn]`): none. The table is read only so that a
 /// mistyped key is an error.
 #[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct GnnParams {}
+
+impl GnnParams {
+    /// Nothing to check.
+    pub fn check(&self) -> Result<(), ParamError> {
+        Ok(())
+    }
+}
 
 /// Global nearest neighbour: the exclusive assignment (each measurement to at most one
 /// track, each track at most one measurement) minimising
@@ -76,8 +86,9 @@ pub struct GlobalNearestNeighbour {
 
 impl GlobalNearestNeighbour {
     /// With the given parameters.
-    pub fn new(_params: GnnParams) -> Self {
-        GlobalNearestNeighbour::default()
+    pub fn new(params: GnnParams) -> Result<Self, ParamError> {
+        params.check()?;
+        Ok(GlobalNearestNeighbour::default())
     }
 
     /// Number of clusters of the last scan that needed the assignment solver (the others
@@ -132,15 +143,9 @@ impl GlobalNearestNeighbour {
     }
 }
 
-/// Registry constructor: reads `[tracker.params.gnn]`.
-pub fn make(s: &AssociatorSettings<'_>) -> Result<Box<dyn DataAssociator>, ParamError> {
-    let params: GnnParams = parse_params(s.params, "gnn")?;
-    Ok(Box::new(GlobalNearestNeighbour::new(params)))
-}
-
 impl DataAssociator for GlobalNearestNeighbour {
     fn name(&self) -> &'static str {
-        "gnn"
+        NAME
     }
 
     fn associate(&mut self, problem: &AssociationProblem<'_>, out: &mut AssociationWeights) {
@@ -188,7 +193,7 @@ mod tests {
     use rand::RngExt;
 
     fn gnn() -> GlobalNearestNeighbour {
-        GlobalNearestNeighbour::new(GnnParams {})
+        GlobalNearestNeighbour::new(GnnParams {}).unwrap()
     }
 
     /// `sum d^2 + gamma * unassigned` of an assignment.
@@ -235,7 +240,7 @@ mod tests {
             0.9,
         );
         let mut out = AssociationWeights::default();
-        let mut greedy = NearestNeighbour::new(NnParams { exclusive: true });
+        let mut greedy = NearestNeighbour::new(NnParams { exclusive: true }).unwrap();
         greedy.associate(&scene.problem(), &mut out);
         let g = hard(&out);
         assert_eq!(g, vec![Some(0), Some(1)]);

@@ -16,9 +16,12 @@
 use super::clusters::{gated, ClusterMeasurements, GateClusters, NONE};
 use super::pda::{clutter_density, ln_likelihood_ratio, ln_miss};
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
-use crate::local::registry::AssociatorSettings;
-use crate::params::{parse_params, positive, ParamError};
+use crate::params::{positive, ParamError};
 use serde::Deserialize;
+
+/// The ALGORITHMS.md name, also the key of the parameter table
+/// `[tracker.params.jpda]`.
+pub const NAME: &str = "jpda";
 
 /// Parameters of `jpda` (`[tracker.params.jpda]`).
 ///
@@ -29,13 +32,10 @@ use serde::Deserialize;
 /// - `bp_tolerance` (default `1e-9`): the approximation stops when no measurement-to-track
 ///   message changes by more than this. Positive.
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct JpdaParams {
-    #[serde(default = "default_max_events")]
     pub max_events: u64,
-    #[serde(default = "default_bp_max_iterations")]
     pub bp_max_iterations: u32,
-    #[serde(default = "default_bp_tolerance")]
     pub bp_tolerance: f64,
 }
 
@@ -407,15 +407,9 @@ impl Jpda {
     }
 }
 
-/// Registry constructor: reads `[tracker.params.jpda]`.
-pub fn make(s: &AssociatorSettings<'_>) -> Result<Box<dyn DataAssociator>, ParamError> {
-    let params: JpdaParams = parse_params(s.params, "jpda")?;
-    Ok(Box::new(Jpda::new(params)?))
-}
-
 impl DataAssociator for Jpda {
     fn name(&self) -> &'static str {
-        "jpda"
+        NAME
     }
 
     fn associate(&mut self, problem: &AssociationProblem<'_>, out: &mut AssociationWeights) {
@@ -747,12 +741,13 @@ mod tests {
         let mut t = toml::Table::new();
         t.insert("max_events".into(), toml::Value::Integer(5));
         tables.insert("jpda".into(), t);
-        let settings = AssociatorSettings {
+        let settings = crate::local::association::AssociatorSettings {
             seed: 0,
             run: 0,
             sensor_index: 0,
             params: &tables,
         };
-        assert_eq!(make(&settings).unwrap().name(), "jpda");
+        let made = crate::local::registry::make_associator(NAME, &settings).unwrap();
+        assert_eq!(made.name(), "jpda");
     }
 }

@@ -5,26 +5,26 @@
 use super::fnn::pairs_from_gates;
 use super::membership::{push_normalised, push_revised_pda, NoMeasurement, PairTable, Weighting};
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
-use crate::local::registry::AssociatorSettings;
-use crate::params::{in_range, parse_params, ParamError};
+use crate::params::{in_range, ParamError};
 use serde::{Deserialize, Serialize};
+
+/// The ALGORITHMS.md name, also the key of the parameter table
+/// `[tracker.params.mef-jpda]`.
+pub const NAME: &str = "mef-jpda";
 
 /// Parameters of `mef-jpda`, table `[tracker.params.mef-jpda]`.
 ///
 /// Defaults: `weighting = "revised-pda"`, `no_measurement = "pd"` (`beta_0 = 1 - P_D P_G`,
 /// used by `weighting = "membership"`), `beta0 = 0.0`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct MefJpdaParams {
     /// `"revised-pda"` or `"membership"`.
-    #[serde(default)]
     pub weighting: Weighting,
     /// No-measurement share for `weighting = "membership"`: `"pd"` (`1 - P_D P_G`),
     /// `"none"` or `"fixed"` (`beta0`).
-    #[serde(default = "default_no_measurement")]
     pub no_measurement: NoMeasurement,
     /// `beta_0` when `no_measurement = "fixed"`, in `[0, 1)`.
-    #[serde(default)]
     pub beta0: f64,
 }
 
@@ -103,14 +103,6 @@ impl MefJpda {
         })
     }
 
-    /// Registry constructor: reads `[tracker.params.mef-jpda]`.
-    pub fn from_settings(
-        s: &AssociatorSettings<'_>,
-    ) -> Result<Box<dyn DataAssociator>, ParamError> {
-        let p: MefJpdaParams = parse_params(s.params, "mef-jpda")?;
-        Ok(Box::new(MefJpda::new(p)?))
-    }
-
     /// The membership of measurement `m` in track `t` in the last scan (0 if not
     /// validated).
     pub fn membership(&self, t: usize, m: u32) -> f64 {
@@ -127,7 +119,7 @@ impl MefJpda {
 
 impl DataAssociator for MefJpda {
     fn name(&self) -> &'static str {
-        "mef-jpda"
+        NAME
     }
 
     fn associate(&mut self, problem: &AssociationProblem<'_>, out: &mut AssociationWeights) {

@@ -26,7 +26,44 @@ pub(crate) mod testing;
 
 use super::filter::PredictedMeasurement;
 use super::gating::{Gates, MeasurementIndex};
+use crate::params::ParamTables;
 use crate::types::Vec2;
+
+/// What an associator is built with besides its own parameters: the seed of this
+/// sensor's tracker in this run, for randomised methods (Fuzzy-GA derives its stream
+/// with [`crate::rng::stream`]). The second argument of an associator's `new` when it
+/// needs one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct AssociatorContext {
+    pub seed: u64,
+    pub run: u64,
+    pub sensor_index: u64,
+}
+
+/// What an associator constructor of a registry is given: the context and all
+/// `[tracker.params.*]` tables (an associator reads its own, `params.<name>`, with
+/// [`crate::params::parse_params`]).
+#[derive(Debug, Clone)]
+pub struct AssociatorSettings<'a> {
+    /// Seed of this sensor's tracker in this run, for randomised methods (Fuzzy-GA):
+    /// derive a stream with [`crate::rng::stream`].
+    pub seed: u64,
+    pub run: u64,
+    pub sensor_index: u64,
+    /// All `[tracker.params.*]` tables.
+    pub params: &'a ParamTables,
+}
+
+impl AssociatorSettings<'_> {
+    /// The construction context these settings carry.
+    pub fn context(&self) -> AssociatorContext {
+        AssociatorContext {
+            seed: self.seed,
+            run: self.run,
+            sensor_index: self.sensor_index,
+        }
+    }
+}
 
 /// One scan's association problem for one sensor.
 #[derive(Debug, Clone, Copy)]

@@ -12,9 +12,12 @@
 
 use super::clusters::{gated, greedy_assign, nearest, Marks, NONE};
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
-use crate::local::registry::AssociatorSettings;
-use crate::params::{parse_params, ParamError};
+use crate::params::ParamError;
 use serde::Deserialize;
+
+/// The ALGORITHMS.md name, also the key of the parameter table
+/// `[tracker.params.nn]`.
+pub const NAME: &str = "nn";
 
 /// Parameters of `nn` (`[tracker.params.nn]`).
 ///
@@ -24,11 +27,17 @@ use serde::Deserialize;
 ///   track: validated pairs are taken greedily in increasing `d^2` (the "suboptimal
 ///   nearest neighbour"); a track whose measurements were all taken gets none. For the
 ///   optimal exclusive assignment use `gnn`.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
 pub struct NnParams {
-    #[serde(default)]
     pub exclusive: bool,
+}
+
+impl NnParams {
+    /// Nothing to check (both values of `exclusive` are valid).
+    pub fn check(&self) -> Result<(), ParamError> {
+        Ok(())
+    }
 }
 
 /// Nearest neighbour: each track takes the validated measurement (from the provided gates)
@@ -54,23 +63,18 @@ pub struct NearestNeighbour {
 
 impl NearestNeighbour {
     /// With the given parameters.
-    pub fn new(params: NnParams) -> Self {
-        NearestNeighbour {
+    pub fn new(params: NnParams) -> Result<Self, ParamError> {
+        params.check()?;
+        Ok(NearestNeighbour {
             exclusive: params.exclusive,
             ..Default::default()
-        }
+        })
     }
-}
-
-/// Registry constructor: reads `[tracker.params.nn]`.
-pub fn make(s: &AssociatorSettings<'_>) -> Result<Box<dyn DataAssociator>, ParamError> {
-    let params: NnParams = parse_params(s.params, "nn")?;
-    Ok(Box::new(NearestNeighbour::new(params)))
 }
 
 impl DataAssociator for NearestNeighbour {
     fn name(&self) -> &'static str {
-        "nn"
+        NAME
     }
 
     fn associate(&mut self, problem: &AssociationProblem<'_>, out: &mut AssociationWeights) {
@@ -111,7 +115,7 @@ mod tests {
     use super::*;
 
     fn nn(exclusive: bool) -> NearestNeighbour {
-        NearestNeighbour::new(NnParams { exclusive })
+        NearestNeighbour::new(NnParams { exclusive }).unwrap()
     }
 
     #[test]
@@ -162,6 +166,8 @@ mod tests {
 
     #[test]
     fn params_default_and_reject_unknown_keys() {
+        use crate::local::association::AssociatorSettings;
+        use crate::local::registry::make_associator;
         fn settings(params: &crate::params::ParamTables) -> AssociatorSettings<'_> {
             AssociatorSettings {
                 seed: 1,
@@ -171,11 +177,14 @@ mod tests {
             }
         }
         let mut tables = crate::params::ParamTables::new();
-        assert_eq!(make(&settings(&tables)).unwrap().name(), "nn");
+        assert_eq!(
+            make_associator(NAME, &settings(&tables)).unwrap().name(),
+            "nn"
+        );
         let mut t = toml::Table::new();
         t.insert("exclusiv".into(), toml::Value::Boolean(true));
         tables.insert("nn".into(), t);
-        let e = make(&settings(&tables)).err().unwrap();
+        let e = make_associator(NAME, &settings(&tables)).err().unwrap();
         assert!(e.to_string().contains("exclusiv"), "{e}");
     }
 }

@@ -6,16 +6,26 @@
 use super::clusters::gated;
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
 use crate::local::filter::PredictedMeasurement;
-use crate::local::registry::AssociatorSettings;
-use crate::params::{parse_params, ParamError};
+use crate::params::ParamError;
 use serde::Deserialize;
+
+/// The ALGORITHMS.md name, also the key of the parameter table
+/// `[tracker.params.pda]`.
+pub const NAME: &str = "pda";
 
 /// Parameters of `pda` (`[tracker.params.pda]`): none (the clutter density, `P_D` and
 /// `P_G` come with the problem). The table is read only so that a mistyped key is an
 /// error.
 #[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct PdaParams {}
+
+impl PdaParams {
+    /// Nothing to check.
+    pub fn check(&self) -> Result<(), ParamError> {
+        Ok(())
+    }
+}
 
 /// `ln(1 - P_D P_G)`: the (unnormalised) log weight of "no validated measurement is the
 /// target's" (`-inf` when `P_D P_G = 1`). `P_D P_G` is clamped into `[0, 1]`.
@@ -82,20 +92,15 @@ pub struct Pda;
 
 impl Pda {
     /// With the given parameters.
-    pub fn new(_params: PdaParams) -> Self {
-        Pda
+    pub fn new(params: PdaParams) -> Result<Self, ParamError> {
+        params.check()?;
+        Ok(Pda)
     }
-}
-
-/// Registry constructor: reads `[tracker.params.pda]`.
-pub fn make(s: &AssociatorSettings<'_>) -> Result<Box<dyn DataAssociator>, ParamError> {
-    let params: PdaParams = parse_params(s.params, "pda")?;
-    Ok(Box::new(Pda::new(params)))
 }
 
 impl DataAssociator for Pda {
     fn name(&self) -> &'static str {
-        "pda"
+        NAME
     }
 
     fn associate(&mut self, problem: &AssociationProblem<'_>, out: &mut AssociationWeights) {

@@ -50,10 +50,9 @@
 //! - `conversion = "additive"` (default) or `"multiplicative"`.
 
 use super::common::{check_process_noise, linear_prediction, pda_update_state, predict_cv};
-use super::{Filter, FilterState, PredictedMeasurement};
-use crate::local::registry::FilterSettings;
+use super::{Filter, FilterContext, FilterState, PredictedMeasurement};
 use crate::models::{range_bearing, POSITION_H};
-use crate::params::{parse_params, ParamError};
+use crate::params::ParamError;
 use crate::types::{Mat2, Sensor, SensorKind, StateCov, StateVec, Vec2};
 use serde::Deserialize;
 
@@ -68,12 +67,21 @@ pub enum Conversion {
     Multiplicative,
 }
 
+/// The ALGORITHMS.md name, also the key of the parameter table `[tracker.params.cmkf]`.
+pub const NAME: &str = "cmkf";
+
 /// Parameters of `cmkf` (see the module doc). Default: `conversion = "additive"`.
 #[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct CmkfParams {
-    #[serde(default)]
     pub conversion: Conversion,
+}
+
+impl CmkfParams {
+    /// Nothing to check (every conversion is valid).
+    pub fn check(&self) -> Result<(), ParamError> {
+        Ok(())
+    }
 }
 
 /// The converted-measurement Kalman filter (see the module doc).
@@ -122,22 +130,15 @@ pub fn conversion_covariance(
 }
 
 impl ConvertedMeasurementKalmanFilter {
-    /// A CMKF with white-acceleration standard deviations `[q_x, q_y]` (m/s^2).
-    pub fn new(process_noise: [f64; 2], conversion: Conversion) -> Result<Self, ParamError> {
-        check_process_noise(process_noise)?;
+    /// A CMKF with the context's white-acceleration standard deviations `[q_x, q_y]`
+    /// (m/s^2).
+    pub fn new(params: CmkfParams, context: &FilterContext) -> Result<Self, ParamError> {
+        check_process_noise(context.process_noise)?;
+        params.check()?;
         Ok(ConvertedMeasurementKalmanFilter {
-            process_noise,
-            conversion,
+            process_noise: context.process_noise,
+            conversion: params.conversion,
         })
-    }
-
-    /// The registry constructor.
-    pub fn make(settings: &FilterSettings<'_>) -> Result<Box<dyn Filter>, ParamError> {
-        let p: CmkfParams = parse_params(settings.params, "cmkf")?;
-        Ok(Box::new(ConvertedMeasurementKalmanFilter::new(
-            settings.process_noise,
-            p.conversion,
-        )?))
     }
 
     /// The measurement noise in Cartesian space for a track whose predicted state is
@@ -156,7 +157,7 @@ impl ConvertedMeasurementKalmanFilter {
 
 impl Filter for ConvertedMeasurementKalmanFilter {
     fn name(&self) -> &'static str {
-        "cmkf"
+        NAME
     }
 
     fn init(&self, mean: StateVec, cov: StateCov) -> FilterState {
@@ -255,7 +256,11 @@ mod tests {
         let truth = sensor.position() + r * Vec2::new(theta.cos(), theta.sin());
         let n = 20_000;
         for conv in [Conversion::Additive, Conversion::Multiplicative] {
-            let f = ConvertedMeasurementKalmanFilter::new([1.0, 1.0], conv).unwrap();
+            let f = ConvertedMeasurementKalmanFilter::new(
+                CmkfParams { conversion: conv },
+                &[1.0, 1.0].into(),
+            )
+            .unwrap();
             let mut rng = stream(5, 0, "cmkf-test", 0);
             let (mut mean, mut raw) = (Vec2::zeros(), Vec2::zeros());
             let mut second = Mat2::zeros();
@@ -305,8 +310,14 @@ mod tests {
 
     #[test]
     fn position_sensor_is_plain_kalman_filter() {
-        let cm = ConvertedMeasurementKalmanFilter::new([1.0, 2.0], Conversion::Additive).unwrap();
-        let kf = KalmanFilter::new([1.0, 2.0]).unwrap();
+        let cm = ConvertedMeasurementKalmanFilter::new(
+            CmkfParams {
+                conversion: Conversion::Additive,
+            },
+            &[1.0, 2.0].into(),
+        )
+        .unwrap();
+        let kf = KalmanFilter::new(Default::default(), &[1.0, 2.0].into()).unwrap();
         let sensor = position_sensor(15.0, 25.0);
         let mut a = cm.init(
             StateVec::new(0.0, 5.0, 0.0, 1.0),
@@ -327,16 +338,21 @@ mod tests {
     #[test]
     fn unknown_conversion_is_an_error() {
         let conversion = |c: &str| [("conversion", toml::Value::String(c.into()))];
-        let make = ConvertedMeasurementKalmanFilter::make;
-        assert!(make_with(make, "cmkf", &conversion("exact")).is_err());
-        assert!(make_with(make, "cmkf", &conversion("multiplicative")).is_ok());
+        assert!(make_with("cmkf", &conversion("exact")).is_err());
+        assert!(make_with("cmkf", &conversion("multiplicative")).is_ok());
     }
 
     /// Consistency on a range-bearing sensor with a large bearing error (20 mrad at ~7 km:
     /// 140 m cross-range against 10 m in range).
     #[test]
     fn nees_consistent_on_cv_target() {
-        let f = ConvertedMeasurementKalmanFilter::new([2.0, 2.0], Conversion::Additive).unwrap();
+        let f = ConvertedMeasurementKalmanFilter::new(
+            CmkfParams {
+                conversion: Conversion::Additive,
+            },
+            &[2.0, 2.0].into(),
+        )
+        .unwrap();
         let sensor = radar(-500.0, 300.0, 10.0, 0.02);
         assert_nees_in_band(
             &f,

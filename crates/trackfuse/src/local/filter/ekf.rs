@@ -24,16 +24,26 @@
 //! Navigation*, 2001, Sec. 10.3.
 
 use super::common::{check_process_noise, pda_update_state, predict_cv, sensor_prediction};
-use super::{Filter, FilterState, PredictedMeasurement};
-use crate::local::registry::FilterSettings;
-use crate::params::{parse_params, ParamError};
+use super::{Filter, FilterContext, FilterState, PredictedMeasurement};
+use crate::params::ParamError;
 use crate::types::{Sensor, StateCov, StateVec, Vec2};
 use serde::Deserialize;
 
-/// Parameters of `ekf`: none.
+/// The ALGORITHMS.md name, also the key of the parameter table `[tracker.params.ekf]`.
+pub const NAME: &str = "ekf";
+
+/// Parameters of `ekf`: none (the table is read only so that a mistyped key is an
+/// error).
 #[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct EkfParams {}
+
+impl EkfParams {
+    /// Nothing to check.
+    pub fn check(&self) -> Result<(), ParamError> {
+        Ok(())
+    }
+}
 
 /// The extended Kalman filter (see the module doc).
 #[derive(Debug, Clone)]
@@ -42,22 +52,19 @@ pub struct ExtendedKalmanFilter {
 }
 
 impl ExtendedKalmanFilter {
-    /// An EKF with white-acceleration standard deviations `[q_x, q_y]` (m/s^2).
-    pub fn new(process_noise: [f64; 2]) -> Result<Self, ParamError> {
+    /// An EKF with the context's white-acceleration standard deviations `[q_x, q_y]`
+    /// (m/s^2).
+    pub fn new(params: EkfParams, context: &FilterContext) -> Result<Self, ParamError> {
+        let process_noise = context.process_noise;
         check_process_noise(process_noise)?;
+        params.check()?;
         Ok(ExtendedKalmanFilter { process_noise })
-    }
-
-    /// The registry constructor.
-    pub fn make(settings: &FilterSettings<'_>) -> Result<Box<dyn Filter>, ParamError> {
-        let _: EkfParams = parse_params(settings.params, "ekf")?;
-        Ok(Box::new(ExtendedKalmanFilter::new(settings.process_noise)?))
     }
 }
 
 impl Filter for ExtendedKalmanFilter {
     fn name(&self) -> &'static str {
-        "ekf"
+        NAME
     }
 
     fn init(&self, mean: StateVec, cov: StateCov) -> FilterState {
@@ -105,7 +112,7 @@ mod tests {
     /// `(4.8 - 3.2, 6.4 + 2.4) = (1.6, 8.8)` and `P_pos = 100 I - K S K^T = 20 I`.
     #[test]
     fn jacobian_update_matches_hand_computation() {
-        let f = ExtendedKalmanFilter::new([1.0, 1.0]).unwrap();
+        let f = ExtendedKalmanFilter::new(Default::default(), &[1.0, 1.0].into()).unwrap();
         let sensor = radar(0.0, 0.0, 5.0, 1e-3);
         let x = StateVec::new(3000.0, 7.0, 4000.0, -3.0);
         let p = StateCov::from_diagonal(&nalgebra::Vector4::new(100.0, 4.0, 100.0, 4.0));
@@ -130,7 +137,7 @@ mod tests {
     /// `-pi + 0.0005`; the innovation is -0.001 rad, not `2 pi - 0.001`.
     #[test]
     fn bearing_innovation_wraps() {
-        let f = ExtendedKalmanFilter::new([1.0, 1.0]).unwrap();
+        let f = ExtendedKalmanFilter::new(Default::default(), &[1.0, 1.0].into()).unwrap();
         let sensor = radar(0.0, 0.0, 5.0, 1e-3);
         let b: f64 = -std::f64::consts::PI + 0.0005;
         let x = StateVec::new(1000.0 * b.cos(), 0.0, 1000.0 * b.sin(), 0.0);
@@ -148,8 +155,8 @@ mod tests {
     /// On a position sensor the EKF and the KF are the same filter.
     #[test]
     fn position_sensor_is_plain_kalman_filter() {
-        let ekf = ExtendedKalmanFilter::new([1.5, 0.5]).unwrap();
-        let kf = KalmanFilter::new([1.5, 0.5]).unwrap();
+        let ekf = ExtendedKalmanFilter::new(Default::default(), &[1.5, 0.5].into()).unwrap();
+        let kf = KalmanFilter::new(Default::default(), &[1.5, 0.5].into()).unwrap();
         let sensor = position_sensor(20.0, 10.0);
         let p = StateCov::identity() * 400.0;
         let mut a = ekf.init(StateVec::new(0.0, 5.0, 0.0, 1.0), p);
@@ -171,7 +178,7 @@ mod tests {
 
     #[test]
     fn target_on_the_sensor_is_defined() {
-        let f = ExtendedKalmanFilter::new([1.0, 1.0]).unwrap();
+        let f = ExtendedKalmanFilter::new(Default::default(), &[1.0, 1.0].into()).unwrap();
         let sensor = radar(10.0, 20.0, 5.0, 1e-3);
         let mut s = f.init(StateVec::new(10.0, 0.0, 20.0, 0.0), StateCov::identity());
         if let Some(pred) = f.predict_measurement(&s, &sensor) {
@@ -186,7 +193,7 @@ mod tests {
     /// `r sigma_theta^2 / sigma_r = 7e-4`).
     #[test]
     fn nees_consistent_on_cv_target() {
-        let f = ExtendedKalmanFilter::new([2.0, 2.0]).unwrap();
+        let f = ExtendedKalmanFilter::new(Default::default(), &[2.0, 2.0].into()).unwrap();
         assert_nees_in_band(
             &f,
             &radar(-500.0, 300.0, 10.0, 1e-3),

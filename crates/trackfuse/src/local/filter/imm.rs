@@ -73,10 +73,9 @@ use super::common::{
     check_process_noise, ct_transition, log_likelihood, pda_update, predict_linear,
     sensor_prediction, update_with_combined, valid_dt,
 };
-use super::{Filter, FilterState, ModeEstimate, PredictedMeasurement};
-use crate::local::registry::FilterSettings;
+use super::{Filter, FilterContext, FilterState, ModeEstimate, PredictedMeasurement};
 use crate::models::process_noise;
-use crate::params::{in_range, parse_params, ParamError};
+use crate::params::{in_range, ParamError};
 use crate::types::{symmetrize, Sensor, StateCov, StateVec, Vec2};
 use serde::Deserialize;
 
@@ -96,19 +95,17 @@ fn default_one() -> f64 {
     1.0
 }
 
-/// Parameters of `imm`; defaults in the module doc.
+/// The ALGORITHMS.md name, also the key of the parameter table `[tracker.params.imm]`.
+pub const NAME: &str = "imm";
+
+/// Parameters of `imm`; defaults (the [`Default`]) in the module doc.
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct ImmParams {
-    #[serde(default = "default_omega")]
     pub omega: f64,
-    #[serde(default = "default_p_stay")]
     pub p_stay: f64,
-    #[serde(default)]
     pub transition: Option<Vec<Vec<f64>>>,
-    #[serde(default)]
     pub initial_probabilities: Option<Vec<f64>>,
-    #[serde(default = "default_one")]
     pub turn_noise_scale: f64,
 }
 
@@ -158,10 +155,11 @@ fn check_probabilities(key: &str, p: &[f64], n: usize) -> Result<(), ParamError>
     Ok(())
 }
 
-impl ImmFilter {
-    /// An IMM from the tracker's process noise and the parameters.
-    pub fn new(process_noise: [f64; 2], p: &ImmParams) -> Result<Self, ParamError> {
-        check_process_noise(process_noise)?;
+impl ImmParams {
+    /// Check the values that do not depend on the number of modes (the shapes of
+    /// `transition` and `initial_probabilities` are checked by [`ImmFilter::new`]).
+    pub fn check(&self) -> Result<(), ParamError> {
+        let p = self;
         if !p.omega.is_finite() {
             return Err(ParamError::new(
                 "omega",
@@ -175,6 +173,17 @@ impl ImmFilter {
                 format!("{} must be finite and >= 0", p.turn_noise_scale),
             ));
         }
+        Ok(())
+    }
+}
+
+impl ImmFilter {
+    /// An IMM from the context's process noise and the parameters.
+    pub fn new(params: ImmParams, context: &FilterContext) -> Result<Self, ParamError> {
+        let process_noise = context.process_noise;
+        check_process_noise(process_noise)?;
+        params.check()?;
+        let p = &params;
         let mut models = vec![Model {
             omega: 0.0,
             q: process_noise,
@@ -233,12 +242,6 @@ impl ImmFilter {
             transition,
             initial,
         })
-    }
-
-    /// The registry constructor.
-    pub fn make(settings: &FilterSettings<'_>) -> Result<Box<dyn Filter>, ParamError> {
-        let p: ImmParams = parse_params(settings.params, "imm")?;
-        Ok(Box::new(ImmFilter::new(settings.process_noise, &p)?))
     }
 
     /// Number of modes.
@@ -318,7 +321,7 @@ fn combine(state: &mut FilterState) {
 
 impl Filter for ImmFilter {
     fn name(&self) -> &'static str {
-        "imm"
+        NAME
     }
 
     fn init(&self, mean: StateVec, cov: StateCov) -> FilterState {
@@ -482,7 +485,7 @@ mod tests {
             omega,
             ..ImmParams::default()
         };
-        ImmFilter::new([2.0, 2.0], &p).unwrap()
+        ImmFilter::new(p.clone(), &[2.0, 2.0].into()).unwrap()
     }
 
     fn p0() -> StateCov {
@@ -495,8 +498,8 @@ mod tests {
     fn single_mode_equals_cv_filter() {
         let one = imm(0.0);
         assert_eq!(one.n_modes(), 1);
-        let kf = KalmanFilter::new([2.0, 2.0]).unwrap();
-        let ekf = ExtendedKalmanFilter::new([2.0, 2.0]).unwrap();
+        let kf = KalmanFilter::new(Default::default(), &[2.0, 2.0].into()).unwrap();
+        let ekf = ExtendedKalmanFilter::new(Default::default(), &[2.0, 2.0].into()).unwrap();
         let x0 = StateVec::new(4000.0, 100.0, 6000.0, -30.0);
         for sensor in [position_sensor(30.0, 20.0), radar(100.0, -50.0, 10.0, 2e-3)] {
             let cv: &dyn Filter = if sensor.kind == SensorKind::Position {
@@ -596,11 +599,11 @@ mod tests {
     fn turn_modes_take_over_during_turns() {
         let w = 0.06;
         let f = ImmFilter::new(
-            [1.0, 1.0],
-            &ImmParams {
+            ImmParams {
                 omega: w,
                 ..ImmParams::default()
             },
+            &[1.0, 1.0].into(),
         )
         .unwrap();
         let sensor = position_sensor(15.0, 15.0);
@@ -644,7 +647,7 @@ mod tests {
     #[test]
     fn parameters_are_validated() {
         let ok = ImmParams::default();
-        assert!(ImmFilter::new([1.0, 1.0], &ok).is_ok());
+        assert!(ImmFilter::new(ok.clone(), &[1.0, 1.0].into()).is_ok());
         let bad = [
             ImmParams {
                 p_stay: 1.5,
@@ -672,13 +675,16 @@ mod tests {
             },
         ];
         for p in bad {
-            assert!(ImmFilter::new([1.0, 1.0], &p).is_err(), "{p:?}");
+            assert!(
+                ImmFilter::new(p.clone(), &[1.0, 1.0].into()).is_err(),
+                "{p:?}"
+            );
         }
         let keys = [
             ("omega", toml::Value::Float(0.05)),
             ("p_stay", toml::Value::Float(0.9)),
         ];
-        assert!(make_with(ImmFilter::make, "imm", &keys).is_ok());
+        assert!(make_with("imm", &keys).is_ok());
     }
 
     /// A state without modes, invalid weights, and a singular prediction are defined.
@@ -713,7 +719,7 @@ mod tests {
             p_stay,
             ..ImmParams::default()
         };
-        ImmFilter::new([2.0, 2.0], &p).unwrap()
+        ImmFilter::new(p.clone(), &[2.0, 2.0].into()).unwrap()
     }
 
     /// 50 runs x 60 scans (the IMM is four times the work of a KF: this keeps the test

@@ -90,10 +90,9 @@ use super::common::{
     check_process_noise, kalman_gain, pda_update_combined, sensor_prediction, update_with_combined,
     valid_dt, Gain,
 };
-use super::{Filter, FilterState, PredictedMeasurement};
-use crate::local::registry::FilterSettings;
+use super::{Filter, FilterContext, FilterState, PredictedMeasurement};
 use crate::models::{cv_transition, noise_gain, process_noise};
-use crate::params::{parse_params, ParamError};
+use crate::params::ParamError;
 use crate::types::{symmetrize, Mat2, Sensor, StateCov, StateVec, Vec2};
 use nalgebra::SMatrix;
 use serde::Deserialize;
@@ -108,15 +107,15 @@ fn default_true() -> bool {
     true
 }
 
-/// Parameters of `mie`; defaults in the module doc.
+/// The ALGORITHMS.md name, also the key of the parameter table `[tracker.params.mie]`.
+pub const NAME: &str = "mie";
+
+/// Parameters of `mie`; defaults (the [`Default`]) in the module doc.
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct InputEstimationParams {
-    #[serde(default = "default_window")]
     pub window: usize,
-    #[serde(default = "default_false_alarm")]
     pub false_alarm: f64,
-    #[serde(default = "default_true")]
     pub keep_input: bool,
 }
 
@@ -125,8 +124,28 @@ impl Default for InputEstimationParams {
         InputEstimationParams {
             window: default_window(),
             false_alarm: default_false_alarm(),
-            keep_input: true,
+            keep_input: default_true(),
         }
+    }
+}
+
+impl InputEstimationParams {
+    /// `window` in `1..=50`, `false_alarm` in `(0, 1)`.
+    pub fn check(&self) -> Result<(), ParamError> {
+        let p = self;
+        if !(1..=50).contains(&p.window) {
+            return Err(ParamError::new(
+                "window",
+                format!("{} must be in 1..=50", p.window),
+            ));
+        }
+        if !(p.false_alarm.is_finite() && p.false_alarm > 0.0 && p.false_alarm < 1.0) {
+            return Err(ParamError::new(
+                "false_alarm",
+                format!("{} must be in (0, 1)", p.false_alarm),
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -263,37 +282,19 @@ pub struct InputEstimationFilter {
 }
 
 impl InputEstimationFilter {
-    /// An input-estimation filter with white-acceleration standard deviations
-    /// `[q_x, q_y]` (m/s^2) and the parameters.
-    pub fn new(process_noise: [f64; 2], p: &InputEstimationParams) -> Result<Self, ParamError> {
+    /// An input-estimation filter with the context's white-acceleration standard
+    /// deviations `[q_x, q_y]` (m/s^2) and the parameters.
+    pub fn new(params: InputEstimationParams, context: &FilterContext) -> Result<Self, ParamError> {
+        let process_noise = context.process_noise;
         check_process_noise(process_noise)?;
-        if !(1..=50).contains(&p.window) {
-            return Err(ParamError::new(
-                "window",
-                format!("{} must be in 1..=50", p.window),
-            ));
-        }
-        if !(p.false_alarm.is_finite() && p.false_alarm > 0.0 && p.false_alarm < 1.0) {
-            return Err(ParamError::new(
-                "false_alarm",
-                format!("{} must be in (0, 1)", p.false_alarm),
-            ));
-        }
+        params.check()?;
+        let p = &params;
         Ok(InputEstimationFilter {
             process_noise,
             window: p.window,
             threshold: -2.0 * p.false_alarm.ln(),
             keep_input: p.keep_input,
         })
-    }
-
-    /// The registry constructor.
-    pub fn make(settings: &FilterSettings<'_>) -> Result<Box<dyn Filter>, ParamError> {
-        let p: InputEstimationParams = parse_params(settings.params, "mie")?;
-        Ok(Box::new(InputEstimationFilter::new(
-            settings.process_noise,
-            &p,
-        )?))
     }
 
     /// Detection threshold on the chi-square(2) statistic.
@@ -353,7 +354,7 @@ impl InputEstimationFilter {
 
 impl Filter for InputEstimationFilter {
     fn name(&self) -> &'static str {
-        "mie"
+        NAME
     }
 
     fn init(&self, mean: StateVec, cov: StateCov) -> FilterState {
@@ -445,7 +446,7 @@ mod tests {
             keep_input,
             ..InputEstimationParams::default()
         };
-        InputEstimationFilter::new([1.0, 1.0], &p).unwrap()
+        InputEstimationFilter::new(p.clone(), &[1.0, 1.0].into()).unwrap()
     }
 
     /// Noise-free measurements, filter started on the truth, a constant input u from the
@@ -460,7 +461,7 @@ mod tests {
         let mut truth = StateVec::new(100.0, 80.0, 1000.0, -100.0);
         let p0 = StateCov::from_diagonal(&nalgebra::Vector4::new(100.0, 25.0, 100.0, 25.0));
         let mut s = f.init(truth, p0);
-        let kf = KalmanFilter::new([1.0, 1.0]).unwrap();
+        let kf = KalmanFilter::new(Default::default(), &[1.0, 1.0].into()).unwrap();
         let mut plain = kf.init(truth, p0);
         for k in 1..=12 {
             truth = cv_transition(1.0) * truth + noise_gain(1.0) * u;
@@ -525,8 +526,9 @@ mod tests {
             }
         };
         let sensor = position_sensor(60.0, 60.0);
-        let f = InputEstimationFilter::new([1.0, 1.0], &InputEstimationParams::default()).unwrap();
-        let kf = KalmanFilter::new([1.0, 1.0]).unwrap();
+        let f = InputEstimationFilter::new(InputEstimationParams::default(), &[1.0, 1.0].into())
+            .unwrap();
+        let kf = KalmanFilter::new(Default::default(), &[1.0, 1.0].into()).unwrap();
         let rmse = |filter: &dyn Filter, manoeuvre: bool| -> f64 {
             let mut sq = 0.0;
             let runs = 10;
@@ -575,8 +577,9 @@ mod tests {
     #[test]
     fn works_with_range_bearing() {
         let sensor = radar(0.0, -2000.0, 10.0, 2e-3);
-        let f = InputEstimationFilter::new([1.0, 1.0], &InputEstimationParams::default()).unwrap();
-        let ekf = ExtendedKalmanFilter::new([1.0, 1.0]).unwrap();
+        let f = InputEstimationFilter::new(InputEstimationParams::default(), &[1.0, 1.0].into())
+            .unwrap();
+        let ekf = ExtendedKalmanFilter::new(Default::default(), &[1.0, 1.0].into()).unwrap();
         let err = |filter: &dyn Filter| -> f64 {
             let mut rng = stream(4, 0, "mie-test", 0);
             let mut n = || -> f64 { StandardNormal.sample(&mut rng) };
@@ -627,7 +630,10 @@ mod tests {
             },
         ];
         for p in bad {
-            assert!(InputEstimationFilter::new([1.0, 1.0], &p).is_err(), "{p:?}");
+            assert!(
+                InputEstimationFilter::new(p.clone(), &[1.0, 1.0].into()).is_err(),
+                "{p:?}"
+            );
         }
         let f = mie(5, true);
         assert!((f.threshold() - 13.8155).abs() < 1e-3); // chi^2_2 at 0.999

@@ -23,16 +23,26 @@
 //! Y. Bar-Shalom, T. E. Fortmann, *Tracking and Data Association*, 1988.
 
 use super::common::{check_process_noise, pda_update_state, position_prediction, predict_cv};
-use super::{Filter, FilterState, PredictedMeasurement};
-use crate::local::registry::FilterSettings;
-use crate::params::{parse_params, ParamError};
+use super::{Filter, FilterContext, FilterState, PredictedMeasurement};
+use crate::params::ParamError;
 use crate::types::{Sensor, SensorKind, StateCov, StateVec, Vec2};
 use serde::Deserialize;
 
-/// Parameters of `kf`: none.
+/// The ALGORITHMS.md name, also the key of the parameter table `[tracker.params.kf]`.
+pub const NAME: &str = "kf";
+
+/// Parameters of `kf`: none (the table is read only so that a mistyped key is an
+/// error).
 #[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct KalmanParams {}
+
+impl KalmanParams {
+    /// Nothing to check.
+    pub fn check(&self) -> Result<(), ParamError> {
+        Ok(())
+    }
+}
 
 /// The linear Kalman filter (see the module doc).
 #[derive(Debug, Clone)]
@@ -41,22 +51,19 @@ pub struct KalmanFilter {
 }
 
 impl KalmanFilter {
-    /// A Kalman filter with white-acceleration standard deviations `[q_x, q_y]` (m/s^2).
-    pub fn new(process_noise: [f64; 2]) -> Result<Self, ParamError> {
+    /// A Kalman filter with the context's white-acceleration standard deviations `[q_x, q_y]`
+    /// (m/s^2).
+    pub fn new(params: KalmanParams, context: &FilterContext) -> Result<Self, ParamError> {
+        let process_noise = context.process_noise;
         check_process_noise(process_noise)?;
+        params.check()?;
         Ok(KalmanFilter { process_noise })
-    }
-
-    /// The registry constructor.
-    pub fn make(settings: &FilterSettings<'_>) -> Result<Box<dyn Filter>, ParamError> {
-        let _: KalmanParams = parse_params(settings.params, "kf")?;
-        Ok(Box::new(KalmanFilter::new(settings.process_noise)?))
     }
 }
 
 impl Filter for KalmanFilter {
     fn name(&self) -> &'static str {
-        "kf"
+        NAME
     }
 
     fn supports(&self, kind: SensorKind) -> bool {
@@ -109,7 +116,7 @@ mod tests {
     /// x and y blocks decouple: diagonal P0 and R).
     #[test]
     fn one_step_matches_hand_computation() {
-        let f = KalmanFilter::new([1.0, 2.0]).unwrap();
+        let f = KalmanFilter::new(Default::default(), &[1.0, 2.0].into()).unwrap();
         let sensor = position_sensor(5.0, 4.0);
         let p0 = StateCov::from_diagonal(&nalgebra::Vector4::new(100.0, 10.0, 50.0, 20.0));
         let mut s = f.init(StateVec::new(0.0, 10.0, 0.0, 5.0), p0);
@@ -149,7 +156,7 @@ mod tests {
 
     #[test]
     fn refuses_range_bearing_and_bad_settings() {
-        let f = KalmanFilter::new([1.0, 1.0]).unwrap();
+        let f = KalmanFilter::new(Default::default(), &[1.0, 1.0].into()).unwrap();
         assert!(f.supports(SensorKind::Position));
         assert!(!f.supports(SensorKind::RangeBearing));
         let mut radar = position_sensor(5.0, 5.0);
@@ -159,14 +166,14 @@ mod tests {
             StateCov::identity(),
         );
         assert!(f.predict_measurement(&s, &radar).is_none());
-        assert!(KalmanFilter::new([f64::INFINITY, 1.0]).is_err());
+        assert!(KalmanFilter::new(Default::default(), &[f64::INFINITY, 1.0].into()).is_err());
         let omega = [("omega", toml::Value::Float(0.1))];
-        assert!(make_with(KalmanFilter::make, "kf", &omega).is_err());
+        assert!(make_with("kf", &omega).is_err());
     }
 
     #[test]
     fn zero_or_negative_dt_is_no_op() {
-        let f = KalmanFilter::new([1.0, 1.0]).unwrap();
+        let f = KalmanFilter::new(Default::default(), &[1.0, 1.0].into()).unwrap();
         let s0 = f.init(StateVec::new(1.0, 2.0, 3.0, 4.0), StateCov::identity());
         for dt in [0.0, -1.0, f64::NAN] {
             let mut s = s0.clone();
@@ -179,7 +186,7 @@ mod tests {
     /// NEES over 50 runs x 100 scans inside the 95 % chi-square band (see `testing`).
     #[test]
     fn nees_consistent_on_cv_target() {
-        let f = KalmanFilter::new([2.0, 2.0]).unwrap();
+        let f = KalmanFilter::new(Default::default(), &[2.0, 2.0].into()).unwrap();
         let r = assert_nees_in_band(
             &f,
             &position_sensor(30.0, 30.0),

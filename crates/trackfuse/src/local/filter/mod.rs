@@ -21,8 +21,46 @@ pub mod kalman;
 #[cfg(test)]
 pub(crate) mod testing;
 
+use crate::params::ParamTables;
 use crate::types::{Mat2, Sensor, SensorKind, StateCov, StateVec, Vec2};
 use nalgebra::SMatrix;
+
+/// What a filter is built with besides its own parameters: the second argument of every
+/// filter's `new(params, &FilterContext)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FilterContext {
+    /// White-acceleration standard deviations `[q_x, q_y]` (m/s^2) of the filter's
+    /// motion model.
+    pub process_noise: [f64; 2],
+}
+
+impl From<[f64; 2]> for FilterContext {
+    /// The context of a filter with process noise `[q_x, q_y]`.
+    fn from(process_noise: [f64; 2]) -> Self {
+        FilterContext { process_noise }
+    }
+}
+
+/// What a filter constructor of a registry is given: the context and all
+/// `[tracker.params.*]` tables (a filter reads its own, `params.<name>`, with
+/// [`crate::params::parse_params`]).
+#[derive(Debug, Clone)]
+pub struct FilterSettings<'a> {
+    /// White-acceleration standard deviations `[q_x, q_y]` (m/s^2) of the filter's
+    /// motion model.
+    pub process_noise: [f64; 2],
+    /// All `[tracker.params.*]` tables.
+    pub params: &'a ParamTables,
+}
+
+impl FilterSettings<'_> {
+    /// The construction context these settings carry.
+    pub fn context(&self) -> FilterContext {
+        FilterContext {
+            process_noise: self.process_noise,
+        }
+    }
+}
 
 /// One model's estimate inside a multiple-model filter (IMM), or a filter's auxiliary
 /// estimate. (Input estimation, `mie`, keeps its input estimate and detection window in
@@ -190,7 +228,8 @@ pub trait Filter: Send + Sync {
 #[cfg(test)]
 mod tests {
     use super::testing::{measure, position_sensor, radar};
-    use crate::local::registry::{make_filter, FilterSettings, FILTERS};
+    use super::FilterSettings;
+    use crate::local::registry::{make_filter, FILTERS};
     use crate::models::cv_transition;
     use crate::params::ParamTables;
     use crate::types::{SensorKind, StateCov, StateVec, Vec2};

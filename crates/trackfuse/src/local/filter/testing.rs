@@ -18,19 +18,17 @@
 
 use super::common::ct_transition;
 use super::Filter;
-use crate::local::registry::FilterSettings;
+use super::FilterSettings;
+use crate::local::registry::make_filter;
 use crate::models::{cv_transition, noise_gain, range_bearing, wrap_angle};
 use crate::params::{ParamError, ParamTables};
 use crate::rng::stream;
 use crate::types::{Sensor, SensorKind, StateCov, StateVec, Vec2};
 use rand_distr::{Distribution, StandardNormal};
 
-/// A filter's registry constructor.
-pub(crate) type MakeFilter = fn(&FilterSettings<'_>) -> Result<Box<dyn Filter>, ParamError>;
-
-/// `make` with process noise `[1, 1]` m/s^2 and `[tracker.params.<name>]` holding `keys`.
+/// The registered filter `name` with process noise `[1, 1]` m/s^2 and
+/// `[tracker.params.<name>]` holding `keys`.
 pub(crate) fn make_with(
-    make: MakeFilter,
     name: &str,
     keys: &[(&str, toml::Value)],
 ) -> Result<Box<dyn Filter>, ParamError> {
@@ -40,10 +38,13 @@ pub(crate) fn make_with(
     }
     let mut tables = ParamTables::new();
     tables.insert(name.into(), table);
-    make(&FilterSettings {
-        process_noise: [1.0, 1.0],
-        params: &tables,
-    })
+    make_filter(
+        name,
+        &FilterSettings {
+            process_noise: [1.0, 1.0],
+            params: &tables,
+        },
+    )
 }
 
 /// Runs of the consistency experiment.
@@ -241,7 +242,7 @@ fn band_matches_known_quantiles() {
 /// centripetal acceleration against q = 1 m/s^2) is far above the band.
 #[test]
 fn check_detects_an_inconsistent_filter() {
-    let f = super::kalman::KalmanFilter::new([1.0, 1.0]).unwrap();
+    let f = super::kalman::KalmanFilter::new(Default::default(), &[1.0, 1.0].into()).unwrap();
     let setup = NeesSetup {
         scans: 60,
         ..NeesSetup::standard(13)
