@@ -1282,8 +1282,8 @@ mod tests {
     fn pc_equals_the_library_without_bias() {
         let mut sc = scenario("000-s3").expect("built-in");
         sc = with_biases(&sc, 0.0, 0.0);
-        sc.scans = 30;
-        sc.clutter.density = 0.0; // fast in debug; the labels do not care
+        sc.scenario.scans = 30;
+        sc.scenario.clutter.density = 0.0; // fast in debug; the labels do not care
         let fusion = fusion_of(&sc, &v("FDBSC-TA", "fdbsc-ta", "fuzzy", false));
         let out = trackfuse::pipeline::run_with(&sc, &sc.tracker, &fusion, 0).expect("run");
         let view = RunView {
@@ -1315,6 +1315,7 @@ mod tests {
         use trackfuse::types::{Association, StateCov, StateVec, TruthState};
         let sc = scenario("000-s3").expect("built-in");
         let sensors = sc
+            .scenario
             .sensor_table()
             .into_iter()
             .map(|mut s| {
