@@ -261,7 +261,11 @@ impl FusionCenter {
 
     /// One scan: an empty one only ages the global tracks; the others go through
     /// [`FusionCenter::scan_steps`] with the center's reused buffers.
-    fn scan_into(&mut self, tracks: &[LocalTrack], out: &mut ScanOutput) -> Result<(), CenterError> {
+    fn scan_into(
+        &mut self,
+        tracks: &[LocalTrack],
+        out: &mut ScanOutput,
+    ) -> Result<(), CenterError> {
         if tracks.is_empty() {
             self.age_globals(&[]);
             out.fused.clear();
@@ -296,8 +300,23 @@ impl FusionCenter {
             &mut buf.seen,
         )?;
         order_members(&mut buf.groups);
-        self.fuse_groups(scan, time, sorted, &buf.groups, &mut buf.fused_est, &mut buf.keys)?;
-        self.update_globals(scan, time, &buf.groups, &buf.fused_est, &buf.keys, &mut buf.continued, out);
+        self.fuse_groups(
+            scan,
+            time,
+            sorted,
+            &buf.groups,
+            &mut buf.fused_est,
+            &mut buf.keys,
+        )?;
+        self.update_globals(
+            scan,
+            time,
+            &buf.groups,
+            &buf.fused_est,
+            &buf.keys,
+            &mut buf.continued,
+            out,
+        );
         if let (Some(b), Some(s)) = (&mut self.bias, &self.sensors) {
             b.update(raw, &buf.groups, &buf.fused_est, s);
         }
@@ -929,10 +948,7 @@ mod tests {
         assert!(c.process_scan(&ts).is_err(), "duplicate track");
         let mut c = center(false);
         c.process_scan(&two_targets(3)).expect("scan 3");
-        assert!(
-            c.process_scan(&two_targets(2)).is_err(),
-            "back in time"
-        );
+        assert!(c.process_scan(&two_targets(2)).is_err(), "back in time");
         let mut mixed = two_targets(4);
         mixed[1].scan = 5;
         assert!(c.process_scan(&mixed).is_err(), "two scans at once");
