@@ -274,8 +274,13 @@ impl FusionCenter {
         result
     }
 
-    /// One scan, step by step (the module doc's list).
-    fn scan_into(&mut self, tracks: &[LocalTrack], out: &mut ScanOutput) -> Result<(), CenterError> {
+    /// One scan: an empty one only ages the global tracks; the others go through
+    /// [`FusionCenter::scan_steps`] with the center's reused buffers.
+    fn scan_into(
+        &mut self,
+        tracks: &[LocalTrack],
+        out: &mut ScanOutput,
+    ) -> Result<(), CenterError> {
         if tracks.is_empty() {
             self.age_globals(&[]);
             out.fused.clear();
@@ -283,12 +288,13 @@ impl FusionCenter {
         }
         let when = self.scan_time(tracks)?;
         let mut buf = std::mem::take(&mut self.buf);
-        let result = self.fuse_scan(tracks, when, &mut buf, out);
+        let result = self.scan_steps(tracks, when, &mut buf, out);
         self.buf = buf;
         result
     }
 
-    fn fuse_scan(
+    /// The steps of one scan (the module doc's list), each a function named after it.
+    fn scan_steps(
         &mut self,
         tracks: &[LocalTrack],
         (scan, time, dt): (u32, f64, f64),
@@ -309,8 +315,23 @@ impl FusionCenter {
             &mut buf.seen,
         )?;
         order_members(&mut buf.groups);
-        self.fuse_groups(scan, time, sorted, &buf.groups, &mut buf.fused_est, &mut buf.keys)?;
-        self.update_globals(scan, time, &buf.groups, &buf.fused_est, &buf.keys, &mut buf.continued, out);
+        self.fuse_groups(
+            scan,
+            time,
+            sorted,
+            &buf.groups,
+            &mut buf.fused_est,
+            &mut buf.keys,
+        )?;
+        self.update_globals(
+            scan,
+            time,
+            &buf.groups,
+            &buf.fused_est,
+            &buf.keys,
+            &mut buf.continued,
+            out,
+        );
         if let (Some(b), Some(s)) = (&mut self.bias, &self.sensors) {
             b.update(raw, &buf.groups, &buf.fused_est, s);
         }
@@ -430,7 +451,6 @@ impl FusionCenter {
     /// Fuse each group with the rule, into `fused_est` (symmetrised), and list the
     /// members' `(sensor_id, track_id)` group after group into `keys` (taken while the
     /// tracks are in the cache: the table update reads them from there).
-    #[allow(clippy::too_many_arguments)]
     fn fuse_groups(
         &self,
         scan: u32,

@@ -973,7 +973,11 @@ pd = 0.95
             out.clear();
             for t in 0..problem.predictions.len() {
                 out.begin_track();
-                let nearest = problem.gates.of(t).iter().min_by(|a, b| a.1.total_cmp(&b.1));
+                let nearest = problem
+                    .gates
+                    .of(t)
+                    .iter()
+                    .min_by(|a, b| a.1.total_cmp(&b.1));
                 if let (false, Some(&(m, _))) = (self.blind, nearest) {
                     out.push(m, 1.0);
                 }
@@ -1025,7 +1029,10 @@ pd = 0.95
             for scan in 0..8u32 {
                 let t = f64::from(scan);
                 // the target, and a far clutter point outside its gate
-                let z = [Vec2::new(1000.0 + 20.0 * t, 500.0), Vec2::new(9000.0, 9000.0)];
+                let z = [
+                    Vec2::new(1000.0 + 20.0 * t, 500.0),
+                    Vec2::new(9000.0, 9000.0),
+                ];
                 tracker.process_scan(scan, t, &z, &mut out).expect("scan");
             }
             (out, calls.load(std::sync::atomic::Ordering::Relaxed))

@@ -173,11 +173,8 @@ impl TrackAssociator for TruthAssociator {
             }
         }
         self.learn_globals(globals);
-        let index_of: HashMap<Id, usize> = globals
-            .iter()
-            .enumerate()
-            .map(|(i, g)| (g.id, i))
-            .collect();
+        let index_of: HashMap<Id, usize> =
+            globals.iter().enumerate().map(|(i, g)| (g.id, i)).collect();
         let mut groups = Vec::with_capacity(by_key.len() + extra.len());
         for (key, members) in by_key {
             let global = self
@@ -233,7 +230,13 @@ mod tests {
         // 0:1 and 0:2 both on target 7 (0:2 a duplicate), 1:4 on 7, 1:3 on 8, 2:5 unknown
         let mut a = TruthAssociator::new(labels(
             0,
-            &[((0, 1), 7), ((0, 2), 7), ((1, 3), 8), ((1, 4), 7), ((2, 5), -1)],
+            &[
+                ((0, 1), 7),
+                ((0, 2), 7),
+                ((1, 3), 8),
+                ((1, 4), 7),
+                ((2, 5), -1),
+            ],
         ));
         let groups = associate_checked(&mut a, &ctx(0, &[]), &tracks, &[]);
         let members: Vec<Vec<usize>> = groups.iter().map(|g| g.members.clone()).collect();
@@ -245,7 +248,10 @@ mod tests {
 
     #[test]
     fn a_target_continues_the_global_track_it_started() {
-        let scan0 = [local(0, 1, 0.0, 0.0, 0.0, 0.0, 1.0), local(1, 9, 1.0, 0.0, 0.0, 0.0, 1.0)];
+        let scan0 = [
+            local(0, 1, 0.0, 0.0, 0.0, 0.0, 1.0),
+            local(1, 9, 1.0, 0.0, 0.0, 0.0, 1.0),
+        ];
         let mut source = labels(0, &[((0, 1), 4), ((1, 9), 4)]);
         source.extend(labels(1, &[((0, 1), 4), ((1, 9), 4)]));
         source.extend(labels(2, &[((0, 1), 4)]));
