@@ -19,6 +19,7 @@ pub mod pipeline;
 pub mod rng;
 pub mod scenario;
 pub mod sim;
+pub mod stats;
 pub mod types;
 
 pub use scenario::Scenario;
