@@ -892,7 +892,7 @@ sigma_theta = 0.001
             .collect();
         assert_eq!(b, vec![(400.0, 0.03), (500.0, 0.08)]);
         assert_eq!(s.tracker.filter, "mie");
-        assert_eq!(s.fusion.bias.as_deref(), Some("fdbsc"));
-        assert!(s.fusion.params.contains_key("fdbsc"));
+        assert_eq!(s.fusion.bias.as_deref(), Some("track-pair-ls"));
+        assert!(s.fusion.params.contains_key("track-pair-ls"));
     }
 }
