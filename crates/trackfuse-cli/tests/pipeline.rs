@@ -221,7 +221,7 @@ fn fuse_methods_that_need_sensors_say_so() {
     let f = dir.path().join("theirs.csv");
     std::fs::write(&f, foreign_local_tracks()).expect("write");
     let out = trackfuse()
-        .args(["fuse", "--bias", "fdbsc", "--local-tracks"])
+        .args(["fuse", "--bias", "track-pair-ls", "--local-tracks"])
         .arg(&f)
         .arg("--out")
         .arg(dir.path().join("out"))

@@ -16,7 +16,7 @@ fn reproduce_bias_smoke() {
     let md = std::fs::read_to_string(&out).expect("markdown");
     assert!(md.contains("trackfuse reproduce bias --runs 2"), "{md}");
     assert!(
-        md.contains("| bias-radars, `fdbsc` (the scenario's settings) |"),
+        md.contains("| bias-radars, `track-pair-ls` (the scenario's settings) |"),
         "{md}"
     );
     assert!(md.contains("| bias-radars-nobias (reference) |"), "{md}");

@@ -565,7 +565,7 @@ sigma_theta = 0.001
             .collect();
         assert_eq!(b, vec![(400.0, 0.03), (500.0, 0.08)]);
         assert_eq!(c.tracker.filter, "mie");
-        assert_eq!(c.fusion.bias.as_deref(), Some("fdbsc"));
-        assert!(c.fusion.params.contains_key("fdbsc"));
+        assert_eq!(c.fusion.bias.as_deref(), Some("track-pair-ls"));
+        assert!(c.fusion.params.contains_key("track-pair-ls"));
     }
 }

@@ -24,6 +24,7 @@ pub mod rng;
 pub mod scenario;
 pub mod sim;
 pub mod spatial;
+pub mod stats;
 pub mod types;
 pub mod union_find;
 

@@ -20,7 +20,7 @@ use super::{md_table, monte_carlo, monte_carlo_with, num, scenario, Ctx, McResul
 use anyhow::{bail, Context, Result};
 use std::fmt::Write;
 use std::process::Command;
-use trackfuse::center::bias::BiasEstimate;
+use trackfuse::center::bias::{track_pair_ls, BiasEstimate};
 use trackfuse::metrics::Summary;
 
 const RUNS: u32 = 100;
@@ -144,11 +144,13 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     let mut without = biased.fusion.clone();
     without.bias = None;
     let mut defaults = biased.fusion.clone();
-    defaults.params.remove("fdbsc");
+    defaults.params.remove(track_pair_ls::NAME);
     let mut clean_with = clean.fusion.clone();
     clean_with.bias = with_bias.bias.clone();
-    if let Some(p) = with_bias.params.get("fdbsc") {
-        clean_with.params.insert("fdbsc".into(), p.clone());
+    if let Some(p) = with_bias.params.get(track_pair_ls::NAME) {
+        clean_with
+            .params
+            .insert(track_pair_ls::NAME.into(), p.clone());
     }
     let final_estimates =
         |o: &trackfuse::pipeline::RunOutput| -> Vec<BiasEstimate> { o.fused.bias.clone() };
@@ -162,7 +164,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     )?;
     let (est, estimates) = monte_carlo_with(
         ctx,
-        "biased, fdbsc (scenario)",
+        "biased, track-pair-ls (scenario)",
         &biased,
         &biased.tracker,
         &with_bias,
@@ -171,7 +173,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     )?;
     let (est_default, estimates_default) = monte_carlo_with(
         ctx,
-        "biased, fdbsc (defaults)",
+        "biased, track-pair-ls (defaults)",
         &biased,
         &biased.tracker,
         &defaults,
@@ -188,7 +190,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     )?;
     let reference_est = monte_carlo(
         ctx,
-        "no biases, fdbsc",
+        "no biases, track-pair-ls",
         &clean,
         &clean.tracker,
         &clean_with,
@@ -208,8 +210,8 @@ sigma_theta = 1 mrad, Pd = 0.9, 40 km range), range biases 150 / 300 / 100 m and
 biases 4 / -3 / 6 mrad, partly overlapping coverage, eight targets appearing and leaving \
 during the 400 s run, light clutter; local trackers `gnn` + `ekf` with M-of-N initiation \
 (nothing known in advance). Fusion center as the scenario's `[fusion]` says: `fdbsc-ta` + \
-`fuzzy` with the `fdbsc` bias estimator (000 eq. 15; \
-`crates/trackfuse/src/center/bias_estimation.rs` documents how it reads the equation), its \
+`fuzzy` with the `track-pair-ls` bias estimator (000 eq. 15; \
+`crates/trackfuse/src/center/bias/track_pair_ls/mod.rs` documents how it reads the equation), its \
 prior set to what is known of such radars (500 m and 10 mrad standard deviations) and \
 pairs learnt from at once (`confirm_scans = 1`: the targets are kilometres apart). \
 `bias-radars-nobias` is the same scenario with every bias zero, fused the same way \
@@ -242,10 +244,19 @@ without estimator.\n\n",
         ],
         &[
             row("bias-radars, no bias estimation", &no_est),
-            row("bias-radars, `fdbsc` (the scenario's settings)", &est),
-            row("bias-radars, `fdbsc` at its defaults (extra)", &est_default),
+            row(
+                "bias-radars, `track-pair-ls` (the scenario's settings)",
+                &est,
+            ),
+            row(
+                "bias-radars, `track-pair-ls` at its defaults (extra)",
+                &est_default,
+            ),
             row("bias-radars-nobias (reference)", &reference),
-            row("bias-radars-nobias, `fdbsc` on (extra)", &reference_est),
+            row(
+                "bias-radars-nobias, `track-pair-ls` on (extra)",
+                &reference_est,
+            ),
         ],
     ));
     let r = ratio(est.summary.fused_rmse, base);

@@ -7,7 +7,7 @@
 //! 2007) = `ftta` + `fuzzy` (003 eq. 5.4); the Bayesian MMSE reference = the `mmse` rule
 //! (optimal fusion given the true association). Extra rows pair `fdbsc-ta` with the
 //! project's `ci`, `bc` and `sf` rules. In scenario III every method runs behind the same
-//! bias estimator (`fdbsc`, eq. 15), as the scenario file configures it; extra rows run
+//! bias estimator (`track-pair-ls`, eq. 15 residuals), as the scenario file configures it; extra rows run
 //! without it.
 //!
 //! # Association truth under bias
@@ -48,6 +48,7 @@ use trackfuse::center::{fuse_all, FusedRun, FusionConfig};
 use trackfuse::metrics::{
     evaluate_run, gated_assignment, label_local_tracks, EvalInput, RunMetrics,
 };
+use trackfuse::models::polar::{polar_image, sensor_image};
 use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::track_run;
 use trackfuse::sim::{simulate, SimulationOutput};
@@ -195,30 +196,6 @@ impl Extra {
     }
 }
 
-/// The position a radar at `sensor` with range bias `dr` and bearing bias `dtheta` sees
-/// a target at `p` at (000 eq. 3, noise-free): `p` moved radially by `dr` (the range
-/// floored at 0) and rotated about the sensor by `dtheta`. With `(-dr, -dtheta)` it is
-/// the inverse map (where the range stays positive), the correction of a biased track.
-fn polar_image(p: Vec2, sensor: Vec2, dr: f64, dtheta: f64) -> Vec2 {
-    let d = p - sensor;
-    let r = d.norm();
-    if r < 1e-9 {
-        return p;
-    }
-    let range = (r + dr).max(0.0);
-    let bearing = d[1].atan2(d[0]) + dtheta;
-    sensor + Vec2::new(range * bearing.cos(), range * bearing.sin())
-}
-
-/// The image of `p` in the frame of sensor `s` (its true biases); a position sensor's
-/// frame is the truth's.
-fn image_of(p: Vec2, s: &Sensor) -> Vec2 {
-    match s.kind {
-        SensorKind::RangeBearing => polar_image(p, s.position(), s.bias_r, s.bias_theta),
-        SensorKind::Position => p,
-    }
-}
-
 /// What one run of one fusion variant produced.
 #[derive(Clone, Copy)]
 struct RunView<'a> {
@@ -254,7 +231,7 @@ fn biased_frame_labels(out: &RunView<'_>, gate: f64) -> HashMap<(u32, Id, Id), I
             continue;
         };
         images.clear();
-        images.extend(ts.iter().map(|(_, p)| image_of(*p, s)));
+        images.extend(ts.iter().map(|(_, p)| sensor_image(*p, s)));
         lpos.clear();
         lpos.extend(tracks.iter().map(|(_, p)| *p));
         for (li, ti) in gated_assignment(&lpos, &images, gate)
@@ -270,50 +247,14 @@ fn biased_frame_labels(out: &RunView<'_>, gate: f64) -> HashMap<(u32, Id, Id), I
 }
 
 /// P_c (000 eq. 19) of one run from its associations and the given labels: the sum of
-/// `N_c / N_public` over the scans with common targets, and their number.
+/// `N_c / N_public` over the scans with common targets, and their number (the library's
+/// [`trackfuse::metrics::probability_correct`]).
 fn probability_correct(out: &RunView<'_>, labels: &HashMap<(u32, Id, Id), Id>) -> Acc {
-    let mut by_scan: BTreeMap<u32, Vec<(Id, Id, Id)>> = BTreeMap::new();
-    for a in &out.fused.associations {
-        by_scan
-            .entry(a.scan)
-            .or_default()
-            .push((a.sensor_id, a.track_id, a.fused_id));
+    let pc = trackfuse::metrics::probability_correct(&out.fused.associations, labels);
+    Acc {
+        sum: pc.sum,
+        n: pc.n,
     }
-    let mut pc = Acc::default();
-    for (scan, rows) in &by_scan {
-        // fused id -> labels of its members; target -> (sensor, fused id) of its followers
-        let mut members: BTreeMap<Id, Vec<Option<Id>>> = BTreeMap::new();
-        let mut followers: BTreeMap<Id, Vec<(Id, Id)>> = BTreeMap::new();
-        for &(sensor, track, fused) in rows {
-            let label = labels.get(&(*scan, sensor, track)).copied();
-            members.entry(fused).or_default().push(label);
-            if let Some(t) = label {
-                followers.entry(t).or_default().push((sensor, fused));
-            }
-        }
-        let (mut public, mut correct) = (0u64, 0u64);
-        for (t, fl) in &followers {
-            let mut sensors: Vec<Id> = fl.iter().map(|f| f.0).collect();
-            sensors.sort_unstable();
-            sensors.dedup();
-            if sensors.len() < 2 {
-                continue;
-            }
-            public += 1;
-            let f0 = fl[0].1;
-            let together = fl.iter().all(|f| f.1 == f0);
-            let clean = members
-                .get(&f0)
-                .is_some_and(|m| m.iter().all(|l| *l == Some(*t)));
-            if together && clean {
-                correct += 1;
-            }
-        }
-        if public > 0 {
-            pc.add(correct as f64 / public as f64);
-        }
-    }
-    pc
 }
 
 /// Everything [`Extra`] holds, for one run.
@@ -986,7 +927,7 @@ fn table6(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
         "- **FTF** correlates two tracks only within their resolutions (3 sqrt(P_xx + P_yy), \
          tens of metres): until the biases are corrected to that level it forms no \
          multi-sensor group. The estimator does not need its groups: it pairs the raw tracks \
-         itself (`fdbsc`'s consensus pairing) and ends within tolerance in {:.0} % of the \
+         itself (`track-pair-ls`'s consensus pairing) and ends within tolerance in {:.0} % of the \
          runs behind FTF ({:.0} % behind FDBSC-TA); once the tracks are corrected FTF's groups \
          form, and its rows (P_c {}, coverage {}) are those of a method fed registered \
          tracks, as the paper's FTF row (close to its FDBSC-TA row) suggests FTF was. \
@@ -1250,22 +1191,6 @@ fn figs56(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn polar_image_and_its_inverse() {
-        let s = Vec2::new(1000.0, -500.0);
-        let p = Vec2::new(4000.0, 3500.0); // 5 km from s, bearing atan2(4, 3)
-        let q = polar_image(p, s, 200.0, 0.1);
-        let d = q - s;
-        assert!((d.norm() - 5200.0).abs() < 1e-9);
-        let expected = (4.0f64).atan2(3.0) + 0.1;
-        assert!((d[1].atan2(d[0]) - expected).abs() < 1e-12);
-        let back = polar_image(q, s, -200.0, -0.1);
-        assert!((back - p).norm() < 1e-9);
-        // at the sensor: unchanged; a range bias larger than the range floors at 0
-        assert_eq!(polar_image(s, s, 100.0, 0.5), s);
-        assert!((polar_image(p, s, -6000.0, 0.0) - s).norm() < 1e-9);
-    }
 
     #[test]
     fn sweeps() {

@@ -2,7 +2,7 @@
 //! Table 4 (position RMSE per target: local tracks, FTF, FDBSC-TA, Bayesian MMSE), 100
 //! Monte Carlo runs, on `scenarios/000-s2.toml` (the built-in default scenario) with the
 //! settings its `[tracker]` and `[fusion]` sections give; extra rows for the `ci` and `bc`
-//! rules. Every variant runs with the `fdbsc` bias estimator (eq. 15), as the paper's
+//! rules. Every variant runs with the `track-pair-ls` bias estimator (eq. 15 residuals), as the paper's
 //! methods do in scenario II.
 //!
 //! Each run is simulated and tracked once; the five fusion variants fuse the same local
@@ -17,17 +17,17 @@
 //! The paper's local rows (about 23 m, while the raw tracks of these radars sit 0.5-0.9 km
 //! off) can only be local tracks after the center's bias correction, so the table gives
 //! both: the raw local tracks and the local tracks corrected with each run's final
-//! `fdbsc` estimates (FDBSC-TA variant), against the same labels.
+//! `track-pair-ls` estimates (FDBSC-TA variant), against the same labels.
 
 use super::{md_table, num, rel, scenario, Ctx};
 use anyhow::Result;
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
 use trackfuse::center::bias::BiasEstimate;
-use trackfuse::center::bias_estimation::polar_shift_position;
 use trackfuse::center::registry::make_rule;
 use trackfuse::center::{fuse_all, fuse_all_two_pass, FusionConfig};
 use trackfuse::metrics::{evaluate_run, gated_assignment, EvalInput, RunMetrics, Summary};
+use trackfuse::models::polar::polar_shift_position;
 use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::track_run;
 use trackfuse::sim::simulate;
@@ -54,7 +54,7 @@ const TABLE4_LOCAL: [[f64; 3]; 3] = [
 ];
 /// The scan from which the "settled" RMSE is taken: the first scans with tracks (M-of-N
 /// confirms from scan 3) come before the estimator has separated the equally spaced
-/// targets (module doc of `center/bias_estimation.rs`).
+/// targets (module doc of `center/bias/track_pair_ls/mod.rs`).
 const SETTLED_FROM: u32 = 10;
 /// The fusion variants: label, method, rule.
 const VARIANTS: [(&str, &str, &str); 5] = [
@@ -364,7 +364,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     ));
     writeln!(
         md,
-        "\nOurs: the FDBSC-TA variant's `fdbsc` estimates after the last scan. The largest \
+        "\nOurs: the FDBSC-TA variant's `track-pair-ls` estimates after the last scan. The largest \
          error over all runs and sensors: {:.1} m in range, {:.2} mrad in bearing.\n",
         worst.0,
         worst.1 * 1e3
@@ -526,7 +526,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         "- **Bias estimates (Table 3)** match the paper's accuracy or better (see the \
          differences and the largest error above). The estimator's pairing, tested over the \
          tracks' histories, and its joint least squares are described in \
-         `crates/trackfuse/src/center/bias_estimation.rs`."
+         `crates/trackfuse/src/center/bias/track_pair_ls/mod.rs`."
     )?;
     writeln!(
         md,

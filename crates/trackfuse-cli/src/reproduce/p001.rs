@@ -16,6 +16,7 @@ use std::fmt::Write as _;
 use trackfuse::local::{InitiationConfig, InitiationMethod, TrackerConfig};
 use trackfuse::metrics::label_local_tracks;
 use trackfuse::pipeline::RunOutput;
+use trackfuse::stats::chi2_quantile_wilson_hilferty;
 use trackfuse::types::{position_of, Id, StateCov, StateVec, Vec2};
 use trackfuse::RunConfig;
 
@@ -444,67 +445,12 @@ fn run_variant(ctx: &Ctx, sc: &RunConfig, v: &Variant, runs: u32) -> Result<Outc
 
 // ---- chi-square band ----
 
-/// The p-quantile of the chi-square distribution with `k` degrees of freedom
-/// (Wilson-Hilferty; relative error below 1e-3 for k >= 40).
-fn chi2_quantile(p: f64, k: f64) -> f64 {
-    let z = normal_quantile(p);
-    let a = 2.0 / (9.0 * k);
-    k * (1.0 - a + z * a.sqrt()).powi(3)
-}
-
-/// Standard normal quantile (Acklam's rational approximation: absolute error below 1e-8
-/// for 0.02425 <= p <= 0.97575, where the bands here use it, below 1e-4 in the tails).
-fn normal_quantile(p: f64) -> f64 {
-    const A: [f64; 6] = [
-        -3.969683028665376e+01,
-        2.209460984245205e+02,
-        -2.759285104469687e+02,
-        1.383_577_518_672_69e2,
-        -3.066479806614716e+01,
-        2.506628277459239e+00,
-    ];
-    const B: [f64; 5] = [
-        -5.447609879822406e+01,
-        1.615858368580409e+02,
-        -1.556989798598866e+02,
-        6.680131188771972e+01,
-        -1.328068155288572e+01,
-    ];
-    const C: [f64; 6] = [
-        -7.784894002430293e-03,
-        -3.223964580411365e-01,
-        -2.400758277161838e+00,
-        -2.549671010139127e+00,
-        4.374664141464968e+00,
-        2.938163982698783e+00,
-    ];
-    const D: [f64; 4] = [
-        7.784695709041462e-03,
-        3.224671290700398e-01,
-        2.445134137142996e+00,
-        3.754408661907416e+00,
-    ];
-    let lower = 0.02425;
-    if p < lower {
-        let q = (-2.0 * p.ln()).sqrt();
-        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
-            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
-    } else if p <= 1.0 - lower {
-        let q = p - 0.5;
-        let r = q * q;
-        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
-            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
-    } else {
-        -normal_quantile(1.0 - p)
-    }
-}
-
 /// The two-sided 95 % band of the mean of `n` independent 4-dof NEES values.
 fn nees_band(n: u64) -> (f64, f64) {
     let k = 4.0 * n as f64;
     (
-        chi2_quantile(0.025, k) / n as f64,
-        chi2_quantile(0.975, k) / n as f64,
+        chi2_quantile_wilson_hilferty(0.025, k) / n as f64,
+        chi2_quantile_wilson_hilferty(0.975, k) / n as f64,
     )
 }
 
@@ -1471,14 +1417,15 @@ pub fn run(ctx: &Ctx) -> Result<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use trackfuse::stats::normal_quantile;
 
     #[test]
     fn chi_square_band_matches_tables() {
         assert!((normal_quantile(0.975) - 1.959_964).abs() < 1e-6);
         assert!((normal_quantile(0.01) + 2.326_348).abs() < 1e-4);
         // chi2 quantiles, 100 degrees of freedom (standard tables): 74.222, 129.561
-        assert!((chi2_quantile(0.025, 100.0) / 74.222 - 1.0).abs() < 2e-3);
-        assert!((chi2_quantile(0.975, 100.0) / 129.561 - 1.0).abs() < 2e-3);
+        assert!((chi2_quantile_wilson_hilferty(0.025, 100.0) / 74.222 - 1.0).abs() < 2e-3);
+        assert!((chi2_quantile_wilson_hilferty(0.975, 100.0) / 129.561 - 1.0).abs() < 2e-3);
         // the NEES band of 25 runs of 4 dof is that over 4
         let (lo, hi) = nees_band(25);
         assert!((lo - 74.222 / 25.0).abs() < 0.01 && (hi - 129.561 / 25.0).abs() < 0.01);

@@ -18,7 +18,6 @@
 //! - Every local track of the scan is in exactly one group.
 
 pub mod bias;
-pub mod bias_estimation;
 pub mod fusion;
 pub mod fusion_center;
 pub mod hough;

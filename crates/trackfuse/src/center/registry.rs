@@ -187,12 +187,20 @@ pub const RULES: &[RuleInfo] = &[
     },
 ];
 
-/// Every finished bias estimator.
-pub const BIAS_ESTIMATORS: &[BiasInfo] = &[BiasInfo {
-    name: super::bias_estimation::NAME,
-    summary: "range and bearing biases by joint least squares of eq. 15 residuals, polar correction (000 eq. 15)",
-    make: super::bias_estimation::make,
-}];
+/// Every finished bias estimator, and the deprecated names still accepted (their
+/// summary says so and names the estimator they build).
+pub const BIAS_ESTIMATORS: &[BiasInfo] = &[
+    BiasInfo {
+        name: super::bias::track_pair_ls::NAME,
+        summary: "pairs of local tracks of two sensors, joint least squares of every sensor's range and bearing biases (eq. 15 residuals), polar correction (000 eq. 3, 15)",
+        make: super::bias::track_pair_ls::make,
+    },
+    BiasInfo {
+        name: super::bias::track_pair_ls::DEPRECATED_NAME,
+        summary: "(deprecated alias of track-pair-ls, removed in the next release)",
+        make: super::bias::track_pair_ls::make_deprecated,
+    },
+];
 
 fn unknown(kind: &'static str, name: &str, known: Vec<&str>) -> CenterError {
     CenterError::Unknown {

@@ -69,12 +69,12 @@ impl Gates {
 /// The chi-square (2 degrees of freedom) gate threshold for gate probability `pg`:
 /// `gamma = -2 ln(1 - P_G)`.
 pub fn gate_threshold(pg: f64) -> f64 {
-    -2.0 * (1.0 - pg).ln()
+    crate::stats::chi2_quantile_2(pg)
 }
 
 /// The gate probability of threshold `gamma` (2 degrees of freedom): `1 - exp(-gamma/2)`.
 pub fn gate_probability(gamma: f64) -> f64 {
-    1.0 - (-0.5 * gamma).exp()
+    crate::stats::chi2_cdf_2(gamma)
 }
 
 #[cfg(test)]

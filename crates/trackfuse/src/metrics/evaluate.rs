@@ -229,43 +229,9 @@ pub fn evaluate_run(input: &EvalInput<'_>, cfg: &EvaluationConfig) -> RunMetrics
     }
     let mut counts = AssociationCounts::default();
     for (scan, rows) in group_by_scan(assoc, |a| a.scan) {
-        // fused id -> members (sensor, label)
-        let mut members: HashMap<Id, Vec<(Id, Option<Id>)>> = HashMap::new();
-        // target -> sensors following it
-        let mut followers: HashMap<Id, Vec<(Id, Id)>> = HashMap::new();
-        for a in &rows {
-            let label = labels.get(&(scan, a.sensor_id, a.track_id)).copied();
-            members
-                .entry(a.fused_id)
-                .or_default()
-                .push((a.sensor_id, label));
-            if let Some(t) = label {
-                followers
-                    .entry(t)
-                    .or_default()
-                    .push((a.sensor_id, a.fused_id));
-            }
-        }
-        // P_c
-        let mut n_public = 0u64;
-        let mut n_correct = 0u64;
-        for (t, fl) in &followers {
-            let mut sensors: Vec<Id> = fl.iter().map(|x| x.0).collect();
-            sensors.sort_unstable();
-            sensors.dedup();
-            if sensors.len() < 2 {
-                continue;
-            }
-            n_public += 1;
-            let f0 = fl[0].1;
-            let same = fl.iter().all(|x| x.1 == f0);
-            let clean = members[&f0].iter().all(|&(_, l)| l == Some(*t));
-            if same && clean {
-                n_correct += 1;
-            }
-        }
-        if n_public > 0 {
-            m.pc.add(n_correct as f64 / n_public as f64);
+        let (members, followers) = scan_groups(scan, &rows, &labels);
+        if let Some(pc) = scan_probability_correct(&members, &followers) {
+            m.pc.add(pc);
         }
         // rates
         for a in &rows {
@@ -294,6 +260,85 @@ pub fn evaluate_run(input: &EvalInput<'_>, cfg: &EvaluationConfig) -> RunMetrics
     }
     m.rates = Some(counts);
     m
+}
+
+/// Fused id -> members `(sensor, label)`, and target -> `(sensor, fused id)` of the local
+/// tracks following it, of one scan's associations (in their order).
+type ScanGroups = (
+    HashMap<Id, Vec<(Id, Option<Id>)>>,
+    HashMap<Id, Vec<(Id, Id)>>,
+);
+
+/// [`ScanGroups`] of the associations `rows` of scan `scan` under `labels`.
+fn scan_groups(
+    scan: u32,
+    rows: &[&Association],
+    labels: &HashMap<(u32, Id, Id), Id>,
+) -> ScanGroups {
+    let mut members: HashMap<Id, Vec<(Id, Option<Id>)>> = HashMap::new();
+    let mut followers: HashMap<Id, Vec<(Id, Id)>> = HashMap::new();
+    for a in rows {
+        let label = labels.get(&(scan, a.sensor_id, a.track_id)).copied();
+        members
+            .entry(a.fused_id)
+            .or_default()
+            .push((a.sensor_id, label));
+        if let Some(t) = label {
+            followers
+                .entry(t)
+                .or_default()
+                .push((a.sensor_id, a.fused_id));
+        }
+    }
+    (members, followers)
+}
+
+/// `N_c / N_public` of one scan (000 eq. 19), from `members` (fused id -> `(sensor,
+/// label)` of its local tracks) and `followers` (target -> `(sensor, fused id)` of the
+/// local tracks following it, in association order); `None` without a common target.
+fn scan_probability_correct(
+    members: &HashMap<Id, Vec<(Id, Option<Id>)>>,
+    followers: &HashMap<Id, Vec<(Id, Id)>>,
+) -> Option<f64> {
+    let mut n_public = 0u64;
+    let mut n_correct = 0u64;
+    for (t, fl) in followers {
+        let mut sensors: Vec<Id> = fl.iter().map(|x| x.0).collect();
+        sensors.sort_unstable();
+        sensors.dedup();
+        if sensors.len() < 2 {
+            continue;
+        }
+        n_public += 1;
+        let f0 = fl[0].1;
+        let same = fl.iter().all(|x| x.1 == f0);
+        let clean = members
+            .get(&f0)
+            .is_some_and(|m| m.iter().all(|&(_, l)| l == Some(*t)));
+        if same && clean {
+            n_correct += 1;
+        }
+    }
+    (n_public > 0).then(|| n_correct as f64 / n_public as f64)
+}
+
+/// P_c (000 eq. 19) of one run's associations under the given local-track labels
+/// (`(scan, sensor_id, track_id) -> target_id`, e.g. [`label_local_tracks`], or labels
+/// made another way, such as against the targets' images in biased sensor frames): the
+/// sum of `N_c / N_public` over the scans with common targets, and their number. With
+/// the labels [`evaluate_run`] makes it is that run's `pc`.
+pub fn probability_correct(
+    associations: &[Association],
+    labels: &HashMap<(u32, Id, Id), Id>,
+) -> SumCount {
+    let mut pc = SumCount::default();
+    for (scan, rows) in group_by_scan(associations, |a| a.scan) {
+        let (members, followers) = scan_groups(scan, &rows, labels);
+        if let Some(v) = scan_probability_correct(&members, &followers) {
+            pc.add(v);
+        }
+    }
+    pc
 }
 
 /// Which target each local track follows at each scan: `(scan, sensor_id, track_id) ->

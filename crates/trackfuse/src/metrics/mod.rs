@@ -5,7 +5,9 @@ pub mod evaluate;
 pub mod gospa;
 
 pub use assignment::gated_assignment;
-pub use evaluate::{evaluate_run, label_local_tracks, EvalInput, RunMetrics, Summary};
+pub use evaluate::{
+    evaluate_run, label_local_tracks, probability_correct, EvalInput, RunMetrics, Summary,
+};
 pub use gospa::{gospa, ospa, Gospa};
 
 use serde::{Deserialize, Serialize};

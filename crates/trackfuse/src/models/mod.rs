@@ -2,6 +2,7 @@
 
 pub mod measurement;
 pub mod motion;
+pub mod polar;
 
 pub use measurement::{
     range_bearing, range_bearing_jacobian, range_bearing_to_position, wrap_angle, POSITION_H,

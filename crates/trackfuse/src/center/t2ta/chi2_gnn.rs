@@ -113,29 +113,12 @@ impl Default for Chi2GnnParams {
     }
 }
 
-/// The chi-square quantile of probability `p` with 2 or 4 degrees of freedom:
-/// 2 dof `-2 ln(1 - p)`; 4 dof solves `(1 + g/2) exp(-g/2) = 1 - p` (Newton on
-/// `ln(1 + y) - y = ln(1 - p)`, `y = g/2`, which converges monotonically from the right
-/// after the first step).
+/// The chi-square quantile of probability `p` with 2 or 4 degrees of freedom
+/// ([`crate::stats`]): 2 dof `-2 ln(1 - p)`; 4 dof solves `(1 + g/2) exp(-g/2) = 1 - p`.
 pub fn chi2_gate(gate_on: GateOn, p: f64) -> f64 {
-    let tail = 1.0 - p;
     match gate_on {
-        GateOn::Position => -2.0 * tail.ln(),
-        GateOn::State => {
-            let target = tail.ln();
-            let mut y = -target; // g(y) = ln(1 + y) - y - target > 0 here
-            for _ in 0..100 {
-                let g = (1.0 + y).ln() - y - target;
-                let slope = 1.0 / (1.0 + y) - 1.0;
-                let next = y - g / slope;
-                if (next - y).abs() <= 1e-14 * y.max(1.0) {
-                    y = next;
-                    break;
-                }
-                y = next;
-            }
-            2.0 * y
-        }
+        GateOn::Position => crate::stats::chi2_quantile_2(p),
+        GateOn::State => crate::stats::chi2_quantile_4(p),
     }
 }
 

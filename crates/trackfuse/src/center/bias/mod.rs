@@ -1,9 +1,19 @@
-//! Sensor-bias estimation and correction at the fusion center (000 eq. 15, Table 3).
+//! Sensor-bias estimation and correction at the fusion center (000 eq. 3, 15, Table 3).
 //!
 //! The seam: a [`BiasEstimator`] may learn from each scan's raw local tracks first
 //! ([`BiasEstimator::observe`]), corrects them with its current estimates before
-//! association, and updates its estimates from the scan's decisions after fusion. The center knows the sensor positions (sensors.csv) but never the true
-//! biases.
+//! association, and updates its estimates from the scan's decisions after fusion. The
+//! center knows the sensor positions (sensors.csv) but never the true biases.
+//!
+//! Estimators, one folder or file each:
+//! - [`track_pair_ls`] (`track-pair-ls`; `fdbsc` is its deprecated alias): pairs of
+//!   local tracks of two sensors, joint least squares of every sensor's range and
+//!   bearing biases, polar correction. The polar bias map itself is
+//!   [`crate::models::polar`].
+
+pub mod track_pair_ls;
+
+pub use track_pair_ls::{Pairing, TrackPairLs, TrackPairLsParams};
 
 use super::TrackGroup;
 use crate::types::{Id, LocalTrack, Sensor, StateCov, StateVec};

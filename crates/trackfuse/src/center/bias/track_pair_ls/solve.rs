@@ -1,0 +1,396 @@
+//! The joint least-squares solve (module doc of [`super`], "Estimation"): each stored
+//! group's polar residuals with the target position's error eliminated, the
+//! relinearised and gated Gauss-Newton passes, and the folding of old groups.
+
+use super::TrackPairLs;
+use crate::models::polar::{polar_shift_position, MIN_RANGE};
+use crate::models::wrap_angle;
+use crate::stats::chi2_quantile_even;
+use crate::types::{symmetrize, Id, Mat2, SensorKind, Vec2};
+use nalgebra::{DMatrix, DVector};
+
+/// Variance floors added to a residual's polar covariance: (0.1 m)^2 and (1e-6 rad)^2.
+const RANGE_VAR_FLOOR: f64 = 0.01;
+const BEARING_VAR_FLOOR: f64 = 1e-12;
+/// Extra ungated Gauss-Newton passes of the joint solve while its linearisation settles
+/// (module doc, "Relinearisation and robustness").
+const MAX_RELINEARISATIONS: u32 = 4;
+
+/// Range and bearing of position `q` from `sensor`.
+#[inline]
+fn polar(q: &Vec2, sensor: &Vec2) -> Vec2 {
+    let d = q - sensor;
+    Vec2::new(d.norm(), d[1].atan2(d[0]))
+}
+
+/// Jacobian of [`polar`] with respect to the position.
+#[inline]
+fn polar_jacobian(q: &Vec2, sensor: &Vec2) -> Mat2 {
+    let d = q - sensor;
+    let r2 = d.norm_squared();
+    let r = r2.sqrt();
+    Mat2::new(d[0] / r, d[1] / r, -d[1] / r2, d[0] / r2)
+}
+
+/// One member's contribution to a group's normal equations.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Residual {
+    /// Index of the member's sensor among the estimated ones, or none (an anchor).
+    pub(super) bias: Option<usize>,
+    pub(super) y: Vec2,
+    pub(super) h: Mat2,
+    pub(super) w: Mat2,
+}
+
+/// One stored member of a group: the raw track's position and position covariance.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Observation {
+    pub(super) sensor_id: Id,
+    /// The local track's id (for revoking the groups of a contradicted pair).
+    pub(super) track_id: Id,
+    pub(super) q: Vec2,
+    pub(super) p: Mat2,
+}
+
+/// A stored group: `len` observations from `start` in the observation buffer, made at
+/// scan `stamp` (for forgetting).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct StoredGroup {
+    pub(super) start: usize,
+    pub(super) len: usize,
+    pub(super) stamp: u64,
+    /// Weight of its information (before forgetting): the share of [`HISTORY`] scans its
+    /// pairs were validated over.
+    pub(super) weight: f64,
+}
+
+/// A group's evaluation at the current estimate.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Evaluation {
+    /// Residuals in `scratch[start..start + len]`.
+    pub(super) start: usize,
+    pub(super) len: usize,
+    pub(super) chi2: f64,
+    pub(super) dof: u32,
+    pub(super) weight: f64,
+}
+
+impl TrackPairLs {
+    /// The residual gate's chi-square quantile and the median of the chi-square
+    /// distribution, for `dof` degrees of freedom (even), cached.
+    pub(super) fn quantiles(&mut self, dof: u32) -> (f64, f64) {
+        let k = (dof / 2) as usize;
+        while self.quantile_cache.len() <= k {
+            let d = 2 * self.quantile_cache.len() as u32;
+            let gate = if self.params.gate_probability < 1.0 {
+                chi2_quantile_even(d, self.params.gate_probability)
+            } else {
+                f64::INFINITY
+            };
+            self.quantile_cache.push((gate, chi2_quantile_even(d, 0.5)));
+        }
+        self.quantile_cache[k]
+    }
+
+    /// Evaluate stored group `g` at the biases `b`: push its residuals into `scratch`
+    /// and return its evaluation, or none when it carries no information.
+    pub(super) fn evaluate(
+        &mut self,
+        g: StoredGroup,
+        b: &DVector<f64>,
+        weight: f64,
+    ) -> Option<Evaluation> {
+        let f2 = self.params.model_sigma * self.params.model_sigma;
+        // the reference position: information-weighted mean of the corrected members
+        let mut info = Mat2::zeros();
+        let mut vector = Vec2::zeros();
+        let mut any_biased = false;
+        for o in &self.observations[g.start..g.start + g.len] {
+            let Some(k) = self.sensor_index(o.sensor_id) else {
+                continue;
+            };
+            let s = self.lookup[k];
+            let c = match s.bias {
+                Some(bi) => {
+                    any_biased = true;
+                    let (br, bt) = Self::bias_in(b, bi);
+                    polar_shift_position(&o.q, &s.position, -br, -bt)
+                }
+                None => o.q,
+            };
+            let w = symmetrize(&(o.p + Mat2::identity() * (f2 + RANGE_VAR_FLOOR))).try_inverse()?;
+            info += w;
+            vector += w * c;
+        }
+        if !any_biased {
+            return None;
+        }
+        let p_hat = symmetrize(&info).try_inverse()? * vector;
+        if !(p_hat[0].is_finite() && p_hat[1].is_finite()) {
+            return None;
+        }
+        let start = self.scratch.len();
+        for idx in g.start..g.start + g.len {
+            let o = self.observations[idx];
+            let Some(k) = self.sensor_index(o.sensor_id) else {
+                continue;
+            };
+            let s = self.lookup[k];
+            match s.kind {
+                SensorKind::Position => {
+                    let Some(w) = (o.p + Mat2::identity() * (f2 + RANGE_VAR_FLOOR)).try_inverse()
+                    else {
+                        continue;
+                    };
+                    self.scratch.push(Residual {
+                        bias: None,
+                        y: o.q - p_hat,
+                        h: Mat2::identity(),
+                        w,
+                    });
+                }
+                SensorKind::RangeBearing => {
+                    let sp = s.position;
+                    let rho = (o.q - sp).norm();
+                    if rho < MIN_RANGE || (p_hat - sp).norm() < MIN_RANGE {
+                        continue;
+                    }
+                    let z = polar(&o.q, &sp);
+                    let h = polar(&p_hat, &sp);
+                    let jq = polar_jacobian(&o.q, &sp);
+                    let r = jq * o.p * jq.transpose()
+                        + Mat2::new(
+                            f2 + RANGE_VAR_FLOOR,
+                            0.0,
+                            0.0,
+                            f2 / (rho * rho) + BEARING_VAR_FLOOR,
+                        );
+                    let Some(w) = symmetrize(&r).try_inverse() else {
+                        continue;
+                    };
+                    self.scratch.push(Residual {
+                        bias: s.bias,
+                        y: Vec2::new(z[0] - h[0], wrap_angle(z[1] - h[1])),
+                        h: polar_jacobian(&p_hat, &sp),
+                        w,
+                    });
+                }
+            }
+        }
+        let len = self.scratch.len() - start;
+        let rs = &self.scratch[start..];
+        if len < 2 || rs.iter().all(|r| r.bias.is_none()) {
+            self.scratch.truncate(start);
+            return None;
+        }
+        // chi-square of the residuals at b, the position error eliminated
+        let mut a = Mat2::zeros();
+        let mut g_vec = Vec2::zeros();
+        let mut rwr = 0.0;
+        for r in rs {
+            let res = match r.bias {
+                Some(bi) => r.y - Vec2::new(b[2 * bi], b[2 * bi + 1]),
+                None => r.y,
+            };
+            let htw = r.h.transpose() * r.w;
+            a += htw * r.h;
+            g_vec += htw * res;
+            rwr += res.dot(&(r.w * res));
+        }
+        let Some(a_inv) = symmetrize(&a).try_inverse() else {
+            self.scratch.truncate(start);
+            return None;
+        };
+        let chi2 = (rwr - g_vec.dot(&(a_inv * g_vec))).max(0.0);
+        Some(Evaluation {
+            start,
+            len,
+            chi2,
+            dof: 2 * len as u32 - 2,
+            weight,
+        })
+    }
+
+    /// Add one evaluated group's normal equations, the position error eliminated.
+    pub(super) fn accumulate(
+        rs: &[Residual],
+        weight: f64,
+        info: &mut DMatrix<f64>,
+        vector: &mut DVector<f64>,
+    ) {
+        let mut a = Mat2::zeros();
+        let mut c = Vec2::zeros();
+        for r in rs {
+            let htw = r.h.transpose() * r.w;
+            a += htw * r.h;
+            c += htw * r.y;
+        }
+        let Some(a_inv) = symmetrize(&a).try_inverse() else {
+            return;
+        };
+        for (k, rk) in rs.iter().enumerate() {
+            let Some(i) = rk.bias else { continue };
+            let g_i = rk.w * rk.h;
+            let g_a = g_i * a_inv;
+            let v = (rk.w * rk.y - g_a * c) * weight;
+            vector[2 * i] += v[0];
+            vector[2 * i + 1] += v[1];
+            for (l, rl) in rs.iter().enumerate() {
+                let Some(j) = rl.bias else { continue };
+                let g_j = rl.w * rl.h;
+                let mut block = -(g_a * g_j.transpose());
+                if k == l {
+                    block += rk.w;
+                }
+                for r in 0..2 {
+                    for cc in 0..2 {
+                        info[(2 * i + r, 2 * j + cc)] += block[(r, cc)] * weight;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The residual-gate threshold of a group with `dof` degrees of freedom.
+    pub(super) fn gate(&mut self, dof: u32) -> f64 {
+        self.scale * self.quantiles(dof).0
+    }
+
+    /// Evaluate every stored group at `b` (into `evaluations`).
+    pub(super) fn evaluate_all(&mut self, b: &DVector<f64>) {
+        self.scratch.clear();
+        self.evaluations.clear();
+        let f = self.params.forgetting;
+        for gi in 0..self.groups.len() {
+            let g = self.groups[gi];
+            let weight = if f < 1.0 {
+                g.weight * f.powf((self.scans - g.stamp) as f64)
+            } else {
+                g.weight
+            };
+            if let Some(e) = self.evaluate(g, b, weight) {
+                self.evaluations.push(e);
+            }
+        }
+    }
+
+    /// Re-solve from the folded information and all stored groups (module doc).
+    pub(super) fn solve(&mut self) {
+        let n = self.ids.len();
+        if n == 0 {
+            return;
+        }
+        let pr = 1.0 / (self.params.prior_range_sigma * self.params.prior_range_sigma);
+        let pb = 1.0 / (self.params.prior_bearing_sigma * self.params.prior_bearing_sigma);
+        let mut b = self.estimate.clone();
+        // ungated passes until the linearisation has settled (step within one standard
+        // deviation of the new estimate, at most MAX_RELINEARISATIONS extra passes), then
+        // the remaining `iterations - 1` passes with the residual gate
+        let gated_wanted = self.params.iterations - 1;
+        let mut gated = false;
+        let (mut gated_done, mut relinearised) = (0, 0);
+        for _ in 0..self.params.iterations + MAX_RELINEARISATIONS {
+            self.evaluate_all(&b);
+            if gated {
+                // scale: the median normalised chi-square, when above 1
+                self.ratios.clear();
+                for k in 0..self.evaluations.len() {
+                    let e = self.evaluations[k];
+                    let median = self.quantiles(e.dof).1;
+                    self.ratios.push(e.chi2 / median);
+                }
+                self.scale = if self.ratios.is_empty() {
+                    1.0
+                } else {
+                    let mid = self.ratios.len() / 2;
+                    let (_, &mut m, _) = self.ratios.select_nth_unstable_by(mid, f64::total_cmp);
+                    m.max(1.0)
+                };
+            }
+            let mut info = self.folded_info.clone();
+            let mut vector = self.folded_vector.clone();
+            for k in 0..self.evaluations.len() {
+                let e = self.evaluations[k];
+                if gated && e.chi2 > self.gate(e.dof) {
+                    continue;
+                }
+                Self::accumulate(
+                    &self.scratch[e.start..e.start + e.len],
+                    e.weight,
+                    &mut info,
+                    &mut vector,
+                );
+            }
+            for i in 0..n {
+                info[(2 * i, 2 * i)] += pr;
+                info[(2 * i + 1, 2 * i + 1)] += pb;
+            }
+            let m = (&info + info.transpose()) * 0.5;
+            let step_metric = if gated { None } else { Some(m.clone()) };
+            let Some(ch) = m.cholesky() else { break };
+            let x = ch.solve(&vector);
+            if !x.iter().all(|v| v.is_finite()) {
+                break;
+            }
+            let step = &x - &b;
+            let moved = step_metric.map_or(0.0, |m| step.dot(&(m * &step)));
+            b = x;
+            let c = ch.inverse();
+            if c.iter().all(|v| v.is_finite()) {
+                self.cov = c;
+            }
+            if gated {
+                gated_done += 1;
+                if gated_done >= gated_wanted {
+                    break;
+                }
+            } else if gated_wanted == 0 {
+                break;
+            } else if moved <= 1.0 || relinearised >= MAX_RELINEARISATIONS {
+                gated = true;
+            } else {
+                relinearised += 1;
+            }
+        }
+        self.estimate = b;
+    }
+
+    /// Fold the oldest stored groups beyond `max_groups` into the fixed information (at
+    /// the current estimate; those failing the residual gate are dropped).
+    pub(super) fn fold(&mut self) {
+        let b = self.estimate.clone();
+        while self.groups.len() > self.params.max_groups {
+            let Some(g) = self.groups.pop_front() else {
+                break;
+            };
+            self.scratch.clear();
+            let f = self.params.forgetting;
+            let weight = if f < 1.0 {
+                g.weight * f.powf((self.scans - g.stamp) as f64)
+            } else {
+                g.weight
+            };
+            if let Some(e) = self.evaluate(g, &b, weight) {
+                if e.chi2 <= self.gate(e.dof) {
+                    Self::accumulate(
+                        &self.scratch[e.start..e.start + e.len],
+                        e.weight,
+                        &mut self.folded_info,
+                        &mut self.folded_vector,
+                    );
+                }
+            }
+        }
+        // compact the observation buffer once its dead front is large
+        let front = self
+            .groups
+            .front()
+            .map_or(self.observations.len(), |g| g.start);
+        if front > 1024 && front * 2 > self.observations.len() {
+            self.observations.drain(..front);
+            for g in self.groups.iter_mut() {
+                g.start -= front;
+            }
+        }
+    }
+}
