@@ -208,23 +208,23 @@ pub fn methods_text() -> String {
     let mut s = String::new();
     s.push_str("Local filters (--filter):\n");
     for f in local_registry::FILTERS {
-        s.push_str(&format!("  {:<10} {}\n", f.name, f.summary));
+        s.push_str(&format!("  {:<14} {}\n", f.name, f.summary));
     }
     s.push_str("\nLocal data associators (--associator):\n");
     for a in local_registry::ASSOCIATORS {
-        s.push_str(&format!("  {:<10} {}\n", a.name, a.summary));
+        s.push_str(&format!("  {:<14} {}\n", a.name, a.summary));
     }
     s.push_str("\nTrack-to-track association methods (--method):\n");
     for m in center_registry::METHODS {
-        s.push_str(&format!("  {:<10} {}\n", m.name, m.summary));
+        s.push_str(&format!("  {:<14} {}\n", m.name, m.summary));
     }
     s.push_str("\nFusion rules (--rule):\n");
     for r in center_registry::RULES {
-        s.push_str(&format!("  {:<10} {}\n", r.name, r.summary));
+        s.push_str(&format!("  {:<14} {}\n", r.name, r.summary));
     }
     s.push_str("\nBias estimators (--bias):\n");
     for b in center_registry::BIAS_ESTIMATORS {
-        s.push_str(&format!("  {:<10} {}\n", b.name, b.summary));
+        s.push_str(&format!("  {:<14} {}\n", b.name, b.summary));
     }
     s.push_str(
         "\nParameters: --param (associator), --filter-param, --method-param, --rule-param, \

@@ -178,7 +178,10 @@ pub fn registry() -> CenterRegistry {
 fn main() -> Result<(), Box<dyn Error>> {
     let sc = RunConfig::default_builtin();
     let registry = registry();
-    println!("scenario {}, run 0, rule {}", sc.scenario.name, sc.fusion.rule);
+    println!(
+        "scenario {}, run 0, rule {}",
+        sc.scenario.name, sc.fusion.rule
+    );
     for method in ["fdbsc-ta", NAME] {
         let fusion = FusionConfig {
             method: method.into(),

@@ -2,7 +2,7 @@
 //! pairs.
 //!
 //! Measurements are sorted by their first coordinate (x, or range) once per scan
-//! ([`MeasurementIndex`], the crate's [`crate::spatial::SweepIndex`]); a track's gate
+//! ([`crate::spatial::SweepIndex`]); a track's gate
 //! `{nu : nu^T S^-1 nu <= gamma}` lies inside `|nu_0| <= sqrt(gamma S_00)`, so only the
 //! measurements in that slice of the sorted order are tested. With clutter spread over a
 //! large area that slice holds a handful of measurements. (Why a sorted sweep and not a
@@ -10,11 +10,11 @@
 //! the second coordinate may be an angle; see [`crate::spatial`].)
 
 use super::filter::PredictedMeasurement;
+use crate::spatial::SweepIndex;
 use crate::types::Vec2;
 
 /// The scan's measurements sorted by their first coordinate (x, or range): the crate's
 /// sorted-sweep index, built with `index.build(measurements.iter().map(|z| z[0]))`.
-pub use crate::spatial::SweepIndex as MeasurementIndex;
 
 /// Validated measurements per track, in a flat buffer reused scan after scan.
 #[derive(Debug, Clone, Default)]
@@ -30,7 +30,7 @@ impl Gates {
         &mut self,
         predictions: &[PredictedMeasurement],
         measurements: &[Vec2],
-        index: &MeasurementIndex,
+        index: &SweepIndex,
         gamma: f64,
     ) {
         self.start.clear();
@@ -98,7 +98,7 @@ mod tests {
                 PredictedMeasurement::new(z, s, POSITION_H, false).expect("spd")
             })
             .collect();
-        let mut index = MeasurementIndex::default();
+        let mut index = SweepIndex::default();
         index.build(meas.iter().map(|z| z[0]));
         let mut gates = Gates::default();
         gates.compute(&preds, &meas, &index, 9.21);

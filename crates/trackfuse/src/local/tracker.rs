@@ -26,11 +26,12 @@
 
 use super::association::{AssociationProblem, AssociationWeights, DataAssociator};
 use super::filter::{Filter, FilterState, PredictedMeasurement};
-use super::gating::{gate_threshold, Gates, MeasurementIndex};
+use super::gating::{gate_threshold, Gates};
 use super::registry::{AssociatorContext, AssociatorSettings, FilterSettings, LocalRegistry};
 use super::{InitiationMethod, TrackerConfig, DEFAULT_PROCESS_NOISE};
 use crate::models::range_bearing_to_position;
 use crate::params::{ParamError, ParamTables};
+use crate::spatial::SweepIndex;
 use crate::types::{
     Id, LocalTrack, Mat2, Measurement, Sensor, SensorKind, StateCov, StateVec, Vec2,
 };
@@ -181,7 +182,7 @@ pub struct SensorTracker {
     used: Vec<bool>,
     predictions: Vec<PredictedMeasurement>,
     predicted_of: Vec<usize>,
-    index: MeasurementIndex,
+    index: SweepIndex,
     gates: Gates,
     weights: AssociationWeights,
     /// Whether each track was updated this scan.
@@ -340,7 +341,7 @@ impl SensorTracker {
             used: Vec::new(),
             predictions: Vec::new(),
             predicted_of: Vec::new(),
-            index: MeasurementIndex::default(),
+            index: SweepIndex::default(),
             gates: Gates::default(),
             weights: AssociationWeights::default(),
             updated: Vec::new(),

@@ -119,9 +119,8 @@
 //! eq. 6-8 and 12.
 
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
-pub use crate::spatial::EpsGrid;
 use crate::params::{in_range, positive, ParamError};
-use crate::spatial::{squared_distance, EpsComponents};
+use crate::spatial::{squared_distance, EpsComponents, EpsGrid};
 use crate::types::{position_of, Id, LocalTrack, Vec2};
 use serde::Deserialize;
 use std::cmp::Ordering;

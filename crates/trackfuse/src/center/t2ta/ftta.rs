@@ -78,9 +78,9 @@
 //! Target Tracking" (paper 003), Sec. 3-5.
 
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
-use crate::local::gating::gate_threshold;
 use crate::params::{in_range, positive, ParamError};
 use crate::spatial::SweepIndex;
+use crate::stats::chi2_quantile_2;
 use crate::types::{position_cov_of, position_of, Id, LocalTrack, Mat2, Sensor, SensorKind, Vec2};
 use crate::union_find::UnionFind;
 use nalgebra::DMatrix;
@@ -638,7 +638,7 @@ impl TrackAssociator for Ftta {
         }
         // group centres -> predicted globals
         if !globals.is_empty() && !groups.is_empty() {
-            let gamma = gate_threshold(self.params.global_gate);
+            let gamma = chi2_quantile_2(self.params.global_gate);
             self.index
                 .build(ctx.predicted.iter().map(|(x, _)| position_of(x)[0]));
             let max_tr = ctx

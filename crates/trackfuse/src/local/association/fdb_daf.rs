@@ -4,8 +4,8 @@
 use super::membership::{distance2_between, push_normalised, NoMeasurement, PairTable};
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
 use crate::local::filter::PredictedMeasurement;
-use crate::local::gating::MeasurementIndex;
 use crate::params::{in_range, positive, ParamError};
+use crate::spatial::SweepIndex;
 use crate::types::Vec2;
 use serde::{Deserialize, Serialize};
 
@@ -166,7 +166,7 @@ pub const UNIT_GATE_VOLUME: f64 = std::f64::consts::PI;
 ///   1.5, which no membership reaches, so those are presumably percent (xi = 0.01, 0.015).
 ///
 /// # Cost
-/// Neighbourhood queries use the scan's sorted index ([`MeasurementIndex`]): the ellipse
+/// Neighbourhood queries use the scan's sorted index ([`SweepIndex`]): the ellipse
 /// `d <= Eps` lies inside `|nu_0| <= Eps sqrt(S_00)`, a binary-searched slice. The cost is
 /// the clusters' sizes times their neighbourhoods', with no measurement-pair loop, and no
 /// allocation once the buffers have grown.
@@ -214,7 +214,7 @@ impl FdbDaf {
     }
 
     /// Fig. 1 lines 3-11 for one track: its cluster into `self.queue`, sorted by index.
-    fn cluster(&mut self, p: &PredictedMeasurement, meas: &[Vec2], index: &MeasurementIndex) {
+    fn cluster(&mut self, p: &PredictedMeasurement, meas: &[Vec2], index: &SweepIndex) {
         let epoch = self.next_epoch();
         self.queue.clear();
         let eps2 = self.eps * self.eps;

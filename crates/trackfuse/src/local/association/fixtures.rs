@@ -2,8 +2,9 @@
 
 use super::{AssociationProblem, AssociationWeights};
 use crate::local::filter::PredictedMeasurement;
-use crate::local::gating::{gate_threshold, Gates, MeasurementIndex};
+use crate::local::gating::{gate_threshold, Gates};
 use crate::models::POSITION_H;
+use crate::spatial::SweepIndex;
 use crate::types::{Mat2, Vec2};
 
 /// A prediction at `(x, y)` with innovation covariance `s` (position space).
@@ -20,7 +21,7 @@ pub(crate) fn unit_prediction(x: f64, y: f64) -> PredictedMeasurement {
 pub(crate) struct Scene {
     pub preds: Vec<PredictedMeasurement>,
     pub meas: Vec<Vec2>,
-    pub index: MeasurementIndex,
+    pub index: SweepIndex,
     pub gates: Gates,
     pub gate: f64,
     pub pg: f64,
@@ -37,7 +38,7 @@ impl Scene {
     ) -> Self {
         let meas: Vec<Vec2> = meas.iter().map(|m| Vec2::new(m[0], m[1])).collect();
         let gate = gate_threshold(pg);
-        let mut index = MeasurementIndex::default();
+        let mut index = SweepIndex::default();
         index.build(meas.iter().map(|z| z[0]));
         let mut gates = Gates::default();
         gates.compute(&preds, &meas, &index, gate);

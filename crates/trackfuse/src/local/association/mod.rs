@@ -25,8 +25,9 @@ mod fixtures;
 pub(crate) mod testing;
 
 use super::filter::PredictedMeasurement;
-use super::gating::{Gates, MeasurementIndex};
+use super::gating::Gates;
 use crate::params::ParamTables;
+use crate::spatial::SweepIndex;
 use crate::types::Vec2;
 
 /// What an associator is built with besides its own parameters: the seed of this
@@ -77,7 +78,7 @@ pub struct AssociationProblem<'a> {
     pub gates: &'a Gates,
     /// Measurements sorted by their first coordinate, for methods that search beyond
     /// the gate (FDB-DAF's density clustering).
-    pub index: &'a MeasurementIndex,
+    pub index: &'a SweepIndex,
     /// Gate threshold `gamma` on `d^2` (chi-square, 2 degrees of freedom).
     pub gate: f64,
     /// Gate probability `P_G` matching `gamma`.

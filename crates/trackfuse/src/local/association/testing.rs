@@ -2,16 +2,17 @@
 //! the index and gates the tracker would build.
 
 use super::super::filter::PredictedMeasurement;
-use super::super::gating::{gate_probability, Gates, MeasurementIndex};
+use super::super::gating::{gate_probability, Gates};
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
 use crate::models::POSITION_H;
+use crate::spatial::SweepIndex;
 use crate::types::{Mat2, Vec2};
 
 /// One scan: predictions, measurements, index, gates.
 pub struct Fixture {
     pub predictions: Vec<PredictedMeasurement>,
     pub measurements: Vec<Vec2>,
-    pub index: MeasurementIndex,
+    pub index: SweepIndex,
     pub gates: Gates,
     pub gate: f64,
     pub pd: f64,
@@ -38,7 +39,7 @@ impl Fixture {
         pd: f64,
     ) -> Self {
         let measurements: Vec<Vec2> = points.iter().map(|p| Vec2::new(p[0], p[1])).collect();
-        let mut index = MeasurementIndex::default();
+        let mut index = SweepIndex::default();
         index.build(measurements.iter().map(|z| z[0]));
         let mut gates = Gates::default();
         gates.compute(&predictions, &measurements, &index, gamma);

@@ -141,10 +141,10 @@ mod tests;
 pub use params::{Pairing, TrackPairLsParams};
 
 use super::{BiasEstimate, BiasEstimator};
-use crate::center::t2ta::fdbsc::EpsGrid;
 use crate::center::TrackGroup;
 use crate::models::polar::{displacement_jacobian, polar_shift};
 use crate::params::{parse_params, ParamError, ParamTables};
+use crate::spatial::EpsGrid;
 use crate::stats::chi2_quantile_even;
 use crate::types::{
     position_of, symmetrize, Id, LocalTrack, Mat2, Sensor, SensorKind, StateCov, StateVec, Vec2,
@@ -230,7 +230,7 @@ pub struct TrackPairLs {
     /// Per scan track, the shortest common history of the pairs accepted with it.
     validated: Vec<usize>,
     used: Vec<bool>,
-    parent: Vec<u32>,
+    sets: crate::union_find::UnionFind,
     new_memory: Vec<(PairKey, u32)>,
     /// This scan's pairs as `(second track, first track)`, sorted (revocation).
     by_second: Vec<((Id, Id), (Id, Id))>,
@@ -286,7 +286,7 @@ impl TrackPairLs {
             accept: Vec::new(),
             validated: Vec::new(),
             used: Vec::new(),
-            parent: Vec::new(),
+            sets: crate::union_find::UnionFind::default(),
             new_memory: Vec::new(),
             by_second: Vec::new(),
             ended: Vec::new(),

@@ -425,7 +425,7 @@ impl TrackPairLs {
     }
 
     /// Pair the tracks of two sensors (module doc, "Pairing", steps 1-4), uniting the
-    /// accepted pairs in `parent`.
+    /// accepted pairs in `sets`.
     pub(super) fn pair_sensors(&mut self, ra: (usize, usize), rb: (usize, usize)) {
         let sa = self.lookup[self.scan_tracks[ra.0].sensor];
         let sb = self.lookup[self.scan_tracks[rb.0].sensor];
@@ -687,7 +687,7 @@ impl TrackPairLs {
     }
 
     /// Step 4: the candidates `theta` explains, one-to-one, pairs accepted at the
-    /// previous scan first, then by residual; confirmed pairs are united in `parent`.
+    /// previous scan first, then by residual; confirmed pairs are united in `sets`.
     pub(super) fn assign(&mut self, ctx: &PairContext, theta: &Vector4<f64>) {
         self.shift.hypothesis(ctx, theta);
         self.accept.clear();
@@ -715,7 +715,7 @@ impl TrackPairLs {
             self.used[j] = true;
             let streak = streak + 1;
             if streak >= self.params.confirm_scans {
-                union(&mut self.parent, i as u32, j as u32);
+                self.sets.union(i as u32, j as u32);
                 self.validated[i] = self.validated[i].min(n);
                 self.validated[j] = self.validated[j].min(n);
             }
@@ -844,8 +844,7 @@ impl TrackPairLs {
     pub(super) fn pair_consensus(&mut self, raw: &[LocalTrack]) {
         self.collect_scan(raw);
         let n = self.scan_tracks.len();
-        self.parent.clear();
-        self.parent.extend(0..n as u32);
+        self.sets.reset(n);
         self.validated.clear();
         self.validated.resize(n, HISTORY);
         self.new_memory.clear();
@@ -865,7 +864,7 @@ impl TrackPairLs {
         // components of the accepted pairs: (root, track)
         self.component.clear();
         for i in 0..n {
-            let r = find(&mut self.parent, i as u32);
+            let r = self.sets.find(i as u32);
             self.component.push((r, i as u32));
         }
         self.component.sort_unstable();
@@ -941,24 +940,6 @@ impl TrackPairLs {
                 self.observations.truncate(start);
             }
         }
-    }
-}
-
-pub(super) fn find(parent: &mut [u32], mut i: u32) -> u32 {
-    while parent[i as usize] != i {
-        let gp = parent[parent[i as usize] as usize];
-        parent[i as usize] = gp;
-        i = gp;
-    }
-    i
-}
-
-pub(super) fn union(parent: &mut [u32], a: u32, b: u32) {
-    let ra = find(parent, a);
-    let rb = find(parent, b);
-    if ra != rb {
-        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-        parent[hi as usize] = lo;
     }
 }
 
