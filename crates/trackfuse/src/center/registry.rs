@@ -81,6 +81,15 @@ fn rule<P: DeserializeOwned, R: FusionRule + 'static>(
     Ok(Box::new(new(parse_params(tables, name)?)?))
 }
 
+/// `new` applied to the parameters of table `name`, boxed as a bias estimator.
+fn bias<P: DeserializeOwned, B: BiasEstimator + 'static>(
+    tables: &ParamTables,
+    name: &str,
+    new: fn(P) -> Result<B, ParamError>,
+) -> Result<Box<dyn BiasEstimator>, ParamError> {
+    Ok(Box::new(new(parse_params(tables, name)?)?))
+}
+
 /// Every finished track-to-track association method.
 pub const METHODS: &[MethodInfo] = &[
     MethodInfo {
@@ -193,7 +202,10 @@ pub const BIAS_ESTIMATORS: &[BiasInfo] = &[
     BiasInfo {
         name: super::bias::track_pair_ls::NAME,
         summary: "pairs of local tracks of two sensors, joint least squares of every sensor's range and bearing biases (eq. 15 residuals), polar correction (000 eq. 3, 15)",
-        make: super::bias::track_pair_ls::make,
+        make: |p| {
+            use super::bias::track_pair_ls;
+            bias(p, track_pair_ls::NAME, track_pair_ls::TrackPairLs::new)
+        },
     },
     BiasInfo {
         name: super::bias::track_pair_ls::DEPRECATED_NAME,

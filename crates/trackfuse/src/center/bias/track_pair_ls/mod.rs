@@ -243,7 +243,7 @@ pub struct TrackPairLs {
 impl TrackPairLs {
     /// A new estimator (no sensor known yet, all estimates zero); `params` are validated.
     pub fn new(params: TrackPairLsParams) -> Result<Self, ParamError> {
-        params.validate()?;
+        params.check()?;
         let pair_gate_probability = params.pair_gate_probability;
         Ok(TrackPairLs {
             pair_gate2: -2.0 * (1.0 - params.pair_gate_probability).ln(),
@@ -465,12 +465,6 @@ fn bias_spread(x: &StateVec, sensor: &Vec2, s: &Mat2) -> StateCov {
     j * s * j.transpose()
 }
 
-/// Build the estimator from the `[fusion.params.*]` tables (the registry's constructor).
-pub fn make(tables: &ParamTables) -> Result<Box<dyn BiasEstimator>, ParamError> {
-    let params: TrackPairLsParams = parse_params(tables, NAME)?;
-    Ok(Box::new(TrackPairLs::new(params)?))
-}
-
 /// The registry's constructor under the deprecated name [`DEPRECATED_NAME`]: the same
 /// estimator, with its parameters from `[fusion.params.fdbsc]` when that table is given
 /// (a configuration written for the old name), else from `[fusion.params.track-pair-ls]`.
@@ -481,7 +475,7 @@ pub fn make_deprecated(tables: &ParamTables) -> Result<Box<dyn BiasEstimator>, P
         NAME
     };
     let params: TrackPairLsParams = parse_params(tables, table)?;
-    params.validate_as(table)?;
+    params.check_in(table)?;
     Ok(Box::new(TrackPairLs::new(params)?))
 }
 

@@ -115,12 +115,12 @@ impl Default for TrackPairLsParams {
 
 impl TrackPairLsParams {
     /// Range-check the values; errors name `params.track-pair-ls.<key>`.
-    pub fn validate(&self) -> Result<(), ParamError> {
-        self.validate_as(NAME)
+    pub fn check(&self) -> Result<(), ParamError> {
+        self.check_in(NAME)
     }
 
-    /// [`validate`](Self::validate), errors naming `params.<table>.<key>`.
-    pub(super) fn validate_as(&self, table: &str) -> Result<(), ParamError> {
+    /// [`check`](Self::check), errors naming `params.<table>.<key>`.
+    pub(super) fn check_in(&self, table: &str) -> Result<(), ParamError> {
         let key = |k: &str| format!("params.{table}.{k}");
         positive(&key("prior_range_sigma"), self.prior_range_sigma)?;
         positive(&key("prior_bearing_sigma"), self.prior_bearing_sigma)?;

@@ -747,7 +747,7 @@ fn forgetting_and_folding_keep_the_estimate() {
 #[test]
 fn params_are_validated() {
     let mut tables = ParamTables::new();
-    assert!(make(&tables).is_ok());
+    assert!(crate::center::registry::make_bias(NAME, &tables).is_ok());
     let mut table = toml::Table::new();
     table.insert("pairing".into(), toml::Value::String("groups".into()));
     table.insert("model_sigma".into(), toml::Value::Float(2.0));
@@ -758,7 +758,9 @@ fn params_are_validated() {
     let mut table = toml::Table::new();
     table.insert("pair_tolerence".into(), toml::Value::Float(2.0));
     tables.insert(NAME.into(), table);
-    let e = make(&tables).err().unwrap();
+    let e = crate::center::registry::make_bias(NAME, &tables)
+        .err()
+        .unwrap();
     assert!(e.to_string().contains("pair_tolerence"), "{e}");
     let d = TrackPairLsParams::default;
     for bad in [
