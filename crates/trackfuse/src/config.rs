@@ -266,16 +266,7 @@ mod tests {
     use super::*;
     use crate::types::{Id, SensorKind};
 
-    const MINIMAL: &str = r#"
-dt = 1.0
-scans = 10
-[[targets]]
-initial = [0.0, 10.0, 0.0, 0.0]
-[[sensors]]
-position = [0.0, -1000.0]
-sigma_r = 10.0
-sigma_theta = 0.001
-"#;
+    use crate::scenario::MINIMAL_FOR_TESTS as MINIMAL;
 
     #[test]
     fn stage_sections_parse_and_default() {

@@ -157,6 +157,30 @@ pub fn parse_cli_param(text: &str) -> Result<(String, toml::Value), ParamError> 
     Ok((key, parsed))
 }
 
+/// Test helper shared by the registries' tests: for the parameter struct `P` of the
+/// method called `name`, an absent table gives its `Default` (the container-level
+/// `#[serde(default)]` and the documented defaults agree), and an unknown key is an error
+/// naming `params.<name>.<key>`.
+#[cfg(test)]
+pub(crate) fn assert_default_and_strict<P>(name: &str)
+where
+    P: serde::de::DeserializeOwned + Default + std::fmt::Debug,
+{
+    let parsed: P = parse_params(&ParamTables::new(), name).expect("defaults");
+    assert_eq!(
+        format!("{parsed:?}"),
+        format!("{:?}", P::default()),
+        "{name}"
+    );
+    let mut tables = ParamTables::new();
+    tables.insert(
+        name.into(),
+        toml::from_str("no_such_key = 1").expect("a table"),
+    );
+    let e = parse_params::<P>(&tables, name).expect_err("unknown key");
+    assert_eq!(e.key, format!("params.{name}.no_such_key"), "{e}");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -517,11 +517,10 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
     (line, col)
 }
 
+/// The smallest valid scenario file (one target, one radar), for tests here and in
+/// [`crate::config`].
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    const MINIMAL: &str = r#"
+pub(crate) const MINIMAL_FOR_TESTS: &str = r#"
 dt = 1.0
 scans = 10
 [[targets]]
@@ -531,6 +530,12 @@ position = [0.0, -1000.0]
 sigma_r = 10.0
 sigma_theta = 0.001
 "#;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use super::MINIMAL_FOR_TESTS as MINIMAL;
 
     #[test]
     fn minimal_parses() {

@@ -402,18 +402,7 @@ mod tests {
     /// unknown key is an error naming it.
     #[test]
     fn params_structs_default_and_deny_unknown_keys() {
-        fn same<P: DeserializeOwned + Default + std::fmt::Debug>(name: &str) {
-            let parsed: P = parse_params(&ParamTables::new(), name).unwrap();
-            assert_eq!(
-                format!("{parsed:?}"),
-                format!("{:?}", P::default()),
-                "{name}"
-            );
-            let mut tables = ParamTables::new();
-            tables.insert(name.into(), toml::from_str("no_such_key = 1").unwrap());
-            let e = parse_params::<P>(&tables, name).unwrap_err();
-            assert_eq!(e.key, format!("params.{name}.no_such_key"), "{e}");
-        }
+        use crate::params::assert_default_and_strict as same;
         same::<kalman::KalmanParams>(kalman::NAME);
         same::<ekf::EkfParams>(ekf::NAME);
         same::<cmkf::CmkfParams>(cmkf::NAME);
