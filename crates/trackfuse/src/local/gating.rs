@@ -13,9 +13,6 @@ use super::filter::PredictedMeasurement;
 use crate::spatial::SweepIndex;
 use crate::types::Vec2;
 
-/// The scan's measurements sorted by their first coordinate (x, or range): the crate's
-/// sorted-sweep index, built with `index.build(measurements.iter().map(|z| z[0]))`.
-
 /// Validated measurements per track, in a flat buffer reused scan after scan.
 #[derive(Debug, Clone, Default)]
 pub struct Gates {
