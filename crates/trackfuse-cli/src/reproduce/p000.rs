@@ -43,7 +43,6 @@ use anyhow::Result;
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::time::{Duration, Instant};
-use trackfuse::center::registry::make_rule;
 use trackfuse::center::{fuse_all, FusedRun, FusionConfig};
 use trackfuse::metrics::{
     evaluate_run, gated_assignment, label_local_tracks, EvalInput, RunMetrics,
@@ -345,7 +344,7 @@ fn run_variants(
     let fusions: Vec<FusionConfig> = variants.iter().map(|v| fusion_of(sc, v)).collect();
     let mut needs_truth = Vec::with_capacity(fusions.len());
     for f in &fusions {
-        needs_truth.push(make_rule(&f.rule, &f.params)?.needs_true_association());
+        needs_truth.push(trackfuse::center::needs_truth(f)?);
     }
     let bar = ctx.bar(runs as u64, tag);
     type PerRun = (Duration, Vec<(RunMetrics, Duration, Extra)>);

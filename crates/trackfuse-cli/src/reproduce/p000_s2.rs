@@ -24,7 +24,6 @@ use anyhow::Result;
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
 use trackfuse::center::bias::BiasEstimate;
-use trackfuse::center::registry::make_rule;
 use trackfuse::center::{fuse_all, fuse_all_two_pass, FusionConfig};
 use trackfuse::metrics::{evaluate_run, gated_assignment, EvalInput, RunMetrics, Summary};
 use trackfuse::models::polar::polar_shift_position;
@@ -222,7 +221,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         .collect();
     let mut needs_truth = Vec::new();
     for f in &fusions {
-        needs_truth.push(make_rule(&f.rule, &f.params)?.needs_true_association());
+        needs_truth.push(trackfuse::center::needs_truth(f)?);
     }
     let bar = ctx.bar(runs as u64, "000-s2: 5 variants");
     let results: Vec<RunResult> = run_parallel(

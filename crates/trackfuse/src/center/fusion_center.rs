@@ -165,21 +165,15 @@ impl FusionCenter {
         truth: Option<Box<dyn TruthSource>>,
         registry: &CenterRegistry,
     ) -> Result<Self, CenterError> {
-        cfg.check_with(registry)?;
-        let rule = registry.make_rule(&cfg.rule, &cfg.params)?;
+        let (configured, rule, bias) = cfg.build_with(registry)?;
         let wants_truth = cfg.method == truth::NAME || rule.needs_true_association();
         let (method, truth_missing): (Box<dyn TrackAssociator>, bool) = if wants_truth {
             let method = TruthAssociator::with_source(truth);
             let missing = !method.has_labels();
             (Box::new(method), missing)
         } else {
-            (registry.make_method(&cfg.method, &cfg.params)?, false)
+            (configured, false)
         };
-        let bias = cfg
-            .bias
-            .as_ref()
-            .map(|b| registry.make_bias(b, &cfg.params))
-            .transpose()?;
         let mut center = Self::with_parts(cfg, method, rule, bias, sensors)?;
         center.truth_missing = truth_missing;
         Ok(center)

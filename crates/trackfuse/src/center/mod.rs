@@ -424,6 +424,14 @@ impl Default for FusionConfig {
     }
 }
 
+/// What [`FusionConfig::build_with`] makes: the association method, the fusion rule and
+/// the bias estimator (if any) a config names.
+pub(crate) type ConfiguredParts = (
+    Box<dyn TrackAssociator>,
+    Box<dyn FusionRule>,
+    Option<Box<dyn bias::BiasEstimator>>,
+);
+
 impl FusionConfig {
     /// Range-check the values and that the named methods exist and accept their
     /// parameters: [`CenterError::Config`] for a value or parameter,
@@ -435,6 +443,16 @@ impl FusionConfig {
     /// [`FusionConfig::check`] with the methods of `registry` (the built-in ones plus a
     /// library user's).
     pub fn check_with(&self, registry: &registry::CenterRegistry) -> Result<(), CenterError> {
+        self.build_with(registry).map(|_| ())
+    }
+
+    /// The checks of [`FusionConfig::check_with`], keeping what they build: the method,
+    /// rule and bias estimator `registry` makes from the config (so a center is built
+    /// from one construction, not a check and then a second one).
+    pub(crate) fn build_with(
+        &self,
+        registry: &registry::CenterRegistry,
+    ) -> Result<ConfiguredParts, CenterError> {
         if !(self.process_noise.is_finite() && self.process_noise >= 0.0) {
             return Err(ParamError::new(
                 "process_noise",
@@ -445,11 +463,13 @@ impl FusionConfig {
         if self.delete_after == 0 {
             return Err(ParamError::new("delete_after", "must be at least 1").into());
         }
-        registry.make_method(&self.method, &self.params)?;
-        registry.make_rule(&self.rule, &self.params)?;
-        if let Some(b) = &self.bias {
-            registry.make_bias(b, &self.params)?;
-        }
+        let method = registry.make_method(&self.method, &self.params)?;
+        let rule = registry.make_rule(&self.rule, &self.params)?;
+        let bias = self
+            .bias
+            .as_ref()
+            .map(|b| registry.make_bias(b, &self.params))
+            .transpose()?;
         for name in self.params.keys() {
             if !registry.has(name) {
                 return Err(ParamError::new(
@@ -459,7 +479,7 @@ impl FusionConfig {
                 .into());
             }
         }
-        Ok(())
+        Ok((method, rule, bias))
     }
 
     /// [`FusionConfig::check`] as a [`ParamError`] naming the key within `[fusion]`, for

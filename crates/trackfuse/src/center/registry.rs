@@ -420,40 +420,23 @@ fn names<C>(entries: &[Entry<C>]) -> Vec<&str> {
     entries.iter().map(|e| e.name.as_str()).collect()
 }
 
-/// The built-in association method called `name`.
+/// The built-in association method called `name` ([`CenterRegistry::make_method`] on
+/// [`CenterRegistry::builtin`]).
 pub fn make_method(
     name: &str,
     params: &ParamTables,
 ) -> Result<Box<dyn TrackAssociator>, CenterError> {
-    let m = METHODS
-        .iter()
-        .find(|m| m.name == name)
-        .ok_or_else(|| unknown("method", name, METHODS.iter().map(|m| m.name).collect()))?;
-    Ok((m.make)(params)?)
+    CenterRegistry::builtin().make_method(name, params)
 }
 
 /// The built-in fusion rule called `name`.
 pub fn make_rule(name: &str, params: &ParamTables) -> Result<Box<dyn FusionRule>, CenterError> {
-    let r = RULES
-        .iter()
-        .find(|r| r.name == name)
-        .ok_or_else(|| unknown("rule", name, RULES.iter().map(|r| r.name).collect()))?;
-    Ok((r.make)(params)?)
+    CenterRegistry::builtin().make_rule(name, params)
 }
 
 /// The built-in bias estimator called `name`.
 pub fn make_bias(name: &str, params: &ParamTables) -> Result<Box<dyn BiasEstimator>, CenterError> {
-    let b = BIAS_ESTIMATORS
-        .iter()
-        .find(|b| b.name == name)
-        .ok_or_else(|| {
-            unknown(
-                "bias",
-                name,
-                BIAS_ESTIMATORS.iter().map(|b| b.name).collect(),
-            )
-        })?;
-    Ok((b.make)(params)?)
+    CenterRegistry::builtin().make_bias(name, params)
 }
 
 #[cfg(test)]

@@ -175,6 +175,14 @@ impl TrackerConfig {
     }
 
     fn check(&self, registry: &registry::LocalRegistry) -> Result<(), ParamError> {
+        self.check_values()?;
+        self.check_methods(registry)
+    }
+
+    /// Range-check the settings the tracker itself reads (gate, process noise, clutter,
+    /// initiation and deletion), not the named methods: what a tracker built from parts
+    /// ([`SensorTracker::with_parts`]) needs checked.
+    pub fn check_values(&self) -> Result<(), ParamError> {
         use crate::params::{in_range, positive};
         in_range("gate_probability", self.gate_probability, 0.5, 1.0 - 1e-12)?;
         if let Some(q) = self.process_noise {
@@ -210,7 +218,12 @@ impl TrackerConfig {
             ));
         }
         positive("initiation.known_position_std", i.known_position_std)?;
-        positive("initiation.known_velocity_std", i.known_velocity_std)?;
+        positive("initiation.known_velocity_std", i.known_velocity_std)
+    }
+
+    /// That the named filter (unless `auto`) and associator exist in `registry` and accept
+    /// their parameters, and that every `[tracker.params.<name>]` table names one.
+    fn check_methods(&self, registry: &registry::LocalRegistry) -> Result<(), ParamError> {
         let settings = registry::FilterSettings {
             process_noise: self.process_noise.unwrap_or([DEFAULT_PROCESS_NOISE; 2]),
             params: &self.params,

@@ -317,18 +317,10 @@ impl LocalRegistry {
     }
 }
 
-/// The built-in filter called `name`.
+/// The built-in filter called `name` ([`LocalRegistry::make_filter`] on
+/// [`LocalRegistry::builtin`]).
 pub fn make_filter(name: &str, s: &FilterSettings<'_>) -> Result<Box<dyn Filter>, ParamError> {
-    match FILTERS.iter().find(|f| f.name == name) {
-        Some(f) => (f.make)(s),
-        None => Err(ParamError::new(
-            "filter",
-            format!(
-                "unknown filter {name:?} (known: {})",
-                filter_names().join(", ")
-            ),
-        )),
-    }
+    LocalRegistry::builtin().make_filter(name, s)
 }
 
 /// The built-in associator called `name`.
@@ -336,16 +328,7 @@ pub fn make_associator(
     name: &str,
     s: &AssociatorSettings<'_>,
 ) -> Result<Box<dyn DataAssociator>, ParamError> {
-    match ASSOCIATORS.iter().find(|a| a.name == name) {
-        Some(a) => (a.make)(s),
-        None => Err(ParamError::new(
-            "associator",
-            format!(
-                "unknown associator {name:?} (known: {})",
-                associator_names().join(", ")
-            ),
-        )),
-    }
+    LocalRegistry::builtin().make_associator(name, s)
 }
 
 /// Names of the built-in filters.

@@ -30,7 +30,7 @@ use super::gating::{gate_threshold, Gates};
 use super::registry::{AssociatorContext, AssociatorSettings, FilterSettings, LocalRegistry};
 use super::{InitiationMethod, TrackerConfig, DEFAULT_PROCESS_NOISE};
 use crate::models::range_bearing_to_position;
-use crate::params::{ParamError, ParamTables};
+use crate::params::ParamError;
 use crate::spatial::SweepIndex;
 use crate::types::{
     Id, LocalTrack, Mat2, Measurement, Sensor, SensorKind, StateCov, StateVec, Vec2,
@@ -293,16 +293,8 @@ impl SensorTracker {
         associator: Box<dyn DataAssociator>,
         known: &[KnownTarget],
     ) -> Result<SensorTracker, TrackerError> {
-        // the settings the tracker itself reads, checked with the parts' names and tables
-        // set aside (the parts are built already)
-        TrackerConfig {
-            filter: "auto".into(),
-            associator: TrackerConfig::default().associator,
-            params: ParamTables::new(),
-            ..cfg.clone()
-        }
-        .validate()
-        .map_err(TrackerError::Config)?;
+        // the settings the tracker itself reads (the parts are built already)
+        cfg.check_values().map_err(TrackerError::Config)?;
         let mut sensor = sensor.clone();
         sensor.bias_r = 0.0;
         sensor.bias_theta = 0.0;
