@@ -4,7 +4,8 @@
 //! CRLF, and reject — never repair — missing columns, unparsable or non-finite numbers,
 //! covariances that are not symmetric positive semi-definite, time going backwards within
 //! one `(sensor_id, track_id)` and duplicate rows. Every error names file, line, column and
-//! reason ([`InputError`]). Writers write LF and floats in shortest round-trip form.
+//! reason ([`InputError`]). Writers write LF and floats in shortest round-trip form, only
+//! finite ones, and each file atomically ([`AtomicFile`]).
 
 mod error;
 mod reader;
@@ -16,8 +17,8 @@ pub use reader::{
     read_sensors, read_truth, CovarianceError,
 };
 pub use writer::{
-    write_sensors, AssociationWriter, CsvRowWriter, FusedTrackWriter, LocalTrackWriter,
-    MeasurementWriter, TruthWriter,
+    write_sensors, AssociationWriter, AtomicFile, CsvRowWriter, FusedTrackWriter,
+    LocalTrackWriter, MeasurementWriter, Sink, TruthWriter,
 };
 
 /// Header names of the covariance columns, `P00 … P33`, row-major.
