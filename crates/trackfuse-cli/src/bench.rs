@@ -1,7 +1,8 @@
 //! `trackfuse bench`: end-to-end throughput figures for BENCHMARKS.md.
 
-use crate::common::{load_scenario, out_dir};
+use crate::common::{load_scenario, scenario_input};
 use crate::config::{FusionFlags, TrackerFlags};
+use crate::output::{Outputs, SIMULATE_OUTPUTS};
 use crate::simulate::simulate_to_dir;
 use anyhow::Result;
 use clap::{Args, Subcommand};
@@ -80,9 +81,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     match &args.what {
         BenchWhat::Simulate { scenario, out } => {
             let sc = load_scenario(Some(scenario))?.0.scenario;
-            let dir = out_dir(out)?;
+            let input = scenario_input(Some(scenario));
+            let inputs: Vec<&std::path::Path> = input.iter().map(|p| p.as_path()).collect();
+            // the simulated files, without the scenario copy
+            let mut outs = Outputs::new(out, &SIMULATE_OUTPUTS[1..], &inputs)?;
             let t0 = Instant::now();
-            let stats = simulate_to_dir(&sc, 0, &dir)?;
+            let stats = simulate_to_dir(&sc, 0, &mut outs)?;
+            outs.finish();
             let secs = t0.elapsed().as_secs_f64();
             let rows = stats.measurement_rows + stats.truth_rows;
             println!("scenario            {}", sc.name);

@@ -38,6 +38,14 @@ pub fn load_scenario(arg: Option<&str>) -> Result<(RunConfig, String)> {
     }
 }
 
+/// The scenario file a command reads, when the argument is a path (a built-in name is not
+/// a file): one of the command's inputs, which no output may overwrite.
+pub fn scenario_input(arg: Option<&str>) -> Option<PathBuf> {
+    arg.map(Path::new)
+        .filter(|p| p.exists())
+        .map(Path::to_path_buf)
+}
+
 /// The scenario text with its top-level `seed` set to `seed` (replacing the line, or
 /// adding one at the top), so the copied scenario reproduces the run.
 pub fn with_seed(text: &str, seed: u64) -> String {
@@ -62,12 +70,6 @@ pub fn with_seed(text: &str, seed: u64) -> String {
     } else {
         format!("seed = {seed}\n{out}")
     }
-}
-
-/// Create an output directory.
-pub fn out_dir(dir: &Path) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    Ok(dir.to_path_buf())
 }
 
 /// A plain aligned text table.

@@ -1,7 +1,8 @@
 //! `trackfuse evaluate`: metrics of fused (and local) tracks against the truth.
 
 use crate::common::render_summary;
-use anyhow::{Context, Result};
+use crate::output::{Outputs, SUMMARY_OUTPUTS};
+use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
 use trackfuse::io::{read_associations, read_fused_tracks, read_local_tracks, read_truth};
@@ -30,7 +31,12 @@ pub struct EvaluateArgs {
     /// Gate (m) for labelling local tracks with the target they follow
     #[arg(long, default_value_t = 2000.0)]
     pub label_gate: f64,
-    /// Where to write summary.json (default: next to the tracks file)
+    /// Output directory: summary.json is written there (never next to the inputs unless
+    /// this says so).
+    #[arg(long, default_value = "out/evaluate")]
+    pub out: PathBuf,
+    /// Write the summary to this file instead of OUT/summary.json (it must not be one of
+    /// the inputs).
     #[arg(long)]
     pub summary: Option<PathBuf>,
 }
@@ -43,6 +49,19 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
     };
     cfg.validate()
         .map_err(|e| anyhow::anyhow!("--{}: {}", e.key.replace('_', "-"), e.reason))?;
+    let mut inputs = vec![args.truth.as_path(), args.tracks.as_path()];
+    inputs.extend(args.associations.as_deref());
+    inputs.extend(args.local_tracks.as_deref());
+    let mut outs = match &args.summary {
+        Some(file) => {
+            let dir = file
+                .parent()
+                .filter(|d| !d.as_os_str().is_empty())
+                .unwrap_or(std::path::Path::new("."));
+            Outputs::with_files(dir, vec![file.clone()], &inputs)?
+        }
+        None => Outputs::new(&args.out, SUMMARY_OUTPUTS, &inputs)?,
+    };
     let truth = read_truth(&args.truth)?;
     let fused = read_fused_tracks(&args.tracks)?;
     let assoc = args
@@ -66,14 +85,12 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
     );
     let s = m.summary(&cfg);
     print!("{}", render_summary(&s));
-    let path = args.summary.clone().unwrap_or_else(|| {
-        args.tracks
-            .parent()
-            .map(|p| p.join("summary.json"))
-            .unwrap_or_else(|| PathBuf::from("summary.json"))
-    });
-    std::fs::write(&path, serde_json::to_string_pretty(&s)? + "\n")
-        .with_context(|| format!("writing {}", path.display()))?;
+    let json = serde_json::to_string_pretty(&s)? + "\n";
+    let path = match &args.summary {
+        Some(file) => outs.write_file(file, json.as_bytes())?,
+        None => outs.write("summary.json", json.as_bytes())?,
+    };
+    outs.finish();
     eprintln!("wrote {}", path.display());
     Ok(())
 }

@@ -1,8 +1,9 @@
 //! `trackfuse fuse`: the fusion center over local_tracks.csv (from this project or any
 //! other tool) -> fused_tracks.csv + associations.csv.
 
-use crate::common::{load_scenario, out_dir};
+use crate::common::{load_scenario, scenario_input};
 use crate::config::FusionFlags;
+use crate::output::{Outputs, FUSE_OUTPUTS};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::collections::BTreeSet;
@@ -48,27 +49,26 @@ pub struct FuseArgs {
 }
 
 /// Write fused_tracks.csv, associations.csv and (with a bias estimator) bias_estimates.csv.
-pub fn write_fused(dir: &Path, run: &FusedRun) -> Result<()> {
-    let p = dir.join("fused_tracks.csv");
+pub fn write_fused(outs: &mut Outputs, run: &FusedRun) -> Result<()> {
+    let p = outs.path("fused_tracks.csv");
     let ctx = |p: &Path| format!("writing {}", p.display());
     let mut w = FusedTrackWriter::create(&p).with_context(|| ctx(&p))?;
     for f in &run.fused {
         w.write(f).with_context(|| ctx(&p))?;
     }
     w.finish().with_context(|| ctx(&p))?;
-    let p = dir.join("associations.csv");
+    let p = outs.path("associations.csv");
     let mut w = AssociationWriter::create(&p).with_context(|| ctx(&p))?;
     for a in &run.associations {
         w.write(a).with_context(|| ctx(&p))?;
     }
     w.finish().with_context(|| ctx(&p))?;
     if !run.bias.is_empty() {
-        let p = dir.join("bias_estimates.csv");
         let mut s = String::from("sensor_id,bias_r,bias_theta\n");
         for b in &run.bias {
             s.push_str(&format!("{},{},{}\n", b.sensor_id, b.range, b.bearing));
         }
-        std::fs::write(&p, s).with_context(|| ctx(&p))?;
+        outs.write("bias_estimates.csv", s.as_bytes())?;
     }
     Ok(())
 }
@@ -146,8 +146,15 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     }
     .map_err(with_flag_hint)?;
     let elapsed = t0.elapsed();
-    let dir = out_dir(&args.out)?;
-    write_fused(&dir, &run)?;
+    let scenario_path = scenario_input(args.scenario.as_deref());
+    let mut inputs = vec![args.local_tracks.as_path()];
+    inputs.extend(args.sensors.as_deref());
+    inputs.extend(args.truth.as_deref());
+    inputs.extend(scenario_path.as_deref());
+    let mut outs = Outputs::new(&args.out, FUSE_OUTPUTS, &inputs)?;
+    write_fused(&mut outs, &run)?;
+    let dir = outs.dir().to_path_buf();
+    outs.finish();
     let ids: std::collections::BTreeSet<i64> = run.fused.iter().map(|f| f.fused_id).collect();
     eprintln!(
         "fused {} local-track rows ({} + {}): {} global tracks, {} rows in {:.3} s -> {}",

@@ -6,6 +6,7 @@ mod config;
 mod evaluate;
 mod fuse;
 mod mc;
+mod output;
 mod plot;
 mod reproduce;
 mod run;
@@ -20,7 +21,8 @@ use clap::{Parser, Subcommand};
 #[derive(Parser, Debug)]
 #[command(name = "trackfuse", version, about, long_about = None)]
 struct Cli {
-    /// Worker threads for parallel work (default: all cores). Results do not depend on it.
+    /// Worker threads for parallel work (default: all cores), 1 to 256. Results do not
+    /// depend on it.
     #[arg(long, global = true)]
     threads: Option<usize>,
     #[command(subcommand)]
@@ -81,11 +83,18 @@ fn render_error(e: &anyhow::Error) -> String {
     msg
 }
 
+/// Most worker threads `--threads` accepts: far above the cores of any machine this runs
+/// on (each thread costs a stack and start-up time; 10 000 did not start in a minute).
+const MAX_THREADS: usize = 256;
+
 fn real_main() -> Result<()> {
     let cli = Cli::parse();
     if let Some(n) = cli.threads {
         if n == 0 {
             anyhow::bail!("--threads: must be at least 1");
+        }
+        if n > MAX_THREADS {
+            anyhow::bail!("--threads: {n} is beyond the limit of {MAX_THREADS} threads");
         }
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)

@@ -2,9 +2,10 @@
 //! master seed, in parallel, aggregated. The result is byte-identical whatever
 //! `--threads` is.
 
-use crate::common::{load_scenario, out_dir, render_summary};
+use crate::common::{load_scenario, render_summary, scenario_input};
 use crate::config::{FusionFlags, TrackerFlags};
-use anyhow::{bail, Context, Result};
+use crate::output::{Outputs, SUMMARY_OUTPUTS};
+use anyhow::{bail, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -43,6 +44,10 @@ pub fn run(args: &McArgs) -> Result<()> {
     if runs == 0 {
         bail!("--runs: must be at least 1");
     }
+    let input = scenario_input(args.scenario.as_deref());
+    let inputs: Vec<&std::path::Path> = input.iter().map(|p| p.as_path()).collect();
+    // checked before the runs, so a refused output costs nothing
+    let mut outs = Outputs::new(&args.out, SUMMARY_OUTPUTS, &inputs)?;
     let tracker = args.tracker.apply(&sc.tracker)?;
     let fusion = args.fusion.apply(&sc.fusion)?;
     let bar = if args.quiet {
@@ -67,10 +72,11 @@ pub fn run(args: &McArgs) -> Result<()> {
         m.merge(r);
     }
     let summary = m.summary(&sc.evaluation);
-    let dir = out_dir(&args.out)?;
-    let path = dir.join("summary.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&summary)? + "\n")
-        .with_context(|| format!("writing {}", path.display()))?;
+    let path = outs.write(
+        "summary.json",
+        (serde_json::to_string_pretty(&summary)? + "\n").as_bytes(),
+    )?;
+    outs.finish();
     println!(
         "{}: {} runs, seed {}, tracker {} + {}, fusion {} + {}{}\n",
         if sc.scenario.name.is_empty() {

@@ -9,14 +9,16 @@ use std::path::{Path, PathBuf};
 use trackfuse::io::{read_fused_tracks, read_local_tracks, read_sensors, read_truth};
 use trackfuse::Id;
 
+use crate::output::{Outputs, PLOT_OUTPUTS};
+
 #[derive(Args, Debug)]
 pub struct PlotArgs {
     /// A run directory (as written by `simulate`, `track`, `fuse`, `run`): truth.csv and any
     /// of sensors.csv, local_tracks.csv, fused_tracks.csv, summary.json.
     pub dir: PathBuf,
-    /// Where to write the SVG files (default: DIR/plots).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
+    /// Where to write the SVG files (never into the run directory unless this says so).
+    #[arg(long, default_value = "out/plot")]
+    pub out: PathBuf,
 }
 
 type Series = BTreeMap<Id, Vec<(f64, f64)>>;
@@ -39,7 +41,7 @@ fn plot_err(e: impl std::fmt::Display) -> anyhow::Error {
     anyhow::anyhow!("plotting: {e}")
 }
 
-fn trajectories(dir: &Path, out: &Path) -> Result<PathBuf> {
+fn trajectories(dir: &Path, outs: &mut Outputs) -> Result<PathBuf> {
     let truth = read_truth(&dir.join("truth.csv"))?;
     let mut t_series: Series = BTreeMap::new();
     for t in &truth {
@@ -81,8 +83,8 @@ fn trajectories(dir: &Path, out: &Path) -> Result<PathBuf> {
     ) else {
         bail!("{}: no truth rows to plot", dir.join("truth.csv").display());
     };
-    let path = out.join("trajectories.svg");
-    let root = SVGBackend::new(&path, (900, 800)).into_drawing_area();
+    let mut svg = String::new();
+    let root = SVGBackend::with_string(&mut svg, (900, 800)).into_drawing_area();
     root.fill(&WHITE).map_err(plot_err)?;
     let mut chart = ChartBuilder::on(&root)
         .caption("Trajectories", ("sans-serif", 22))
@@ -164,10 +166,10 @@ fn trajectories(dir: &Path, out: &Path) -> Result<PathBuf> {
     root.present().map_err(plot_err)?;
     drop(chart);
     drop(root);
-    Ok(path)
+    outs.write("trajectories.svg", svg.as_bytes())
 }
 
-fn rmse_curve(dir: &Path, out: &Path) -> Result<Option<PathBuf>> {
+fn rmse_curve(dir: &Path, outs: &mut Outputs) -> Result<Option<PathBuf>> {
     let p = dir.join("summary.json");
     if !p.exists() {
         return Ok(None);
@@ -187,8 +189,8 @@ fn rmse_curve(dir: &Path, out: &Path) -> Result<Option<PathBuf>> {
     }
     let xmax = pts.iter().map(|p| p.0).fold(1.0f64, f64::max);
     let ymax = pts.iter().map(|p| p.1).fold(1e-9f64, f64::max) * 1.1;
-    let path = out.join("rmse_per_scan.svg");
-    let root = SVGBackend::new(&path, (900, 500)).into_drawing_area();
+    let mut svg = String::new();
+    let root = SVGBackend::with_string(&mut svg, (900, 500)).into_drawing_area();
     root.fill(&WHITE).map_err(plot_err)?;
     let mut chart = ChartBuilder::on(&root)
         .caption("Fused position RMSE per scan", ("sans-serif", 22))
@@ -209,16 +211,27 @@ fn rmse_curve(dir: &Path, out: &Path) -> Result<Option<PathBuf>> {
     root.present().map_err(plot_err)?;
     drop(chart);
     drop(root);
-    Ok(Some(path))
+    outs.write("rmse_per_scan.svg", svg.as_bytes()).map(Some)
 }
 
 pub fn run(args: &PlotArgs) -> Result<()> {
-    let out = args.out.clone().unwrap_or_else(|| args.dir.join("plots"));
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-    let t = trajectories(&args.dir, &out)?;
+    let inputs: Vec<PathBuf> = [
+        "truth.csv",
+        "sensors.csv",
+        "local_tracks.csv",
+        "fused_tracks.csv",
+        "summary.json",
+    ]
+    .iter()
+    .map(|f| args.dir.join(f))
+    .collect();
+    let inputs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
+    let mut outs = Outputs::new(&args.out, PLOT_OUTPUTS, &inputs)?;
+    let t = trajectories(&args.dir, &mut outs)?;
     eprintln!("wrote {}", t.display());
-    if let Some(r) = rmse_curve(&args.dir, &out)? {
+    if let Some(r) = rmse_curve(&args.dir, &mut outs)? {
         eprintln!("wrote {}", r.display());
     }
+    outs.finish();
     Ok(())
 }

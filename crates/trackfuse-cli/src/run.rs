@@ -2,12 +2,13 @@
 //! intermediate file (so `trackfuse plot` and the single-stage commands can be used on
 //! them) and prints the metric table.
 
-use crate::common::{load_scenario, out_dir, render_summary, with_seed};
+use crate::common::{load_scenario, render_summary, scenario_input, with_seed};
 use crate::config::{FusionFlags, TrackerFlags};
 use crate::fuse::write_fused;
+use crate::output::{Outputs, RUN_OUTPUTS};
 use anyhow::{Context, Result};
 use clap::Args;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use trackfuse::io::{write_sensors, LocalTrackWriter, MeasurementWriter, TruthWriter};
 use trackfuse::pipeline::run_with;
 
@@ -38,36 +39,41 @@ pub fn run(args: &RunArgs) -> Result<()> {
     }
     let tracker = args.tracker.apply(&sc.tracker)?;
     let fusion = args.fusion.apply(&sc.fusion)?;
+    let input = scenario_input(args.scenario.as_deref());
+    let inputs: Vec<&std::path::Path> = input.iter().map(|p| p.as_path()).collect();
+    // checked before the run, so a refused output costs nothing
+    let mut outs = Outputs::new(&args.out, RUN_OUTPUTS, &inputs)?;
     let out = run_with(&sc, &tracker, &fusion, args.run)?;
-    let dir = out_dir(&args.out)?;
-    let ctx = |f: &str| format!("writing {}", dir.join(f).display());
-    std::fs::write(dir.join("scenario.toml"), &text).with_context(|| ctx("scenario.toml"))?;
-    write_sensors(&dir.join("sensors.csv"), &out.sim.sensors)
-        .with_context(|| ctx("sensors.csv"))?;
-    let mut tw = TruthWriter::create(&dir.join("truth.csv")).with_context(|| ctx("truth.csv"))?;
+    let ctx = |p: &Path| format!("writing {}", p.display());
+    outs.write("scenario.toml", text.as_bytes())?;
+    let p = outs.path("sensors.csv");
+    write_sensors(&p, &out.sim.sensors).with_context(|| ctx(&p))?;
+    let p = outs.path("truth.csv");
+    let mut tw = TruthWriter::create(&p).with_context(|| ctx(&p))?;
     for t in &out.sim.truth {
-        tw.write(t).with_context(|| ctx("truth.csv"))?;
+        tw.write(t).with_context(|| ctx(&p))?;
     }
-    tw.finish().with_context(|| ctx("truth.csv"))?;
-    let mut mw = MeasurementWriter::create(&dir.join("measurements.csv"), &out.sim.sensors)
-        .with_context(|| ctx("measurements.csv"))?;
+    tw.finish().with_context(|| ctx(&p))?;
+    let p = outs.path("measurements.csv");
+    let mut mw = MeasurementWriter::create(&p, &out.sim.sensors).with_context(|| ctx(&p))?;
     for m in &out.sim.measurements {
-        mw.write(m).with_context(|| ctx("measurements.csv"))?;
+        mw.write(m).with_context(|| ctx(&p))?;
     }
-    mw.finish().with_context(|| ctx("measurements.csv"))?;
-    let mut lw = LocalTrackWriter::create(&dir.join("local_tracks.csv"))
-        .with_context(|| ctx("local_tracks.csv"))?;
+    mw.finish().with_context(|| ctx(&p))?;
+    let p = outs.path("local_tracks.csv");
+    let mut lw = LocalTrackWriter::create(&p).with_context(|| ctx(&p))?;
     for l in &out.local {
-        lw.write(l).with_context(|| ctx("local_tracks.csv"))?;
+        lw.write(l).with_context(|| ctx(&p))?;
     }
-    lw.finish().with_context(|| ctx("local_tracks.csv"))?;
-    write_fused(&dir, &out.fused)?;
+    lw.finish().with_context(|| ctx(&p))?;
+    write_fused(&mut outs, &out.fused)?;
     let summary = out.metrics.summary(&sc.evaluation);
-    std::fs::write(
-        dir.join("summary.json"),
-        serde_json::to_string_pretty(&summary)? + "\n",
-    )
-    .with_context(|| ctx("summary.json"))?;
+    outs.write(
+        "summary.json",
+        (serde_json::to_string_pretty(&summary)? + "\n").as_bytes(),
+    )?;
+    let dir = outs.dir().to_path_buf();
+    outs.finish();
     println!(
         "{} (seed {}, run {}): tracker {} + {}, fusion {} + {}{}",
         if sc.scenario.name.is_empty() {

@@ -1,9 +1,10 @@
 //! `trackfuse simulate`: write sensors.csv, truth.csv, measurements.csv and the scenario.
 
-use crate::common::{load_scenario, out_dir, with_seed};
+use crate::common::{load_scenario, scenario_input, with_seed};
+use crate::output::{Outputs, SIMULATE_OUTPUTS};
 use anyhow::{Context, Result};
 use clap::Args;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use trackfuse::io::{write_sensors, MeasurementWriter, TruthWriter};
 use trackfuse::sim::Simulation;
 use trackfuse::Scenario;
@@ -29,33 +30,49 @@ pub struct SimulateStats {
     pub measurement_rows: u64,
 }
 
-/// Stream a scenario run to `dir` (one scan in memory at a time).
-pub fn simulate_to_dir(sc: &Scenario, run: u64, dir: &Path) -> Result<SimulateStats> {
+/// Stream a scenario run to the output folder (one scan in memory at a time): sensors.csv,
+/// truth.csv, measurements.csv, each atomically.
+pub fn simulate_to_dir(sc: &Scenario, run: u64, outs: &mut Outputs) -> Result<SimulateStats> {
     let mut sim = Simulation::new(sc, run);
     let sensors = sim.sensors();
-    let ctx = |f: &str| format!("writing {}", dir.join(f).display());
-    write_sensors(&dir.join("sensors.csv"), &sensors).with_context(|| ctx("sensors.csv"))?;
-    let mut tw = TruthWriter::create(&dir.join("truth.csv")).with_context(|| ctx("truth.csv"))?;
-    let mut mw = MeasurementWriter::create(&dir.join("measurements.csv"), &sensors)
-        .with_context(|| ctx("measurements.csv"))?;
+    let (sp, tp, mp) = (
+        outs.path("sensors.csv"),
+        outs.path("truth.csv"),
+        outs.path("measurements.csv"),
+    );
+    let ctx = |p: &std::path::Path| format!("writing {}", p.display());
+    write_sensors(&sp, &sensors).with_context(|| ctx(&sp))?;
+    let mut tw = TruthWriter::create(&tp).with_context(|| ctx(&tp))?;
+    let mut mw = MeasurementWriter::create(&mp, &sensors).with_context(|| ctx(&mp))?;
     let (mut truth, mut meas) = (Vec::new(), Vec::new());
     let mut stats = SimulateStats {
         truth_rows: 0,
         measurement_rows: 0,
     };
-    while sim.next_scan(&mut truth, &mut meas) {
+    while sim
+        .next_scan(&mut truth, &mut meas)
+        .with_context(|| format!("simulating {}", scenario_label(sc)))?
+    {
         for t in &truth {
-            tw.write(t).with_context(|| ctx("truth.csv"))?;
+            tw.write(t).with_context(|| ctx(&tp))?;
         }
         for m in &meas {
-            mw.write(m).with_context(|| ctx("measurements.csv"))?;
+            mw.write(m).with_context(|| ctx(&mp))?;
         }
         stats.truth_rows += truth.len() as u64;
         stats.measurement_rows += meas.len() as u64;
     }
-    tw.finish().with_context(|| ctx("truth.csv"))?;
-    mw.finish().with_context(|| ctx("measurements.csv"))?;
+    tw.finish().with_context(|| ctx(&tp))?;
+    mw.finish().with_context(|| ctx(&mp))?;
     Ok(stats)
+}
+
+fn scenario_label(sc: &Scenario) -> &str {
+    if sc.name.is_empty() {
+        "the scenario"
+    } else {
+        &sc.name
+    }
 }
 
 pub fn run(args: &SimulateArgs) -> Result<()> {
@@ -65,10 +82,13 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         sc.seed = seed;
         text = with_seed(&text, seed);
     }
-    let dir = out_dir(&args.out)?;
-    std::fs::write(dir.join("scenario.toml"), &text)
-        .with_context(|| format!("writing {}", dir.join("scenario.toml").display()))?;
-    let stats = simulate_to_dir(&sc, args.run, &dir)?;
+    let input = scenario_input(args.scenario.as_deref());
+    let inputs: Vec<&std::path::Path> = input.iter().map(|p| p.as_path()).collect();
+    let mut outs = Outputs::new(&args.out, SIMULATE_OUTPUTS, &inputs)?;
+    outs.write("scenario.toml", text.as_bytes())?;
+    let stats = simulate_to_dir(&sc, args.run, &mut outs)?;
+    let dir = outs.dir().to_path_buf();
+    outs.finish();
     eprintln!(
         "simulated {} ({} scans, seed {}, run {}): {} truth rows, {} measurement rows -> {}",
         if sc.name.is_empty() {

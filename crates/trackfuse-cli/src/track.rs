@@ -2,8 +2,9 @@
 //! (from this project or any other tool) -> local_tracks.csv. It never uses the truth:
 //! not truth.csv, not the `target_id` column of measurements.csv.
 
-use crate::common::{load_scenario, out_dir};
+use crate::common::{load_scenario, scenario_input};
 use crate::config::TrackerFlags;
+use crate::output::{Outputs, TRACK_OUTPUTS};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::path::PathBuf;
@@ -79,8 +80,11 @@ pub fn run(args: &TrackArgs) -> Result<()> {
         0,
     )?;
     let elapsed = t0.elapsed();
-    let dir = out_dir(&args.out)?;
-    let path = dir.join("local_tracks.csv");
+    let scenario_path = scenario_input(args.scenario.as_deref());
+    let mut inputs = vec![sensors_path.as_path(), meas_path.as_path()];
+    inputs.extend(scenario_path.as_deref());
+    let mut outs = Outputs::new(&args.out, TRACK_OUTPUTS, &inputs)?;
+    let path = outs.path("local_tracks.csv");
     let mut w =
         LocalTrackWriter::create(&path).with_context(|| format!("writing {}", path.display()))?;
     for l in &local {
@@ -89,6 +93,7 @@ pub fn run(args: &TrackArgs) -> Result<()> {
     }
     w.finish()
         .with_context(|| format!("writing {}", path.display()))?;
+    outs.finish();
     let tracks: std::collections::BTreeSet<(i64, i64)> =
         local.iter().map(|l| (l.sensor_id, l.track_id)).collect();
     eprintln!(

@@ -216,7 +216,9 @@ impl RunConfig {
             .validate()
             .map_err(|e| bad("monte_carlo", e))?;
         self.tracker.validate().map_err(|e| bad("tracker", e))?;
+        check_every_tracker_params(&self.tracker).map_err(|e| bad("tracker", e))?;
         self.fusion.validate().map_err(|e| bad("fusion", e))?;
+        check_every_fusion_params(&self.fusion).map_err(|e| bad("fusion", e))?;
         self.evaluation
             .validate()
             .map_err(|e| bad("evaluation", e))?;
@@ -259,6 +261,74 @@ impl RunConfig {
             monte_carlo,
         }
     }
+}
+
+/// Every `[tracker.params.<name>]` table checked against its method's parameter type,
+/// whether or not the method is selected (the selected ones, and names that are no method,
+/// are [`TrackerConfig::validate`]'s): a typo under a method not in use is an error when
+/// the file is read, not when someone later selects it. A name that is both a filter and
+/// an associator is checked as both.
+fn check_every_tracker_params(cfg: &TrackerConfig) -> Result<(), ParamError> {
+    use crate::local::registry::{AssociatorSettings, FilterSettings, LocalRegistry};
+    let registry = LocalRegistry::builtin();
+    let filter = FilterSettings {
+        process_noise: [0.0; 2],
+        params: &cfg.params,
+    };
+    let associator = AssociatorSettings {
+        seed: 0,
+        run: 0,
+        sensor_index: 0,
+        params: &cfg.params,
+    };
+    for name in cfg.params.keys() {
+        if registry.has_filter(name) {
+            registry.make_filter(name, &filter)?;
+        }
+        if registry.has_associator(name) {
+            registry.make_associator(name, &associator)?;
+        }
+    }
+    Ok(())
+}
+
+/// Every `[fusion.params.<name>]` table checked against its method's, rule's or bias
+/// estimator's parameter type, whether or not it is selected (see
+/// [`check_every_tracker_params`]).
+fn check_every_fusion_params(cfg: &FusionConfig) -> Result<(), ParamError> {
+    use crate::center::registry::CenterRegistry;
+    use crate::center::CenterError;
+    let registry = CenterRegistry::builtin();
+    let as_param = |name: &str, e: CenterError| match e {
+        CenterError::Config(p) => p,
+        other => ParamError::new(format!("params.{name}"), other.to_string()),
+    };
+    let has = |entries: &[&str], name: &str| entries.contains(&name);
+    let methods: Vec<&str> = registry.methods().iter().map(|e| e.name.as_str()).collect();
+    let rules: Vec<&str> = registry.rules().iter().map(|e| e.name.as_str()).collect();
+    let bias: Vec<&str> = registry
+        .bias_estimators()
+        .iter()
+        .map(|e| e.name.as_str())
+        .collect();
+    for name in cfg.params.keys() {
+        if has(&methods, name) {
+            registry
+                .make_method(name, &cfg.params)
+                .map_err(|e| as_param(name, e))?;
+        }
+        if has(&rules, name) {
+            registry
+                .make_rule(name, &cfg.params)
+                .map_err(|e| as_param(name, e))?;
+        }
+        if has(&bias, name) {
+            registry
+                .make_bias(name, &cfg.params)
+                .map_err(|e| as_param(name, e))?;
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -365,7 +435,7 @@ mod tests {
             // one scan simulates the six reports T11, T22, T32, T23, T33, T34
             let mut sim = crate::sim::Simulation::new(s, 0);
             let (mut truth, mut z) = (Vec::new(), Vec::new());
-            assert!(sim.next_scan(&mut truth, &mut z));
+            assert!(sim.next_scan(&mut truth, &mut z).expect("finite"));
             let mut seen: Vec<(Id, Id)> = z.iter().map(|m| (m.target_id, m.sensor_id)).collect();
             seen.sort_unstable();
             assert_eq!(seen, vec![(1, 1), (2, 2), (2, 3), (3, 2), (3, 3), (3, 4)]);
@@ -378,7 +448,7 @@ mod tests {
             assert_eq!((s.dt, c.monte_carlo.runs, s.sensors.len()), (1.0, 50, 2));
             let mut sim = crate::sim::Simulation::new(s, 0);
             let (mut truth, mut z) = (Vec::new(), Vec::new());
-            assert!(sim.next_scan(&mut truth, &mut z));
+            assert!(sim.next_scan(&mut truth, &mut z).expect("finite"));
             assert_eq!((truth.len(), z.len()), (60, 120));
         }
     }
@@ -442,6 +512,46 @@ mod tests {
         // a key written as a dotted key is not found: the error names the key only
         let dotted = format!("{MINIMAL}[fusion]\nparams.fdbsc-ta.eps = -5.0\n");
         assert_eq!(at(&dotted), None);
+    }
+
+    #[test]
+    fn params_of_methods_not_selected_are_checked() {
+        // a typo under ftta while the method is fdbsc-ta
+        let text = format!(
+            "{MINIMAL}[fusion]\nmethod = \"fdbsc-ta\"\n[fusion.params.ftta]\nbogus = 1.0\n"
+        );
+        let e = RunConfig::from_toml(&text, "s.toml").unwrap_err();
+        assert!(
+            matches!(&e, ScenarioError::Invalid { key, at: Some((13, 1)), .. } if key == "fusion.params.ftta.bogus"),
+            "{e:?}"
+        );
+        assert!(
+            e.to_string().starts_with(
+                "s.toml: line 13, column 1: fusion.params.ftta.bogus: unknown field `bogus`"
+            ),
+            "{e}"
+        );
+        // a bias estimator's table without the estimator selected
+        let text = format!("{MINIMAL}[fusion.params.track-pair-ls]\nnot_a_key = 1\n");
+        let e = RunConfig::from_toml(&text, "s.toml").unwrap_err();
+        assert!(
+            matches!(&e, ScenarioError::Invalid { key, at: Some((11, 1)), .. } if key == "fusion.params.track-pair-ls.not_a_key"),
+            "{e:?}"
+        );
+        // a tracker associator not selected
+        let text = format!("{MINIMAL}[tracker.params.jpda]\nbogus = 2\n");
+        let e = RunConfig::from_toml(&text, "s.toml").unwrap_err();
+        assert!(
+            matches!(&e, ScenarioError::Invalid { key, at: Some((11, 1)), .. } if key == "tracker.params.jpda.bogus"),
+            "{e:?}"
+        );
+        // an unknown method name under params
+        let text = format!("{MINIMAL}[fusion.params.no-such-method]\neps = 1.0\n");
+        let e = RunConfig::from_toml(&text, "s.toml").unwrap_err();
+        assert!(
+            matches!(&e, ScenarioError::Invalid { key, .. } if key == "fusion.params.no-such-method"),
+            "{e:?}"
+        );
     }
 
     #[test]
@@ -509,7 +619,7 @@ mod tests {
         let (mut truth, mut z) = (Vec::new(), Vec::new());
         let mut pairs = std::collections::BTreeSet::new();
         for _ in 0..5 {
-            assert!(sim.next_scan(&mut truth, &mut z));
+            assert!(sim.next_scan(&mut truth, &mut z).expect("finite"));
             pairs.extend(
                 z.iter()
                     .filter(|m| m.target_id >= 0)

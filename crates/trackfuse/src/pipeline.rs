@@ -8,7 +8,7 @@ use crate::config::RunConfig;
 use crate::local::{track_sensors, KnownTarget, TrackerConfig, TrackerError};
 use crate::metrics::{evaluate_run, label_local_tracks, EvalInput, RunMetrics};
 use crate::scenario::Scenario;
-use crate::sim::{simulate, SimulationOutput};
+use crate::sim::{try_simulate, SimError, SimulationOutput};
 use crate::types::{Id, LocalTrack, TruthState};
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
@@ -16,6 +16,9 @@ use std::time::{Duration, Instant};
 /// A pipeline problem: the stage that failed and its own typed error.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PipelineError {
+    /// The simulator generated a value that is not finite, or could not draw clutter.
+    #[error("simulation: {0}")]
+    Simulation(#[from] SimError),
     /// A sensor's tracker could not be built or refused its measurements.
     #[error("local tracking: {0}")]
     Tracker(#[from] TrackerError),
@@ -105,7 +108,7 @@ pub fn run_with(
 ) -> Result<RunOutput, PipelineError> {
     let mut times = StageTimes::default();
     let t0 = Instant::now();
-    let sim = simulate(&sc.scenario, run);
+    let sim = try_simulate(&sc.scenario, run)?;
     times.simulate = t0.elapsed();
     let t0 = Instant::now();
     let local = track_run(&sc.scenario, tracker, &sim, run)?;
@@ -151,7 +154,8 @@ pub fn scenario_known_targets(sc: &Scenario) -> Vec<KnownTarget> {
     if sc.target_grid.is_some() {
         let mut sim = crate::sim::Simulation::new(sc, 0);
         let (mut truth, mut meas) = (Vec::new(), Vec::new());
-        if sim.next_scan(&mut truth, &mut meas) {
+        // the first scan of a validated scenario is finite (its initial states are bounded)
+        if let Ok(true) = sim.next_scan(&mut truth, &mut meas) {
             known.extend(truth.iter().skip(sc.targets.len()).map(|t| KnownTarget {
                 start_scan: 0,
                 state: t.state,

@@ -15,6 +15,7 @@
 
 use crate::models::AccelerationSegment;
 use crate::types::{Id, Sensor, SensorKind};
+use limits::*;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use std::collections::HashSet;
@@ -145,6 +146,35 @@ fn one() -> f64 {
     1.0
 }
 
+/// Limits of a scenario's values, far above any real use, so that a run stays finite and
+/// bounded in time and memory (the simulator's values must stay finite numbers: with these
+/// bounds positions stay below about 1e32 m over the longest run). [`Scenario::validate`]
+/// refuses a value beyond its limit with an error naming the key and the limit.
+pub mod limits {
+    /// Most scans (`scans`): the real-aircraft data have 240, grid-bench 1 000.
+    pub const MAX_SCANS: u32 = 1_000_000;
+    /// Largest scan interval `dt` (s), about 11.6 days.
+    pub const MAX_DT: f64 = 1e6;
+    /// Most targets, explicit plus `target_grid.count` (grid-bench has 1 000, the real
+    /// data 56).
+    pub const MAX_TARGETS: usize = 100_000;
+    /// Largest absolute position coordinate (m): target initial positions, sensor
+    /// positions, `max_range`, the grid's origin and extent, the clutter region, `bias_r`,
+    /// position and range noise standard deviations.
+    pub const MAX_POSITION: f64 = 1e9;
+    /// Largest absolute speed (m/s): initial velocities, `target_grid.speed`.
+    pub const MAX_SPEED: f64 = 1e6;
+    /// Largest absolute acceleration (m/s^2): `process_noise` and acceleration segments.
+    pub const MAX_ACCELERATION: f64 = 1e6;
+    /// Largest bearing noise standard deviation and absolute bearing bias (rad).
+    pub const MAX_ANGLE: f64 = std::f64::consts::TAU;
+    /// Most expected false alarms per sensor and scan: clutter density times the area
+    /// clutter covers for that sensor (the region, or its `max_range` disc). The
+    /// real-aircraft data have about 50 per radar-scan, the largest scenario here about
+    /// 700 (000-s3).
+    pub const MAX_FALSE_ALARMS_PER_SCAN: f64 = 10_000.0;
+}
+
 /// Poisson clutter, uniform over a region.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -166,10 +196,14 @@ pub enum ScenarioError {
     /// The TOML did not parse, has an unknown key, or a value of the wrong type; `message`
     /// is the parser's (it names an unknown key and lists the known ones), `at` the
     /// `(line, column)` it points to.
-    #[error("{file}: {}{message}", at_prefix(.at))]
+    /// `key` is the path of the key whose value has the wrong type or is refused
+    /// (`scans`, `sensors[1].sigma_r`, `fusion.params.ftta.eps`), when the error is
+    /// about one key's value.
+    #[error("{file}: {}{}{message}", at_prefix(.at), key_prefix(.key))]
     Parse {
         file: String,
         at: Option<(usize, usize)>,
+        key: Option<String>,
         message: String,
     },
     /// A value is out of range; `key` is its path (`sensors[1].pd`,
@@ -208,10 +242,72 @@ impl ScenarioError {
 /// Deserialize TOML `text` into `T`; a syntax error, an unknown key or a mistyped value is
 /// a [`ScenarioError::Parse`] with the parser's message and its line and column.
 pub(crate) fn parse_toml<T: DeserializeOwned>(text: &str, file: &str) -> Result<T, ScenarioError> {
-    toml::from_str(text).map_err(|e| ScenarioError::Parse {
-        file: file.to_string(),
-        at: e.span().map(|span| line_col(text, span.start)),
-        message: e.message().to_string(),
+    toml::from_str(text).map_err(|e| {
+        let message = e.message().to_string();
+        // a message about one key's value (a type error, an unknown field or variant):
+        // name the key too; other errors (syntax, a missing field) point elsewhere
+        let about_a_value = [
+            "invalid type",
+            "invalid value",
+            "invalid length",
+            "unknown variant",
+            "unknown field",
+        ]
+        .iter()
+        .any(|p| message.starts_with(p));
+        ScenarioError::Parse {
+            file: file.to_string(),
+            at: e.span().map(|span| line_col(text, span.start)),
+            key: e
+                .span()
+                .filter(|_| about_a_value)
+                .and_then(|span| key_at(text, span.start)),
+            message,
+        }
+    })
+}
+
+/// The path of the key whose value is at byte `offset` of the TOML `text`
+/// (`sensors[1].sigma_r`, `fusion.params.ftta.eps`): the `key = value` line at or before
+/// the offset (a multi-line array's value is on a later line than its key) within the
+/// table header above it (`[[a]]` headers counted for the index). A line scan, like
+/// [`locate_key`]; `None` when no key line is found.
+fn key_at(text: &str, offset: usize) -> Option<String> {
+    let before = text.get(..offset.min(text.len()))?;
+    let line_no = before.matches('\n').count();
+    let lines: Vec<&str> = text.lines().collect();
+    let is_header = |l: &str| l.trim_start().starts_with('[');
+    let key_line = (0..=line_no.min(lines.len().saturating_sub(1)))
+        .rev()
+        .find(|&n| {
+            let l = lines[n].trim_start();
+            is_header(l) || l.contains('=')
+        })?;
+    let line = lines[key_line].trim_start();
+    if is_header(line) {
+        return None;
+    }
+    let key = line.split('=').next()?.trim().trim_matches('"');
+    if key.is_empty() || key.starts_with('#') {
+        return None;
+    }
+    let mut table = String::new();
+    let mut counts: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
+    for l in &lines[..key_line] {
+        let t = l.trim_start();
+        if let Some(rest) = t.strip_prefix("[[") {
+            let name = rest.split("]]").next().unwrap_or("").trim().to_string();
+            let k = counts.entry(name.clone()).or_insert(0);
+            table = format!("{name}[{k}]");
+            *k += 1;
+        } else if let Some(rest) = t.strip_prefix('[') {
+            table = rest.split(']').next().unwrap_or("").trim().to_string();
+        }
+    }
+    Some(if table.is_empty() {
+        key.to_string()
+    } else {
+        format!("{table}.{key}")
     })
 }
 
@@ -249,12 +345,41 @@ impl Scenario {
             }
             Ok(())
         };
+        // a value beyond its limit (`what` names the limit's unit)
+        let at_most = |key: String, v: f64, limit: f64, what: &str| -> Result<(), ScenarioError> {
+            if v.abs() > limit {
+                return Err(bad(
+                    key,
+                    format!("{} is beyond the limit of {} {what}", show(v), show(limit)),
+                ));
+            }
+            Ok(())
+        };
         finite_pos("dt", self.dt)?;
+        at_most("dt".into(), self.dt, MAX_DT, "s")?;
         if self.scans == 0 {
             return Err(bad("scans".into(), "must be at least 1".into()));
         }
+        if self.scans > MAX_SCANS {
+            return Err(bad(
+                "scans".into(),
+                format!("{} is beyond the limit of {MAX_SCANS} scans", self.scans),
+            ));
+        }
         for (i, q) in self.process_noise.iter().enumerate() {
             finite_nonneg(format!("process_noise[{i}]"), *q)?;
+            at_most(format!("process_noise[{i}]"), *q, MAX_ACCELERATION, "m/s^2")?;
+        }
+        let count = self.target_count();
+        if count > MAX_TARGETS {
+            return Err(bad(
+                if self.target_grid.is_some() {
+                    "target_grid.count".into()
+                } else {
+                    "targets".into()
+                },
+                format!("{count} targets is beyond the limit of {MAX_TARGETS} targets"),
+            ));
         }
         if self.targets.is_empty() && self.target_grid.is_none() {
             return Err(bad(
@@ -270,6 +395,14 @@ impl Scenario {
                     key("initial"),
                     "must be four finite numbers [x, vx, y, vy]".into(),
                 ));
+            }
+            for (k, v) in t.initial.iter().enumerate() {
+                let (limit, what) = if k % 2 == 0 {
+                    (MAX_POSITION, "m")
+                } else {
+                    (MAX_SPEED, "m/s")
+                };
+                at_most(format!("targets[{i}].initial[{k}]"), *v, limit, what)?;
             }
             if t.start_scan >= self.scans {
                 return Err(bad(
@@ -296,6 +429,14 @@ impl Scenario {
                         "segments need finite values and non-decreasing start times".into(),
                     ));
                 }
+                for (k, a) in seg.accel.iter().enumerate() {
+                    at_most(
+                        format!("targets[{i}].acceleration[{j}].accel[{k}]"),
+                        *a,
+                        MAX_ACCELERATION,
+                        "m/s^2",
+                    )?;
+                }
                 prev = seg.start;
             }
             let id = t.id.unwrap_or(i as Id);
@@ -311,6 +452,7 @@ impl Scenario {
                 return Err(bad("target_grid.count".into(), "must be at least 1".into()));
             }
             finite_pos("target_grid.spacing", g.spacing)?;
+            at_most("target_grid.spacing".into(), g.spacing, MAX_POSITION, "m")?;
             if !(g.speed[0].is_finite()
                 && g.speed[1].is_finite()
                 && 0.0 <= g.speed[0]
@@ -321,20 +463,35 @@ impl Scenario {
                     "must be [min, max] with 0 <= min <= max".into(),
                 ));
             }
+            at_most("target_grid.speed".into(), g.speed[1], MAX_SPEED, "m/s")?;
             if g.origin.iter().any(|v| !v.is_finite()) {
                 return Err(bad("target_grid.origin".into(), "must be finite".into()));
             }
+            // the grid's far corner (side - 1 spacings from the origin)
+            let side = (g.count as f64).sqrt().ceil();
+            for (k, o) in g.origin.iter().enumerate() {
+                at_most(format!("target_grid.origin[{k}]"), *o, MAX_POSITION, "m")?;
+                at_most(
+                    "target_grid.spacing".into(),
+                    o + (side - 1.0) * g.spacing,
+                    MAX_POSITION,
+                    "m (the grid's far corner)",
+                )?;
+            }
+            // grid ids are first_id .. first_id + count: a collision is an explicit id in
+            // that range (checked without building the grid's ids)
             let first = g.first_id.unwrap_or(self.targets.len() as Id);
-            for k in 0..g.count as Id {
-                if !ids.insert(first + k) {
-                    return Err(bad(
-                        "target_grid.first_id".into(),
-                        format!(
-                            "grid target id {} collides with an explicit target",
-                            first + k
-                        ),
-                    ));
-                }
+            let end = first.checked_add(g.count as Id).ok_or_else(|| {
+                bad(
+                    "target_grid.first_id".into(),
+                    format!("{first} + count overflows the id range"),
+                )
+            })?;
+            if let Some(id) = ids.iter().filter(|id| (first..end).contains(*id)).min() {
+                return Err(bad(
+                    "target_grid.first_id".into(),
+                    format!("grid target id {id} collides with an explicit target"),
+                ));
             }
         }
         if self.sensors.is_empty() {
@@ -349,6 +506,9 @@ impl Scenario {
                     "must be [x_min, x_max, y_min, y_max] with min < max".into(),
                 ));
             }
+            for (k, v) in r.iter().enumerate() {
+                at_most(format!("clutter.region[{k}]"), *v, MAX_POSITION, "m")?;
+            }
         }
         for (i, s) in self.sensors.iter().enumerate() {
             let key = |k: &str| format!("sensors[{i}].{k}");
@@ -362,6 +522,9 @@ impl Scenario {
             if s.position.iter().any(|v| !v.is_finite()) {
                 return Err(bad(key("position"), "must be finite".into()));
             }
+            for (k, v) in s.position.iter().enumerate() {
+                at_most(key(&format!("position[{k}]")), *v, MAX_POSITION, "m")?;
+            }
             let (need, forbid) = match s.kind {
                 SensorKind::RangeBearing => (
                     [("sigma_r", s.sigma_r), ("sigma_theta", s.sigma_theta)],
@@ -373,8 +536,16 @@ impl Scenario {
                 ),
             };
             for (k, v) in need {
+                let (limit, what) = if k == "sigma_theta" {
+                    (MAX_ANGLE, "rad")
+                } else {
+                    (MAX_POSITION, "m")
+                };
                 match v {
-                    Some(v) => finite_pos(&key(k), v)?,
+                    Some(v) => {
+                        finite_pos(&key(k), v)?;
+                        at_most(key(k), v, limit, what)?;
+                    }
                     None => {
                         return Err(bad(
                             key(k),
@@ -406,7 +577,10 @@ impl Scenario {
             if !s.bias_theta.is_finite() {
                 return Err(bad(key("bias_theta"), "must be finite".into()));
             }
+            at_most(key("bias_r"), s.bias_r, MAX_POSITION, "m")?;
+            at_most(key("bias_theta"), s.bias_theta, MAX_ANGLE, "rad")?;
             finite_nonneg(key("max_range"), s.max_range)?;
+            at_most(key("max_range"), s.max_range, MAX_POSITION, "m")?;
             if let Some(d) = s.clutter_density {
                 finite_nonneg(key("clutter_density"), d)?;
             }
@@ -426,6 +600,30 @@ impl Scenario {
                     key("max_range"),
                     "clutter needs a region: set clutter.region or this sensor's max_range".into(),
                 ));
+            }
+            if density > 0.0 {
+                let area = clutter_area_km2(self.clutter.region, s.max_range);
+                let expected = density * area;
+                if expected > MAX_FALSE_ALARMS_PER_SCAN {
+                    let (k, from) = match s.clutter_density {
+                        Some(_) => (key("clutter_density"), "this sensor's"),
+                        None => ("clutter.density".to_string(), "the scenario's"),
+                    };
+                    let over = match self.clutter.region {
+                        Some(_) => "clutter.region".to_string(),
+                        None => format!("the max_range disc of sensors[{i}]"),
+                    };
+                    return Err(bad(
+                        k,
+                        format!(
+                            "{} per km^2 over {over} ({} km^2) gives {} expected false alarms per scan for sensors[{i}] ({from} density), beyond the limit of {}",
+                            show(density),
+                            show(area),
+                            show(expected),
+                            show(MAX_FALSE_ALARMS_PER_SCAN)
+                        ),
+                    ));
+                }
             }
         }
         Ok(())
@@ -464,6 +662,31 @@ impl Scenario {
     pub fn target_count(&self) -> usize {
         self.targets.len() + self.target_grid.as_ref().map_or(0, |g| g.count)
     }
+}
+
+/// The area (km^2) clutter covers for one sensor: the region box, else the disc of
+/// `max_range` (the simulator's rule).
+pub(crate) fn clutter_area_km2(region: Option<[f64; 4]>, max_range: f64) -> f64 {
+    match region {
+        Some(b) => (b[1] - b[0]) * (b[3] - b[2]) * 1e-6,
+        None => std::f64::consts::PI * max_range * max_range * 1e-6,
+    }
+}
+
+/// A number for a message: in exponent form when very large or small (`1e308`, not 309
+/// digits), else as Rust writes it.
+fn show(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && (v.abs() >= 1e7 || v.abs() < 1e-4) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+fn key_prefix(key: &Option<String>) -> String {
+    key.as_ref()
+        .map(|k| format!("key '{k}': "))
+        .unwrap_or_default()
 }
 
 fn at_prefix(at: &Option<(usize, usize)>) -> String {
@@ -566,6 +789,103 @@ mod tests {
         let e = Scenario::from_toml(&format!("{MINIMAL}\n[clutter]\ndensity = 1.0\n"), "t")
             .unwrap_err();
         assert!(e.to_string().contains("max_range"), "{e}");
+    }
+
+    #[test]
+    fn type_errors_name_the_key_line_and_column() {
+        let e = Scenario::from_toml(&MINIMAL.replace("scans = 10", "scans = \"ten\""), "s.toml")
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "s.toml: line 3, column 9: key 'scans': invalid type: string \"ten\", expected u32"
+        );
+        let e = Scenario::from_toml(
+            &MINIMAL.replace("sigma_r = 10.0", "sigma_r = true"),
+            "s.toml",
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "s.toml: line 8, column 11: key 'sensors[0].sigma_r': invalid type: boolean `true`, expected f64"
+        );
+        let e = Scenario::from_toml(
+            &MINIMAL.replace("[0.0, 10.0, 0.0, 0.0]", "[0.0, 10.0,\n  \"x\", 0.0]"),
+            "s.toml",
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("s.toml: line 6, column 3: key 'targets[0].initial': invalid type"),
+            "{e}"
+        );
+        // a syntax error names no key
+        let e =
+            Scenario::from_toml(&MINIMAL.replace("dt = 1.0", "dt = = 1.0"), "s.toml").unwrap_err();
+        assert!(
+            matches!(
+                &e,
+                ScenarioError::Parse {
+                    key: None,
+                    at: Some((2, _)),
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+    }
+
+    #[test]
+    fn values_beyond_their_limits_are_refused_naming_key_and_limit() {
+        let err = |from: &str, to: &str| {
+            Scenario::from_toml(&MINIMAL.replace(from, to), "s.toml")
+                .unwrap_err()
+                .to_string()
+        };
+        assert_eq!(
+            err("dt = 1.0", "dt = 1e308"),
+            "s.toml: line 2, column 1: dt: 1e308 is beyond the limit of 1000000 s"
+        );
+        assert_eq!(
+            err("scans = 10", "scans = 4294967295"),
+            "s.toml: line 3, column 1: scans: 4294967295 is beyond the limit of 1000000 scans"
+        );
+        assert_eq!(
+            err("scans = 10", "scans = 10\nprocess_noise = [1e200, 0.0]"),
+            "s.toml: line 4, column 1: process_noise[0]: 1e200 is beyond the limit of 1000000 m/s^2"
+        );
+        assert_eq!(
+            err("[0.0, 10.0, 0.0, 0.0]", "[1e308, 10.0, 0.0, 0.0]"),
+            "s.toml: line 5, column 1: targets[0].initial[0]: 1e308 is beyond the limit of 1e9 m"
+        );
+        assert_eq!(
+            err("sigma_theta = 0.001", "sigma_theta = 0.001\nmax_range = 1e4\n[clutter]\ndensity = 1e300"),
+            "s.toml: line 12, column 1: clutter.density: 1e300 per km^2 over the max_range disc of sensors[0] (314.1592653589793 km^2) gives 3.1415926535897933e302 expected false alarms per scan for sensors[0] (the scenario's density), beyond the limit of 10000"
+        );
+        // one radar's max_range = 1e6 with a modest density
+        assert!(err(
+            "sigma_theta = 0.001",
+            "sigma_theta = 0.001\nmax_range = 1e6\n[clutter]\ndensity = 0.02"
+        )
+        .contains("gives 62831.85"),);
+        assert_eq!(
+            err("[[targets]]", "[target_grid]\ncount = 1000000000\nspacing = 10.0\nspeed = [1.0, 2.0]\n[[targets]]"),
+            "s.toml: line 5, column 1: target_grid.count: 1000000001 targets is beyond the limit of 100000 targets"
+        );
+    }
+
+    #[test]
+    fn grid_ids_collide_with_explicit_ones_without_building_them() {
+        let text = MINIMAL.replace(
+            "[[targets]]",
+            "[target_grid]\ncount = 5\nspacing = 10.0\nspeed = [1.0, 2.0]\nfirst_id = 0\n[[targets]]",
+        );
+        let e = Scenario::from_toml(&text, "s.toml").unwrap_err();
+        assert!(
+            e.to_string().ends_with(
+                "target_grid.first_id: grid target id 0 collides with an explicit target"
+            ),
+            "{e}"
+        );
     }
 
     #[test]

@@ -87,6 +87,8 @@ fn on_files() -> Result<String> {
             format!("{d}/associations.csv"),
             "--local-tracks".into(),
             format!("{d}/local_tracks.csv"),
+            "--out".into(),
+            d.clone(),
         ],
     ];
     for args in &steps {
@@ -117,7 +119,7 @@ fn on_files() -> Result<String> {
          trackfuse track --data D --scenario bias-radars --out D\n\
          trackfuse fuse --local-tracks D/local_tracks.csv --sensors D/sensors.csv --scenario bias-radars --out D\n\
          trackfuse evaluate --truth D/truth.csv --tracks D/fused_tracks.csv \
-         --associations D/associations.csv --local-tracks D/local_tracks.csv\n```\n"
+         --associations D/associations.csv --local-tracks D/local_tracks.csv --out D\n```\n"
     )?;
     writeln!(
         md,

@@ -261,7 +261,8 @@ pub fn run(args: &ReproduceArgs) -> Result<()> {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
     }
-    std::fs::write(&out, md).with_context(|| format!("writing {}", out.display()))?;
+    trackfuse::io::AtomicFile::write_all_to(&out, md.as_bytes())
+        .with_context(|| format!("writing {}", out.display()))?;
     eprintln!(
         "reproduction {name}: {:.1} s -> {}",
         t0.elapsed().as_secs_f64(),

@@ -17,8 +17,8 @@ pub use reader::{
     read_sensors, read_truth, CovarianceError,
 };
 pub use writer::{
-    write_sensors, AssociationWriter, AtomicFile, CsvRowWriter, FusedTrackWriter,
-    LocalTrackWriter, MeasurementWriter, Sink, TruthWriter,
+    write_sensors, AssociationWriter, AtomicFile, CsvRowWriter, FusedTrackWriter, LocalTrackWriter,
+    MeasurementWriter, Sink, TruthWriter,
 };
 
 /// Header names of the covariance columns, `P00 … P33`, row-major.

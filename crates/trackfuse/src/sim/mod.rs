@@ -28,6 +28,36 @@ use rand::RngExt;
 use rand_distr::{Distribution, Poisson, StandardNormal};
 use std::collections::HashSet;
 
+/// A value the simulator generated is not usable: a scenario whose values pass their
+/// limits never produces one, but a [`Scenario`] built in code without
+/// [`Scenario::validate`] may. Never mapped to a default (no clutter, a dropped row).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimError {
+    /// A target's true state is not finite.
+    #[error("scan {scan}: target {target_id}: the true state {state:?} is not finite (the scenario's values overflow)")]
+    TruthNotFinite {
+        scan: u32,
+        target_id: Id,
+        state: [f64; 4],
+    },
+    /// A measurement is not finite.
+    #[error("scan {scan}: sensor {sensor_id}: the measurement {value:?} of target {target_id} is not finite (the scenario's values overflow)")]
+    MeasurementNotFinite {
+        scan: u32,
+        sensor_id: Id,
+        target_id: Id,
+        value: [f64; 2],
+    },
+    /// The clutter count cannot be drawn (its Poisson mean is out of the sampler's range).
+    #[error("scan {scan}: sensor {sensor_id}: cannot draw the clutter count with mean {mean:?} false alarms per scan: {reason}")]
+    Clutter {
+        scan: u32,
+        sensor_id: Id,
+        mean: f64,
+        reason: String,
+    },
+}
+
 struct SimTarget {
     id: Id,
     state: StateVec,
@@ -158,21 +188,29 @@ impl Simulation {
     }
 
     /// Produce the next scan's truth and measurements into the buffers (cleared first).
-    /// Returns `false` when the scenario has no more scans.
+    /// Returns `Ok(false)` when the scenario has no more scans; an error when a generated
+    /// value is not finite or the clutter count cannot be drawn ([`SimError`]).
     pub fn next_scan(
         &mut self,
         truth: &mut Vec<TruthState>,
         measurements: &mut Vec<Measurement>,
-    ) -> bool {
+    ) -> Result<bool, SimError> {
         truth.clear();
         measurements.clear();
         if self.scan >= self.scans {
-            return false;
+            return Ok(false);
         }
         let scan = self.scan;
         let time = scan as f64 * self.dt;
         for t in &self.targets {
             if scan >= t.start_scan && scan <= t.end_scan {
+                if !(time.is_finite() && t.state.iter().all(|v| v.is_finite())) {
+                    return Err(SimError::TruthNotFinite {
+                        scan,
+                        target_id: t.id,
+                        state: [t.state[0], t.state[1], t.state[2], t.state[3]],
+                    });
+                }
                 truth.push(TruthState {
                     scan,
                     time,
@@ -212,6 +250,14 @@ impl Simulation {
                     }
                     SensorKind::Position => Vec2::new(t.state[0] + sa * n1, t.state[2] + sb * n2),
                 };
+                if !(value[0].is_finite() && value[1].is_finite()) {
+                    return Err(SimError::MeasurementNotFinite {
+                        scan,
+                        sensor_id: sensor.id,
+                        target_id: t.target_id,
+                        value: [value[0], value[1]],
+                    });
+                }
                 measurements.push(Measurement {
                     scan,
                     time,
@@ -224,7 +270,12 @@ impl Simulation {
             if s.clutter_mean > 0.0 {
                 let n = Poisson::new(s.clutter_mean)
                     .map(|p| p.sample(&mut s.clutter_rng) as u64)
-                    .unwrap_or(0);
+                    .map_err(|e| SimError::Clutter {
+                        scan,
+                        sensor_id: sensor.id,
+                        mean: s.clutter_mean,
+                        reason: e.to_string(),
+                    })?;
                 for _ in 0..n {
                     let p = match s.clutter_region {
                         ClutterRegion::Box(b) => Vec2::new(
@@ -245,6 +296,14 @@ impl Simulation {
                         }
                         SensorKind::Position => p,
                     };
+                    if !(value[0].is_finite() && value[1].is_finite()) {
+                        return Err(SimError::MeasurementNotFinite {
+                            scan,
+                            sensor_id: sensor.id,
+                            target_id: -1,
+                            value: [value[0], value[1]],
+                        });
+                    }
                     measurements.push(Measurement {
                         scan,
                         time,
@@ -269,7 +328,7 @@ impl Simulation {
             t.state = self.f * t.state + input_effect(self.dt, &u) + g * v;
         }
         self.scan += 1;
-        true
+        Ok(true)
     }
 }
 
@@ -282,22 +341,33 @@ pub struct SimulationOutput {
     pub measurements: Vec<Measurement>,
 }
 
-/// Simulate run `run` of a scenario into memory.
-pub fn simulate(sc: &Scenario, run: u64) -> SimulationOutput {
+/// Simulate run `run` of a scenario into memory; an error when a generated value is not
+/// finite ([`SimError`]).
+pub fn try_simulate(sc: &Scenario, run: u64) -> Result<SimulationOutput, SimError> {
     let mut sim = Simulation::new(sc, run);
     let mut truth = Vec::new();
     let mut measurements = Vec::new();
     let mut t = Vec::new();
     let mut m = Vec::new();
-    while sim.next_scan(&mut t, &mut m) {
+    while sim.next_scan(&mut t, &mut m)? {
         truth.extend_from_slice(&t);
         measurements.extend_from_slice(&m);
     }
-    SimulationOutput {
+    Ok(SimulationOutput {
         sensors: sim.sensors(),
         truth,
         measurements,
-    }
+    })
+}
+
+/// Simulate run `run` of a validated scenario into memory ([`try_simulate`] for a
+/// scenario that may not be).
+///
+/// # Panics
+/// If a generated value is not finite, which a scenario that passed
+/// [`Scenario::validate`] (its values within [`crate::scenario::limits`]) never gives.
+pub fn simulate(sc: &Scenario, run: u64) -> SimulationOutput {
+    try_simulate(sc, run).unwrap_or_else(|e| panic!("simulating an unvalidated scenario: {e}"))
 }
 
 #[cfg(test)]
@@ -370,6 +440,48 @@ max_range = 20000.0
             .sum::<f64>()
             / n;
         assert!((var_r.sqrt() - 10.0).abs() < 2.5, "{var_r}");
+    }
+
+    #[test]
+    fn an_undrawable_clutter_count_is_an_error_not_zero_clutter() {
+        // not validated: the limit on expected false alarms would refuse it first
+        let mut sc = scenario("");
+        sc.clutter.density = 1e300;
+        let e = try_simulate(&sc, 0).expect_err("no silent zero clutter");
+        assert!(
+            matches!(
+                &e,
+                SimError::Clutter {
+                    scan: 0,
+                    sensor_id: 0,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        assert!(
+            e.to_string()
+                .starts_with("scan 0: sensor 0: cannot draw the clutter count with mean 1.2566"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn an_overflowing_state_is_an_error() {
+        let mut sc = scenario("");
+        sc.dt = 1e308;
+        let e = try_simulate(&sc, 0).expect_err("overflow refused");
+        assert!(
+            matches!(
+                &e,
+                SimError::TruthNotFinite {
+                    scan: 1,
+                    target_id: 0,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
     }
 
     #[test]
