@@ -50,14 +50,14 @@ pub struct FuseArgs {
 
 /// Write fused_tracks.csv, associations.csv and (with a bias estimator) bias_estimates.csv.
 pub fn write_fused(outs: &mut Outputs, run: &FusedRun) -> Result<()> {
-    let p = outs.path("fused_tracks.csv");
+    let p = outs.path("fused_tracks.csv")?;
     let ctx = |p: &Path| format!("writing {}", p.display());
     let mut w = FusedTrackWriter::create(&p).with_context(|| ctx(&p))?;
     for f in &run.fused {
         w.write(f).with_context(|| ctx(&p))?;
     }
     w.finish().with_context(|| ctx(&p))?;
-    let p = outs.path("associations.csv");
+    let p = outs.path("associations.csv")?;
     let mut w = AssociationWriter::create(&p).with_context(|| ctx(&p))?;
     for a in &run.associations {
         w.write(a).with_context(|| ctx(&p))?;
@@ -65,7 +65,12 @@ pub fn write_fused(outs: &mut Outputs, run: &FusedRun) -> Result<()> {
     w.finish().with_context(|| ctx(&p))?;
     if !run.bias.is_empty() {
         let mut s = String::from("sensor_id,bias_r,bias_theta\n");
-        for b in &run.bias {
+        for (i, b) in run.bias.iter().enumerate() {
+            crate::output::finite_cells(
+                &outs.dir().join("bias_estimates.csv").display().to_string(),
+                i as u64 + 2,
+                &[(2, "bias_r", b.range), (3, "bias_theta", b.bearing)],
+            )?;
             s.push_str(&format!("{},{},{}\n", b.sensor_id, b.range, b.bearing));
         }
         outs.write("bias_estimates.csv", s.as_bytes())?;

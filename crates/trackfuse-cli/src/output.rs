@@ -78,9 +78,21 @@ pub fn refuse_input(output: &Path, inputs: &[&Path]) -> Result<()> {
     Ok(())
 }
 
+/// An error if a cell of line `line` of output `file` is not finite (the check the
+/// library's CSV writers make, for a file written by hand): `(column number, name, value)`.
+pub fn finite_cells(file: &str, line: u64, cells: &[(usize, &str, f64)]) -> Result<()> {
+    if let Some((col, name, v)) = cells.iter().find(|c| !c.2.is_finite()) {
+        bail!(
+            "writing {file}: line {line}, column {col} ({name}): {v} is not a finite number (outputs hold finite numbers only)"
+        );
+    }
+    Ok(())
+}
+
 impl Outputs {
-    /// Check that no file of the output set `names` in `dir` is one of `inputs`, then
-    /// create `dir`. Nothing is written or removed yet.
+    /// Check that no file of the output set `names` in `dir` is one of `inputs`. Nothing
+    /// is created, written or removed yet (the folder is created by the first
+    /// [`Outputs::path`]).
     pub fn new(dir: &Path, names: &[&str], inputs: &[&Path]) -> Result<Outputs> {
         let set: Vec<PathBuf> = names.iter().map(|n| dir.join(n)).collect();
         Outputs::with_files(dir, set, inputs)
@@ -91,7 +103,6 @@ impl Outputs {
         for f in &set {
             refuse_input(f, inputs)?;
         }
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         Ok(Outputs {
             dir: dir.to_path_buf(),
             set,
@@ -106,28 +117,33 @@ impl Outputs {
         &self.dir
     }
 
-    /// The path of output `name` (in the folder), recorded as written by this run: call
-    /// it just before writing the file.
-    pub fn path(&mut self, name: &str) -> PathBuf {
+    /// The path of output `name` (in the folder, created if need be), recorded as written
+    /// by this run: call it just before writing the file.
+    pub fn path(&mut self, name: &str) -> Result<PathBuf> {
         let p = self.dir.join(name);
-        self.written.insert(p.clone());
-        p
+        self.mark(&p)?;
+        Ok(p)
     }
 
-    /// Record an output written at `path` (one of the set given by path).
-    pub fn mark(&mut self, path: &Path) {
+    /// Record an output about to be written at `path` (one of the set given by path), and
+    /// create its folder.
+    fn mark(&mut self, path: &Path) -> Result<()> {
+        if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
+        }
         self.written.insert(path.to_path_buf());
+        Ok(())
     }
 
     /// Write the output file `path` (one of the set given by path) whole, atomically.
     pub fn write_file(&mut self, path: &Path, bytes: &[u8]) -> Result<PathBuf> {
-        self.mark(path);
+        self.mark(path)?;
         AtomicFile::write_all_to(path, bytes).with_context(|| format!("writing {}", path.display()))
     }
 
     /// Write output `name` whole, atomically.
     pub fn write(&mut self, name: &str, bytes: &[u8]) -> Result<PathBuf> {
-        let p = self.path(name);
+        let p = self.path(name)?;
         AtomicFile::write_all_to(&p, bytes).with_context(|| format!("writing {}", p.display()))
     }
 
@@ -183,6 +199,23 @@ mod tests {
         // a not-yet-existing output is never an input
         let other = dir.path().join("elsewhere");
         assert!(Outputs::new(&other, FUSE_OUTPUTS, &[&input]).is_ok());
+        // and nothing was created
+        assert!(!other.exists());
+    }
+
+    #[test]
+    fn a_hand_written_output_refuses_non_finite_cells() {
+        assert!(finite_cells("b.csv", 2, &[(2, "bias_r", 1.0)]).is_ok());
+        let e = finite_cells(
+            "b.csv",
+            3,
+            &[(2, "bias_r", 1.0), (3, "bias_theta", f64::NAN)],
+        )
+        .expect_err("NaN");
+        assert_eq!(
+            e.to_string(),
+            "writing b.csv: line 3, column 3 (bias_theta): NaN is not a finite number (outputs hold finite numbers only)"
+        );
     }
 
     #[test]

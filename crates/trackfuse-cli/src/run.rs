@@ -46,21 +46,21 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let out = run_with(&sc, &tracker, &fusion, args.run)?;
     let ctx = |p: &Path| format!("writing {}", p.display());
     outs.write("scenario.toml", text.as_bytes())?;
-    let p = outs.path("sensors.csv");
+    let p = outs.path("sensors.csv")?;
     write_sensors(&p, &out.sim.sensors).with_context(|| ctx(&p))?;
-    let p = outs.path("truth.csv");
+    let p = outs.path("truth.csv")?;
     let mut tw = TruthWriter::create(&p).with_context(|| ctx(&p))?;
     for t in &out.sim.truth {
         tw.write(t).with_context(|| ctx(&p))?;
     }
     tw.finish().with_context(|| ctx(&p))?;
-    let p = outs.path("measurements.csv");
+    let p = outs.path("measurements.csv")?;
     let mut mw = MeasurementWriter::create(&p, &out.sim.sensors).with_context(|| ctx(&p))?;
     for m in &out.sim.measurements {
         mw.write(m).with_context(|| ctx(&p))?;
     }
     mw.finish().with_context(|| ctx(&p))?;
-    let p = outs.path("local_tracks.csv");
+    let p = outs.path("local_tracks.csv")?;
     let mut lw = LocalTrackWriter::create(&p).with_context(|| ctx(&p))?;
     for l in &out.local {
         lw.write(l).with_context(|| ctx(&p))?;

@@ -36,9 +36,9 @@ pub fn simulate_to_dir(sc: &Scenario, run: u64, outs: &mut Outputs) -> Result<Si
     let mut sim = Simulation::new(sc, run);
     let sensors = sim.sensors();
     let (sp, tp, mp) = (
-        outs.path("sensors.csv"),
-        outs.path("truth.csv"),
-        outs.path("measurements.csv"),
+        outs.path("sensors.csv")?,
+        outs.path("truth.csv")?,
+        outs.path("measurements.csv")?,
     );
     let ctx = |p: &std::path::Path| format!("writing {}", p.display());
     write_sensors(&sp, &sensors).with_context(|| ctx(&sp))?;

@@ -84,7 +84,7 @@ pub fn run(args: &TrackArgs) -> Result<()> {
     let mut inputs = vec![sensors_path.as_path(), meas_path.as_path()];
     inputs.extend(scenario_path.as_deref());
     let mut outs = Outputs::new(&args.out, TRACK_OUTPUTS, &inputs)?;
-    let path = outs.path("local_tracks.csv");
+    let path = outs.path("local_tracks.csv")?;
     let mut w =
         LocalTrackWriter::create(&path).with_context(|| format!("writing {}", path.display()))?;
     for l in &local {

@@ -121,7 +121,9 @@ fn evaluate_prints_table_and_writes_summary() {
         fused.push_str(",1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1,0\n");
     }
     std::fs::write(dir.path().join("fused_tracks.csv"), fused).expect("write");
+    let cwd = tempfile::tempdir().expect("tmp");
     trackfuse()
+        .current_dir(cwd.path())
         .args(["evaluate", "--truth"])
         .arg(dir.path().join("truth.csv"))
         .arg("--tracks")
@@ -130,8 +132,11 @@ fn evaluate_prints_table_and_writes_summary() {
         .success()
         .stdout(predicate::str::contains("Fused position RMSE per target"))
         .stdout(predicate::str::contains("0.00"));
+    // written where the user asked (the default out/evaluate of the working directory),
+    // never next to the inputs
+    assert!(!dir.path().join("summary.json").exists());
     let s: serde_json::Value =
-        serde_json::from_slice(&read(&dir.path().join("summary.json"))).expect("json");
+        serde_json::from_slice(&read(&cwd.path().join("out/evaluate/summary.json"))).expect("json");
     assert_eq!(s["fused_rmse"].as_f64(), Some(0.0));
     assert_eq!(s["gospa"]["mean"].as_f64(), Some(0.0));
 }

@@ -34,7 +34,9 @@ use std::path::{Path, PathBuf};
 /// plain temporary file would be `0o600`). Replacing a symlink replaces the link, not its
 /// target.
 pub struct AtomicFile {
-    tmp: BufWriter<tempfile::NamedTempFile>,
+    out: BufWriter<File>,
+    /// Removes the temporary file when dropped; renamed by `commit`.
+    tmp: tempfile::TempPath,
     path: PathBuf,
 }
 
@@ -57,9 +59,10 @@ impl AtomicFile {
             use std::os::unix::fs::PermissionsExt;
             builder.permissions(std::fs::Permissions::from_mode(0o666));
         }
-        let tmp = builder.tempfile_in(dir)?;
+        let (file, tmp) = builder.tempfile_in(dir)?.into_parts();
         Ok(AtomicFile {
-            tmp: BufWriter::with_capacity(1 << 20, tmp),
+            out: BufWriter::with_capacity(1 << 20, file),
+            tmp,
             path: path.to_path_buf(),
         })
     }
@@ -72,9 +75,11 @@ impl AtomicFile {
     /// Flush and rename the temporary file to the final path; on an error the temporary
     /// file is removed.
     pub fn commit(self) -> io::Result<PathBuf> {
-        let tmp = self.tmp.into_inner().map_err(|e| e.into_error())?;
-        tmp.persist(&self.path).map_err(|e| e.error)?;
-        Ok(self.path)
+        let AtomicFile { out, tmp, path } = self;
+        let file = out.into_inner().map_err(|e| e.into_error())?;
+        drop(file);
+        tmp.persist(&path).map_err(|e| e.error)?;
+        Ok(path)
     }
 
     /// Write all of `bytes` to `path` atomically (a whole small file: summary.json, a
@@ -88,13 +93,13 @@ impl AtomicFile {
 
 impl Write for AtomicFile {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        self.tmp.write(buf)
+        self.out.write(buf)
     }
     fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
-        self.tmp.write_all(buf)
+        self.out.write_all(buf)
     }
     fn flush(&mut self) -> io::Result<()> {
-        self.tmp.flush()
+        self.out.flush()
     }
 }
 
