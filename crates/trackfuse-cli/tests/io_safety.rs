@@ -305,3 +305,29 @@ fn params_of_a_method_not_selected_are_checked_when_the_file_is_read() {
             f.display()
         )));
 }
+
+#[test]
+fn plot_writes_where_asked_not_into_the_run_directory() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let run = dir.path().join("run");
+    trackfuse()
+        .args(["simulate", "--out"])
+        .arg(&run)
+        .assert()
+        .success();
+    let before = files_in(&run);
+    let cwd = tempfile::tempdir().expect("tmp");
+    trackfuse()
+        .current_dir(cwd.path())
+        .arg("plot")
+        .arg(&run)
+        .assert()
+        .success();
+    assert_eq!(files_in(&run), before);
+    assert_eq!(
+        files_in(&cwd.path().join("out/plot")),
+        vec!["trajectories.svg"]
+    );
+    let svg = std::fs::read_to_string(cwd.path().join("out/plot/trajectories.svg")).expect("svg");
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+}
