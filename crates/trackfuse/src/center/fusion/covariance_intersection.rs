@@ -32,6 +32,16 @@
 //!   simplex, itself a valid CI estimate) with the smallest criterion value — a singular
 //!   member has `det = 0` and wins under `det` — ties to the canonical first. This is a
 //!   fallback: it is counted ([`FusionRule::fallback_count`]).
+//! - **Nearly singular covariances.** When the members are positive definite but the
+//!   fused information matrix has no Cholesky factor, or the estimate is not finite or
+//!   its covariance not valid (members with eigenvalues down to `1e-12` of their largest:
+//!   their inverses lose the precision), the rule is the same equation on members whose
+//!   eigenvalues are floored at `1e-9` of each member's largest — the file contract's
+//!   tolerance, below which a covariance is not resolved: the weights are optimised over
+//!   those information matrices and the fused covariance is their weighted sum inverted
+//!   by eigen-decomposition ([`super::blue::floored_information_fusion`]). Counted as a
+//!   fallback; deterministic, and only where the exact computation fails, so ordinary
+//!   inputs keep their numbers.
 //! - The prior global state is not used.
 //!
 //! # References
@@ -40,8 +50,9 @@
 //! Not among the five seed papers (ALGORITHMS.md names CI as a baseline only), so no
 //! equation numbers are cited.
 
-use super::blue::{canonical, validate};
+use super::blue::{canonical, finish_fused, floored_information_fusion, non_finite, validate};
 use crate::center::{CenterError, FusionContext, FusionRule};
+use crate::covariance::{floored_inverse, is_valid, EIGEN_FLOOR};
 use crate::params::ParamError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
 use serde::Deserialize;
@@ -272,14 +283,25 @@ impl FusionRule for CovarianceIntersection {
             info += y * wi;
             info_state += y * m.state * wi;
         }
-        let p = symmetrize(&info)
+        let exact = symmetrize(&info)
             .cholesky()
             .map(|c| symmetrize(&c.inverse()))
-            .ok_or(CenterError::NumericalFailure {
-                method: "ci",
-                what: crate::center::Numerical::SingularInformation,
-            })?;
-        Ok((p * info_state, p))
+            .map(|p| (p * info_state, p))
+            .filter(|(x, p)| x.iter().all(|v| v.is_finite()) && is_valid(p));
+        if let Some(fused) = exact {
+            return Ok(fused);
+        }
+        // Nearly singular members: the floored information form.
+        self.fallbacks.fetch_add(1, Ordering::Relaxed);
+        let floored: Option<Vec<StateCov>> = members
+            .iter()
+            .map(|m| floored_inverse(&m.cov, EIGEN_FLOOR))
+            .collect();
+        let floored = floored.ok_or_else(|| non_finite("ci", &members))?;
+        let w = self.optimise(&floored);
+        let fused =
+            floored_information_fusion(&members, &w).ok_or_else(|| non_finite("ci", &members))?;
+        finish_fused("ci", &members, fused)
     }
 }
 
