@@ -151,18 +151,18 @@ pub(crate) fn non_finite(rule: &'static str, members: &[&LocalTrack]) -> CenterE
 /// indefinite. The state is formed with the gains `P Y_i` (never `Y_i x_i`, which can
 /// overflow). A member with the zero covariance (a perfect estimate, no information
 /// matrix) is the fused estimate (the limit of the information form), the first in
-/// canonical order when several. `None` when the result is not finite.
+/// canonical order when several. The covariances are first divided by the largest entry
+/// of any of them, and the fused covariance multiplied back (the equation is
+/// scale-equivariant), so covariances near the ends of the floating-point range (1e-300
+/// or 1e300) have finite information matrices. `None` when the result is not finite.
 pub(crate) fn floored_information_fusion(
     members: &[&LocalTrack],
     weights: &[f64],
 ) -> Option<(StateVec, StateCov)> {
-    let mut infos = Vec::with_capacity(members.len());
-    for m in members {
-        match floored_inverse(&m.cov, EIGEN_FLOOR) {
-            Some(y) => infos.push(y),
-            None => return Some((m.state, nearest_psd(&m.cov))),
-        }
-    }
+    let (c, infos) = match floored_informations(members) {
+        Ok(found) => found,
+        Err(k) => return Some((members[k].state, nearest_psd(&members[k].cov))),
+    };
     let info = infos
         .iter()
         .zip(weights)
@@ -175,7 +175,30 @@ pub(crate) fn floored_information_fusion(
         .fold(StateVec::zeros(), |acc, ((m, y), &w)| {
             acc + (p * y) * (m.state * w)
         });
+    let p = p * c;
     (x.iter().all(|v| v.is_finite()) && is_valid(&p)).then_some((x, p))
+}
+
+/// The common scale `c` (the largest entry of any member's covariance) and each member's
+/// information matrix of `P_i / c` with its eigenvalues floored ([`floored_inverse`]);
+/// `Err(k)` when member `k` (the first such) has the zero covariance (after the
+/// scaling) or `c` is not positive and finite.
+pub(crate) fn floored_informations(members: &[&LocalTrack]) -> Result<(f64, Vec<StateCov>), usize> {
+    let c = members
+        .iter()
+        .map(|m| crate::covariance::scale(&m.cov))
+        .fold(0.0f64, f64::max);
+    if !(c.is_finite() && c > f64::MIN_POSITIVE) {
+        return Err(0);
+    }
+    let mut infos = Vec::with_capacity(members.len());
+    for (k, m) in members.iter().enumerate() {
+        match floored_inverse(&(m.cov / c), EIGEN_FLOOR) {
+            Some(y) => infos.push(y),
+            None => return Err(k),
+        }
+    }
+    Ok((c, infos))
 }
 
 /// A total order on local tracks: `(sensor_id, track_id)`, then the state and covariance
