@@ -108,8 +108,12 @@ pub fn nearest_psd(p: &StateCov) -> StateCov {
 /// Symmetric positive definite, condition number at most `1 / floor`. `None` when the
 /// largest eigenvalue is not positive (the zero matrix: a perfect estimate, no inverse)
 /// or the result is not finite.
+///
+/// The decomposition is of `p` divided by its largest entry (the result divided back),
+/// so entries near the ends of the floating-point range do not overflow inside it.
 pub fn floored_inverse(p: &StateCov, floor: f64) -> Option<StateCov> {
-    let eig = symmetrize(p).symmetric_eigen();
+    let s = scale(p);
+    let eig = symmetrize(&(p / s)).symmetric_eigen();
     let top = eig.eigenvalues.max();
     if !(top > 0.0 && top.is_finite()) {
         return None;
@@ -118,7 +122,7 @@ pub fn floored_inverse(p: &StateCov, floor: f64) -> Option<StateCov> {
     let inv = eig.eigenvalues.map(|v| 1.0 / v.max(low));
     let out = symmetrize(
         &(eig.eigenvectors * StateCov::from_diagonal(&inv) * eig.eigenvectors.transpose()),
-    );
+    ) / s;
     out.iter().all(|v| v.is_finite()).then_some(out)
 }
 

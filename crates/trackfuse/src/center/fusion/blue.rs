@@ -163,11 +163,15 @@ pub(crate) fn floored_information_fusion(
         Ok(found) => found,
         Err(k) => return Some((members[k].state, nearest_psd(&members[k].cov))),
     };
+    // the sum of up to 2^k information matrices times 2^-k cannot overflow; the factor
+    // (a power of two, exact) is taken out of the inverse again
+    let k = (members.len() as f64).log2().ceil();
+    let shrink = 0.5f64.powf(k);
     let info = infos
         .iter()
         .zip(weights)
-        .fold(StateCov::zeros(), |acc, (y, &w)| acc + y * w);
-    let p = floored_inverse(&info, EIGEN_FLOOR / members.len() as f64)?;
+        .fold(StateCov::zeros(), |acc, (y, &w)| acc + y * (w * shrink));
+    let p = floored_inverse(&info, EIGEN_FLOOR / members.len() as f64)? * shrink;
     let x = members
         .iter()
         .zip(&infos)
@@ -181,8 +185,11 @@ pub(crate) fn floored_information_fusion(
 
 /// The common scale `c` (the largest entry of any member's covariance) and each member's
 /// information matrix of `P_i / c` with its eigenvalues floored ([`floored_inverse`]);
-/// `Err(k)` when member `k` (the first such) has the zero covariance (after the
-/// scaling) or `c` is not positive and finite.
+/// `Err(k)` when member `k` (the first such) has no finite information matrix: the zero
+/// covariance, or one so small against the largest (below about 1e-299 of it) that its
+/// information overflows — to the precision of the others it is exact, and the fusion
+/// takes it as the fused estimate (the information form's limit); also `Err(0)` when `c`
+/// is not positive and finite.
 pub(crate) fn floored_informations(members: &[&LocalTrack]) -> Result<(f64, Vec<StateCov>), usize> {
     let c = members
         .iter()
