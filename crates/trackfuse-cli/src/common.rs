@@ -174,6 +174,14 @@ pub fn render_summary(s: &Summary) -> String {
         vec!["NEES fused (4-dim, ideal 4)".into(), opt(s.nees_fused, 2)],
         vec!["NEES local (4-dim, ideal 4)".into(), opt(s.nees_local, 2)],
         vec![
+            "NEES fused skipped (singular P)".into(),
+            s.nees_fused_skipped.to_string(),
+        ],
+        vec![
+            "NEES local skipped (singular P)".into(),
+            s.nees_local_skipped.to_string(),
+        ],
+        vec![
             "P_c (000 eq. 19)".into(),
             opt(s.probability_correct_association, 4),
         ],

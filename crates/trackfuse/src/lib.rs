@@ -13,6 +13,7 @@
 
 pub mod center;
 pub mod config;
+pub mod covariance;
 pub mod io;
 pub mod local;
 pub mod metrics;

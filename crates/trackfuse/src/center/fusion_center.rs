@@ -393,6 +393,7 @@ impl FusionCenter {
                 if !s.iter().any(|x| x.id == t.sensor_id) {
                     return Err(CenterError::UnknownSensor {
                         method: b.name(),
+                        scan: t.scan,
                         sensor_id: t.sensor_id,
                         track_id: t.track_id,
                     });
@@ -440,6 +441,7 @@ impl FusionCenter {
         };
         self.method
             .associate_into(&ctx, tracks, &self.globals, groups)
+            .map_err(|e| locate(e, scan, &[]))
     }
 
     /// Fuse each group with the rule, into `fused_est` (symmetrised), and list the
@@ -475,11 +477,18 @@ impl FusionCenter {
                 dt: gdt,
                 process_noise: self.cfg.process_noise,
             };
-            let (x, p) = self.rule.fuse(&members, &g.weights, &ctx)?;
+            let (x, p) = self
+                .rule
+                .fuse(&members, &g.weights, &ctx)
+                .map_err(|e| locate(e, scan, &members))?;
             if !(x.iter().all(|v| v.is_finite()) && p.iter().all(|v| v.is_finite())) {
+                let mut tracks: Vec<(Id, Id)> =
+                    members.iter().map(|t| (t.sensor_id, t.track_id)).collect();
+                tracks.sort_unstable();
                 return Err(CenterError::NonFiniteFusion {
                     rule: self.rule.name(),
                     scan,
+                    tracks,
                 });
             }
             fused_est.push((x, symmetrize(&p)));
@@ -818,6 +827,32 @@ fn fuse_scans(center: &mut FusionCenter, tracks: &[LocalTrack]) -> Result<FusedR
     Ok(run)
 }
 
+/// A [`CenterError::NumericalFailure`] a method or rule returned without its place gets
+/// the scan, and the group's members when it has none (`members` empty: the whole scan);
+/// other errors are returned as they are.
+fn locate(e: CenterError, scan: u32, members: &[&LocalTrack]) -> CenterError {
+    match e {
+        CenterError::NumericalFailure {
+            method,
+            what,
+            scan: None,
+            mut tracks,
+        } => {
+            if tracks.is_empty() {
+                tracks = members.iter().map(|t| (t.sensor_id, t.track_id)).collect();
+                tracks.sort_unstable();
+            }
+            CenterError::NumericalFailure {
+                method,
+                what,
+                scan: Some(scan),
+                tracks,
+            }
+        }
+        e => e,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1131,8 +1166,17 @@ mod tests {
         // sensors 0 and 1 report, only sensor 0 is known
         let mut c = FusionCenter::new(&cfg, Some(&[radar(0)])).expect("center");
         match c.process_scan(&two_targets(0)) {
-            Err(e @ CenterError::UnknownSensor { sensor_id: 1, .. }) => {
-                assert!(e.to_string().contains("sensor 1"), "{e}")
+            Err(
+                e @ CenterError::UnknownSensor {
+                    scan: 0,
+                    sensor_id: 1,
+                    ..
+                },
+            ) => {
+                assert!(
+                    e.to_string().contains("of scan 0 comes from sensor 1"),
+                    "{e}"
+                )
             }
             other => panic!("expected an error naming sensor 1, got {other:?}"),
         }

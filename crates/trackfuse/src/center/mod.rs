@@ -197,12 +197,14 @@ pub enum CenterError {
     Needs { method: &'static str, what: Missing },
     /// A local track comes from a sensor that is not among the given sensors, and the
     /// method or bias estimator `method` needs that sensor's geometry.
+    /// `scan`, `sensor_id` and `track_id` locate the row.
     #[error(
-        "{method}: local track {sensor_id}:{track_id} comes from sensor {sensor_id}, which is \
-         not among the given sensors (sensors.csv)"
+        "{method}: local track {sensor_id}:{track_id} of scan {scan} comes from sensor \
+         {sensor_id}, which is not among the given sensors (sensors.csv)"
     )]
     UnknownSensor {
         method: &'static str,
+        scan: u32,
         sensor_id: Id,
         track_id: Id,
     },
@@ -237,12 +239,28 @@ pub enum CenterError {
         scan: u32,
         previous: u32,
     },
-    /// A local track with a non-finite state or covariance reached a method or rule.
-    #[error("{method}: local track {sensor_id}:{track_id} has a non-finite state or covariance")]
+    /// A local track with a non-finite state or covariance reached a method or rule;
+    /// `scan`, `sensor_id` and `track_id` locate its row.
+    #[error(
+        "{method}: local track {sensor_id}:{track_id} of scan {scan} has a non-finite state or \
+         covariance"
+    )]
     NonFiniteTrack {
         method: &'static str,
+        scan: u32,
         sensor_id: Id,
         track_id: Id,
+    },
+    /// A local track whose covariance is not a valid one
+    /// ([`crate::covariance::check_covariance`], the file contract's definition) reached a
+    /// rule; `scan`, `sensor_id` and `track_id` locate its row.
+    #[error("{method}: local track {sensor_id}:{track_id} of scan {scan}: {reason}")]
+    InvalidCovariance {
+        method: &'static str,
+        scan: u32,
+        sensor_id: Id,
+        track_id: Id,
+        reason: crate::covariance::CovarianceError,
     },
     /// A predicted global track with a non-finite state or covariance reached a method.
     #[error("{method}: predicted global track {global_id} is not finite")]
@@ -289,14 +307,27 @@ pub enum CenterError {
         method: &'static str,
         kind: InvariantKind,
     },
-    /// The rule returned a non-finite fused estimate.
-    #[error("rule {rule} gave a non-finite estimate at scan {scan}")]
-    NonFiniteFusion { rule: &'static str, scan: u32 },
-    /// A numerical step of a method or rule failed on its input (see [`Numerical`]).
-    #[error("{method}: {what}")]
+    /// The rule gave a non-finite fused estimate (finite members whose fusion overflows,
+    /// e.g. covariance entries near 1e300): `scan` and `tracks`, the members'
+    /// `(sensor_id, track_id)` in canonical order, locate the rows fused.
+    #[error(
+        "rule {rule} gave a non-finite estimate at scan {scan} from local tracks {}",
+        track_list(tracks)
+    )]
+    NonFiniteFusion {
+        rule: &'static str,
+        scan: u32,
+        tracks: Vec<(Id, Id)>,
+    },
+    /// A numerical step of a method or rule failed on its input (see [`Numerical`]);
+    /// `scan` (when known) and `tracks`, the `(sensor_id, track_id)` of the local tracks
+    /// the step worked on (empty: every local track of the scan), locate the rows.
+    #[error("{method}: {what}{}", scan.map(|s| format!(" at scan {s}")).unwrap_or_default())]
     NumericalFailure {
         method: &'static str,
         what: Numerical,
+        scan: Option<u32>,
+        tracks: Vec<(Id, Id)>,
     },
 }
 
@@ -319,6 +350,12 @@ pub enum Missing {
          estimates"
     )]
     BiasEstimator,
+}
+
+/// `1:3, 2:7`: local tracks as `sensor_id:track_id`.
+fn track_list(tracks: &[(Id, Id)]) -> String {
+    let list: Vec<String> = tracks.iter().map(|(s, t)| format!("{s}:{t}")).collect();
+    list.join(", ")
 }
 
 /// `unknown <kind> "<name>" (known: a, b)`: the reason of [`CenterError::Unknown`].
@@ -357,10 +394,12 @@ pub enum InvariantKind {
 #[non_exhaustive]
 pub enum Numerical {
     /// The members' covariances (or the joint covariance) are not positive semidefinite,
-    /// so no Cholesky factor exists.
+    /// so no Cholesky factor exists. (No built-in rule returns it: they check their
+    /// members with [`crate::covariance::check_covariance`] and fuse every valid one.)
     #[error("the members' covariances are not positive semidefinite")]
     NotPositiveSemidefinite,
-    /// The fused information matrix has no inverse.
+    /// The fused information matrix has no inverse. (No built-in rule returns it: `ci`
+    /// floors the members' eigenvalues where the exact form fails.)
     #[error("the fused information matrix is singular")]
     SingularInformation,
     /// The assignment solver failed (its message).
@@ -640,17 +679,60 @@ mod tests {
     fn numerical_failure_is_a_value() {
         let cc = registry::make_rule("cc", &ParamTables::new()).expect("rule");
         let a = local(0, 1, 0.0, 0.0, 0.0, 0.0, -1.0);
-        let b = local(1, 1, 0.0, 0.0, 0.0, 0.0, -1.0);
+        let mut b = local(1, 1, 0.0, 0.0, 0.0, 0.0, -1.0);
+        b.scan = 4;
+        // an invalid covariance is refused, with the member's place
         assert_eq!(
             cc.fuse(&[&a, &b], &[1.0, 1.0], &fusion_ctx()).unwrap_err(),
-            CenterError::NumericalFailure {
+            CenterError::InvalidCovariance {
                 method: "cc",
-                what: Numerical::NotPositiveSemidefinite
+                scan: 0,
+                sensor_id: 0,
+                track_id: 1,
+                reason: crate::covariance::CovarianceError::NotPositiveSemidefinite {
+                    min_eigenvalue: -1.0
+                }
             }
+        );
+        let e = cc.fuse(&[&b], &[1.0], &fusion_ctx()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "cc: local track 1:1 of scan 4: covariance is not positive semi-definite \
+             (smallest eigenvalue -1)"
         );
         assert_eq!(
             cc.fuse(&[], &[], &fusion_ctx()).unwrap_err(),
             CenterError::EmptyGroup { method: "cc" }
         );
+    }
+
+    /// Finite members whose fusion overflows (covariance entries near 1e300): the error
+    /// names the scan and the members, from the rule and through the center.
+    #[test]
+    fn a_non_finite_fusion_names_scan_and_members() {
+        let sf = registry::make_rule("sf", &ParamTables::new()).expect("rule");
+        let mut a = local(2, 5, 0.0, 0.0, 0.0, 0.0, 1.5e308);
+        let mut b = local(1, 9, 0.0, 0.0, 0.0, 0.0, 1.5e308);
+        a.scan = 3;
+        b.scan = 3;
+        let expected = CenterError::NonFiniteFusion {
+            rule: "sf",
+            scan: 3,
+            tracks: vec![(1, 9), (2, 5)],
+        };
+        assert_eq!(
+            sf.fuse(&[&a, &b], &[1.0, 1.0], &fusion_ctx()).unwrap_err(),
+            expected
+        );
+        assert_eq!(
+            expected.to_string(),
+            "rule sf gave a non-finite estimate at scan 3 from local tracks 1:9, 2:5"
+        );
+        let cfg = FusionConfig {
+            rule: "sf".into(),
+            ..FusionConfig::default()
+        };
+        let mut center = FusionCenter::new(&cfg, None).expect("center");
+        assert_eq!(center.process_scan(&[a, b]).unwrap_err(), expected);
     }
 }

@@ -8,7 +8,10 @@
 //! - Position RMSE per target: `sqrt(mean of |p_est - p_true|^2)` over every scan and run
 //!   where the target has an assigned estimate (000 eq. 11); per scan over runs (001 eq. 17).
 //! - GOSPA / OSPA per scan, averaged over scans and runs ([`super::gospa`]).
-//! - NEES `e^T P^-1 e` of the 4-dim state error of assigned estimates, averaged.
+//! - NEES `e^T P^-1 e` of the 4-dim state error of assigned estimates, averaged. An
+//!   estimate whose covariance has no inverse (singular: not positive definite) has no
+//!   NEES; it is left out of the mean and counted (`nees_fused_skipped`,
+//!   `nees_local_skipped` in the summary), so a mean over few samples is visible.
 //! - P_c (000 eq. 19): at each scan, a *common* target is one followed by local tracks of
 //!   at least two sensors; it is correctly associated when all those local tracks went to
 //!   one fused track and no local track of anything else went to that fused track.
@@ -81,6 +84,10 @@ pub struct RunMetrics {
     pub ospa: SumCount,
     pub nees_fused: SumCount,
     pub nees_local: SumCount,
+    /// Assigned fused / local estimates left out of the NEES because their covariance is
+    /// singular.
+    pub nees_fused_skipped: u64,
+    pub nees_local_skipped: u64,
     pub pc: SumCount,
     pub rates: Option<AssociationCounts>,
     /// Truth points (target, scan) and how many had an assigned fused estimate.
@@ -124,6 +131,8 @@ impl RunMetrics {
             s.false_ += r.false_;
             s.missed += r.missed;
         }
+        self.nees_fused_skipped += o.nees_fused_skipped;
+        self.nees_local_skipped += o.nees_local_skipped;
         self.truth_points += o.truth_points;
         self.covered_points += o.covered_points;
     }
@@ -193,8 +202,9 @@ pub fn evaluate_run(input: &EvalInput<'_>, cfg: &EvaluationConfig) -> RunMetrics
                     .add(e2);
                 m.fused_per_scan.entry(scan).or_default().add(e2);
                 m.covered_points += 1;
-                if let Some(v) = nees(&(fs[fi].state - ts[ti].state), &fs[fi].cov) {
-                    m.nees_fused.add(v);
+                match nees(&(fs[fi].state - ts[ti].state), &fs[fi].cov) {
+                    Some(v) => m.nees_fused.add(v),
+                    None => m.nees_fused_skipped += 1,
                 }
             }
         }
@@ -382,8 +392,9 @@ fn label_local_tracks_into(
                         .entry((sensor, ts[ti].target_id))
                         .or_default()
                         .add((lpos[li] - tpos[ti]).norm_squared());
-                    if let Some(v) = nees(&(l.state - ts[ti].state), &l.cov) {
-                        m.nees_local.add(v);
+                    match nees(&(l.state - ts[ti].state), &l.cov) {
+                        Some(v) => m.nees_local.add(v),
+                        None => m.nees_local_skipped += 1,
                     }
                 }
             }
@@ -444,6 +455,10 @@ pub struct Summary {
     pub ospa: Option<f64>,
     pub nees_fused: Option<f64>,
     pub nees_local: Option<f64>,
+    /// Assigned fused estimates left out of `nees_fused`: their covariance is singular.
+    pub nees_fused_skipped: u64,
+    /// Assigned local estimates left out of `nees_local`: their covariance is singular.
+    pub nees_local_skipped: u64,
     pub local_rmse: Vec<LocalRmse>,
     pub probability_correct_association: Option<f64>,
     pub association_rates: Option<RatesSummary>,
@@ -486,6 +501,8 @@ impl RunMetrics {
             ospa: self.ospa.mean(),
             nees_fused: self.nees_fused.mean(),
             nees_local: self.nees_local.mean(),
+            nees_fused_skipped: self.nees_fused_skipped,
+            nees_local_skipped: self.nees_local_skipped,
             local_rmse: self
                 .local_per_sensor_target
                 .iter()
@@ -643,5 +660,44 @@ mod tests {
         agg.merge(&m);
         assert_eq!(agg.runs, 2);
         assert_eq!(agg.fused_per_target[&0].n, 4);
+    }
+
+    /// An assigned estimate with a singular covariance has no NEES: it is counted, fused
+    /// and local apart, and the counts reach the summary and merge over runs.
+    #[test]
+    fn nees_counts_singular_covariances() {
+        let tr = vec![truth(0, 0, 0.0, 0.0), truth(1, 0, 10.0, 0.0)];
+        let f = |scan: u32, x: f64, var: f64| FusedTrack {
+            scan,
+            time: scan as f64,
+            fused_id: 1,
+            state: StateVec::new(x, 0.0, 0.0, 0.0),
+            cov: StateCov::identity() * var,
+            sources: vec![(1, 1)],
+        };
+        let fused = vec![f(0, 1.0, 0.0), f(1, 12.0, 4.0)];
+        let mut singular = local(1, 1, 1, 10.0, 0.0);
+        singular.cov[(3, 3)] = 0.0;
+        let lt = vec![local(0, 1, 1, 1.0, 0.0), singular];
+        let m = evaluate_run(
+            &EvalInput {
+                truth: &tr,
+                fused: &fused,
+                associations: None,
+                local: Some(&lt),
+            },
+            &EvaluationConfig::default(),
+        );
+        assert_eq!((m.nees_fused_skipped, m.nees_local_skipped), (1, 1));
+        assert_eq!((m.nees_fused.n, m.nees_local.n), (1, 1));
+        // the one fused sample: error 2 in x with variance 4
+        assert_eq!(m.nees_fused.mean(), Some(1.0));
+        let mut agg = m.clone();
+        agg.merge(&m);
+        let s = agg.summary(&EvaluationConfig::default());
+        assert_eq!((s.nees_fused_skipped, s.nees_local_skipped), (2, 2));
+        let json = serde_json::to_value(&s).expect("json");
+        assert_eq!(json["nees_fused_skipped"], 2);
+        assert_eq!(json["nees_local_skipped"], 2);
     }
 }

@@ -57,6 +57,14 @@
 //!   back to zero cross-covariance for the affected part — for the BLUE failure the group
 //!   is fused by convex combination (`cc`), always defined — and counts each fallback
 //!   ([`FusionRule::fallback_count`]).
+//! - Singular and nearly singular members (valid by the file contract,
+//!   [`crate::covariance::check_covariance`]): where the BLUE cannot give a valid fused
+//!   covariance (its difference form loses a small fused covariance to cancellation),
+//!   that fallback to `cc` applies, and `cc` itself ends, where its exact forms fail, in
+//!   the information form with member eigenvalues floored at `1e-9` of their largest
+//!   (see [`super::convex_combination`]): `bc` fuses every valid covariance. A fused
+//!   covariance that is not valid only by rounding is replaced by the nearest positive
+//!   semidefinite matrix ([`super::blue::finish_fused`]).
 //!
 //! # Other choices
 //! - The group's member weights are not used (a hard rule).
@@ -71,7 +79,7 @@
 //! fused-track covariance", IEEE Trans. AES 22(6), 1986. K. C. Chang, R. K. Saha,
 //! Y. Bar-Shalom, "On optimal track-to-track fusion", IEEE Trans. AES 33(4), 1997.
 
-use super::blue::{blue_in, canonical, validate, BlueScratch};
+use super::blue::{blue_in, canonical, finish_fused, non_finite, validate, BlueScratch};
 use super::convex_combination::convex_combination;
 use crate::center::linalg::{
     axes_decouple, chol_solve4, cholesky4, cholesky_flat, lu_nonsingular, lu_solve, lu_solve_many,
@@ -640,16 +648,14 @@ impl BarShalomCampo {
         };
         self.cross_covariances(&members, ctx, scratch)?;
         let Scratch { pairs, blue, .. } = scratch;
-        match blue_in(&members, |i, j| pairs[pair_index(n, i, j)], blue) {
-            Ok(fused) => Ok(fused),
+        let fused = match blue_in(&members, |i, j| pairs[pair_index(n, i, j)], blue) {
+            Ok(fused) => fused,
             Err(_) => {
                 self.fallbacks.fetch_add(1, Ordering::Relaxed);
-                convex_combination(&members).ok_or(CenterError::NumericalFailure {
-                    method: rule,
-                    what: crate::center::Numerical::NotPositiveSemidefinite,
-                })
+                convex_combination(&members).ok_or_else(|| non_finite(rule, &members))?
             }
-        }
+        };
+        finish_fused(rule, &members, fused)
     }
 
     /// Fallbacks taken so far (see the module docs).

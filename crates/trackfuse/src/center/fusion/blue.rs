@@ -35,7 +35,8 @@ use crate::center::linalg::{
     axes_decouple, chol_solve4, chol_solve_flat, cholesky4, cholesky_flat,
 };
 use crate::center::CenterError;
-use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
+use crate::covariance::{check_covariance, floored_inverse, is_valid, nearest_psd, EIGEN_FLOOR};
+use crate::types::{symmetrize, Id, LocalTrack, StateCov, StateVec};
 #[cfg(test)]
 use nalgebra::DVector;
 use nalgebra::{DMatrix, SymmetricEigen};
@@ -68,16 +69,143 @@ pub(crate) fn validate(
             members: members.len(),
         });
     }
+    check_members(rule, members)
+}
+
+/// Check each member's state is finite and its covariance valid by the file contract's
+/// definition ([`check_covariance`]): what every rule accepts. Errors name the rule and
+/// locate the member (scan, sensor id, track id).
+pub(crate) fn check_members(
+    rule: &'static str,
+    members: &[&LocalTrack],
+) -> Result<(), CenterError> {
     for m in members {
         if !m.state.iter().all(|v| v.is_finite()) || !m.cov.iter().all(|v| v.is_finite()) {
             return Err(CenterError::NonFiniteTrack {
                 method: rule,
+                scan: m.scan,
                 sensor_id: m.sensor_id,
                 track_id: m.track_id,
             });
         }
+        if let Err(reason) = check_covariance(&m.cov) {
+            return Err(CenterError::InvalidCovariance {
+                method: rule,
+                scan: m.scan,
+                sensor_id: m.sensor_id,
+                track_id: m.track_id,
+                reason,
+            });
+        }
     }
     Ok(())
+}
+
+/// The last step of every rule: a fused estimate that is not finite is an error that
+/// locates the group (the scan and the members' `(sensor_id, track_id)`); a finite one
+/// whose covariance is not valid ([`check_covariance`]: a weighted sum of valid members
+/// can leave the tolerance through rounding, or through members' eigenvalues a little
+/// below zero) is replaced by the nearest positive semidefinite matrix
+/// ([`nearest_psd`]: its negative eigenvalues set to zero), so a fused estimate always
+/// reads back as a valid `fused_tracks.csv` row. Valid results are returned unchanged.
+pub(crate) fn finish_fused(
+    rule: &'static str,
+    members: &[&LocalTrack],
+    (x, p): (StateVec, StateCov),
+) -> Result<(StateVec, StateCov), CenterError> {
+    if !(x.iter().all(|v| v.is_finite()) && p.iter().all(|v| v.is_finite())) {
+        return Err(non_finite(rule, members));
+    }
+    if check_covariance(&p).is_ok() {
+        return Ok((x, p));
+    }
+    let q = nearest_psd(&p);
+    if q.iter().all(|v| v.is_finite()) {
+        Ok((x, q))
+    } else {
+        Err(non_finite(rule, members))
+    }
+}
+
+/// [`CenterError::NonFiniteFusion`] for the group `members`.
+pub(crate) fn non_finite(rule: &'static str, members: &[&LocalTrack]) -> CenterError {
+    let mut tracks: Vec<(Id, Id)> = members.iter().map(|m| (m.sensor_id, m.track_id)).collect();
+    tracks.sort_unstable();
+    CenterError::NonFiniteFusion {
+        rule,
+        scan: members.first().map_or(0, |m| m.scan),
+        tracks,
+    }
+}
+
+/// Information-form fusion `P = (sum w_i Y_i)^-1`, `x = sum w_i P Y_i x_i` with each
+/// member's information `Y_i` the inverse of `P_i` with its eigenvalues floored at
+/// [`EIGEN_FLOOR`] of its largest ([`floored_inverse`]): the fallback of `cc` (all
+/// `w_i = 1`) and `ci` (its weights) where the exact computation fails or is not finite.
+///
+/// Each `Y_i` then has condition number at most `1 / EIGEN_FLOOR`, so the sum has at most
+/// `n / EIGEN_FLOOR` (its smallest eigenvalue is at least `max_i w_i / lambda_max(P_i)`, its
+/// largest at most `sum_i w_i / (EIGEN_FLOOR lambda_max(P_i))`); `P` is its inverse by
+/// eigen-decomposition with the eigenvalues floored at `EIGEN_FLOOR / n` of the largest,
+/// a floor that never binds in exact arithmetic and only stops rounding from making `P`
+/// indefinite. The state is formed with the gains `P Y_i` (never `Y_i x_i`, which can
+/// overflow). A member with the zero covariance (a perfect estimate, no information
+/// matrix) is the fused estimate (the limit of the information form), the first in
+/// canonical order when several. The covariances are first divided by the largest entry
+/// of any of them, and the fused covariance multiplied back (the equation is
+/// scale-equivariant), so covariances near the ends of the floating-point range (1e-300
+/// or 1e300) have finite information matrices. `None` when the result is not finite.
+pub(crate) fn floored_information_fusion(
+    members: &[&LocalTrack],
+    weights: &[f64],
+) -> Option<(StateVec, StateCov)> {
+    let (c, infos) = match floored_informations(members) {
+        Ok(found) => found,
+        Err(k) => return Some((members[k].state, nearest_psd(&members[k].cov))),
+    };
+    // the sum of up to 2^k information matrices times 2^-k cannot overflow; the factor
+    // (a power of two, exact) is taken out of the inverse again
+    let k = (members.len() as f64).log2().ceil();
+    let shrink = 0.5f64.powf(k);
+    let info = infos
+        .iter()
+        .zip(weights)
+        .fold(StateCov::zeros(), |acc, (y, &w)| acc + y * (w * shrink));
+    let p = floored_inverse(&info, EIGEN_FLOOR / members.len() as f64)? * shrink;
+    let x = members
+        .iter()
+        .zip(&infos)
+        .zip(weights)
+        .fold(StateVec::zeros(), |acc, ((m, y), &w)| {
+            acc + (p * y) * (m.state * w)
+        });
+    let p = p * c;
+    (x.iter().all(|v| v.is_finite()) && is_valid(&p)).then_some((x, p))
+}
+
+/// The common scale `c` (the largest entry of any member's covariance) and each member's
+/// information matrix of `P_i / c` with its eigenvalues floored ([`floored_inverse`]);
+/// `Err(k)` when member `k` (the first such) has no finite information matrix: the zero
+/// covariance, or one so small against the largest (below about 1e-299 of it) that its
+/// information overflows — to the precision of the others it is exact, and the fusion
+/// takes it as the fused estimate (the information form's limit); also `Err(0)` when `c`
+/// is not positive and finite.
+pub(crate) fn floored_informations(members: &[&LocalTrack]) -> Result<(f64, Vec<StateCov>), usize> {
+    let c = members
+        .iter()
+        .map(|m| crate::covariance::scale(&m.cov))
+        .fold(0.0f64, f64::max);
+    if !(c.is_finite() && c > f64::MIN_POSITIVE) {
+        return Err(0);
+    }
+    let mut infos = Vec::with_capacity(members.len());
+    for (k, m) in members.iter().enumerate() {
+        match floored_inverse(&(m.cov / c), EIGEN_FLOOR) {
+            Some(y) => infos.push(y),
+            None => return Err(k),
+        }
+    }
+    Ok((c, infos))
 }
 
 /// A total order on local tracks: `(sensor_id, track_id)`, then the state and covariance
@@ -135,14 +263,11 @@ pub(crate) fn canonical<'a>(members: &[&'a LocalTrack]) -> Canonical<'a> {
     }
 }
 
-/// Whether `p` is positive semidefinite up to rounding ([`PSD_TOLERANCE`]).
+/// Whether `p` is positive semidefinite up to rounding: positive definite, or valid by
+/// the file contract's definition ([`check_covariance`]), so that a fused covariance the
+/// BLUE accepts reads back from a file.
 pub(crate) fn is_psd(p: &StateCov) -> bool {
-    if cholesky4(p).is_some() {
-        return true;
-    }
-    let eig = p.symmetric_eigenvalues();
-    let scale = eig.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    eig.iter().all(|&v| v >= -PSD_TOLERANCE * scale)
+    cholesky4(p).is_some() || check_covariance(p).is_ok()
 }
 
 /// Moore–Penrose pseudo-inverse of a symmetric matrix that should be positive

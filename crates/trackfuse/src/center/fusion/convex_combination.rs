@@ -14,15 +14,30 @@
 //!   which needs no `P_i^-1` and is the limit of the information form (a perfect track
 //!   dominates; the fused covariance is singular in its certain directions). Not an error,
 //!   and the same numbers as the information form whenever both exist.
+//! - **Nearly singular covariances.** When neither form gives a finite estimate with a
+//!   valid covariance (members with eigenvalues down to `1e-12` of their largest, or a
+//!   little below zero within the file contract's tolerance, at very different scales:
+//!   the information matrices overflow the precision, the difference form loses the
+//!   small fused covariance to cancellation), the rule is the same equation on members
+//!   whose eigenvalues are floored at `1e-9` of each member's largest — the contract's
+//!   own tolerance, below which a covariance is not resolved — and inverted by
+//!   eigen-decomposition ([`super::blue::floored_information_fusion`]). Deterministic,
+//!   and only where the exact computation fails, so ordinary inputs keep their numbers.
+//! - Every member must be a valid covariance ([`crate::covariance::check_covariance`]);
+//!   a fused covariance that is not valid only by rounding is replaced by the nearest
+//!   positive semidefinite matrix ([`super::blue::finish_fused`]).
 //! - The prior global state is not used.
 //!
 //! # Equation numbers
 //! 003 gives no equation for CC (Sec. 6 only cites its reference 33) and Bar-Shalom &
 //! Campo (1986) is not among the five seed papers, so no equation numbers are cited.
 
-use super::blue::{blue, canonical, validate};
+use super::blue::{
+    blue, canonical, finish_fused, floored_information_fusion, non_finite, validate,
+};
 use crate::center::linalg::{chol_inverse4, cholesky4};
 use crate::center::{CenterError, FusionContext, FusionRule};
+use crate::covariance::is_valid;
 use crate::params::ParamError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
 use serde::Deserialize;
@@ -79,13 +94,18 @@ pub(crate) fn convex_combination(members: &[&LocalTrack]) -> Option<(StateVec, S
         if let Some(l) = cholesky4(&symmetrize(&info)) {
             let p = symmetrize(&chol_inverse4(&l));
             let x = p * info_state;
-            if x.iter().chain(p.iter()).all(|v| v.is_finite()) {
+            if x.iter().all(|v| v.is_finite()) && is_valid(&p) {
                 return Some((x, p));
             }
         }
     }
     // Singular member covariance: the same estimator in difference form.
-    blue(members, |_, _| StateCov::zeros()).ok()
+    if let Ok(fused) = blue(members, |_, _| StateCov::zeros()) {
+        return Some(fused);
+    }
+    // Nearly singular members whose difference form loses the covariance to rounding:
+    // the information form with floored eigenvalues.
+    floored_information_fusion(members, &vec![1.0; members.len()])
 }
 
 impl FusionRule for ConvexCombination {
@@ -101,10 +121,8 @@ impl FusionRule for ConvexCombination {
     ) -> Result<(StateVec, StateCov), CenterError> {
         validate("cc", members, weights)?;
         let members = canonical(members);
-        convex_combination(&members).ok_or(CenterError::NumericalFailure {
-            method: "cc",
-            what: crate::center::Numerical::NotPositiveSemidefinite,
-        })
+        let fused = convex_combination(&members).ok_or_else(|| non_finite("cc", &members))?;
+        finish_fused("cc", &members, fused)
     }
 }
 

@@ -32,6 +32,16 @@
 //!   simplex, itself a valid CI estimate) with the smallest criterion value — a singular
 //!   member has `det = 0` and wins under `det` — ties to the canonical first. This is a
 //!   fallback: it is counted ([`FusionRule::fallback_count`]).
+//! - **Nearly singular covariances.** When the members are positive definite but the
+//!   fused information matrix has no Cholesky factor, or the estimate is not finite or
+//!   its covariance not valid (members with eigenvalues down to `1e-12` of their largest:
+//!   their inverses lose the precision), the rule is the same equation on members whose
+//!   eigenvalues are floored at `1e-9` of each member's largest — the file contract's
+//!   tolerance, below which a covariance is not resolved: the weights are optimised over
+//!   those information matrices and the fused covariance is their weighted sum inverted
+//!   by eigen-decomposition ([`super::blue::floored_information_fusion`]). Counted as a
+//!   fallback; deterministic, and only where the exact computation fails, so ordinary
+//!   inputs keep their numbers.
 //! - The prior global state is not used.
 //!
 //! # References
@@ -40,8 +50,11 @@
 //! Not among the five seed papers (ALGORITHMS.md names CI as a baseline only), so no
 //! equation numbers are cited.
 
-use super::blue::{canonical, validate};
+use super::blue::{
+    canonical, finish_fused, floored_information_fusion, floored_informations, non_finite, validate,
+};
 use crate::center::{CenterError, FusionContext, FusionRule};
+use crate::covariance::is_valid;
 use crate::params::ParamError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
 use serde::Deserialize;
@@ -272,14 +285,27 @@ impl FusionRule for CovarianceIntersection {
             info += y * wi;
             info_state += y * m.state * wi;
         }
-        let p = symmetrize(&info)
+        let exact = symmetrize(&info)
             .cholesky()
             .map(|c| symmetrize(&c.inverse()))
-            .ok_or(CenterError::NumericalFailure {
-                method: "ci",
-                what: crate::center::Numerical::SingularInformation,
-            })?;
-        Ok((p * info_state, p))
+            .map(|p| (p * info_state, p))
+            .filter(|(x, p)| x.iter().all(|v| v.is_finite()) && is_valid(p));
+        if let Some(fused) = exact {
+            return Ok(fused);
+        }
+        // Nearly singular members: the floored information form.
+        self.fallbacks.fetch_add(1, Ordering::Relaxed);
+        // (the weights of P_i / c are those of P_i: both criteria are scale-invariant in w)
+        let floored = match floored_informations(&members) {
+            Ok((_, infos)) => infos,
+            // a member with the zero covariance (after the common scaling): it has det 0,
+            // the best vertex
+            Err(k) => return Ok((members[k].state, members[k].cov)),
+        };
+        let w = self.optimise(&floored);
+        let fused =
+            floored_information_fusion(&members, &w).ok_or_else(|| non_finite("ci", &members))?;
+        finish_fused("ci", &members, fused)
     }
 }
 
@@ -416,5 +442,30 @@ mod tests {
         assert_eq!(ci.fallback_count(), 1);
         let (x, _) = ci.fuse(&[&b], &[1.0], &ctx()).unwrap();
         assert_eq!(x, b.state);
+    }
+
+    /// Covariances near the ends of the floating-point range (1e-300: their inverses
+    /// overflow): the exact form is not finite, the floored form (on the covariances
+    /// divided by their common scale) is; the same for `cc`.
+    #[test]
+    fn extreme_scales_take_the_floored_form() {
+        for scale in [1e-300, 1e-310] {
+            let mut a = local(1, 1, 0.0, 0.0, 0.0, 0.0, 1.0);
+            let mut b = local(2, 1, 1.0, 1.0, 1.0, 1.0, 1.0);
+            a.cov = StateCov::from_diagonal(&StateVec::new(1.0, 1e-9, 2.0, 1e-6)) * scale;
+            a.cov[(0, 2)] = 0.5 * scale;
+            a.cov[(2, 0)] = 0.5 * scale;
+            b.cov = StateCov::from_diagonal(&StateVec::new(2.0, 1e-6, 1.0, 1e-9)) * scale;
+            let ci = CovarianceIntersection::default();
+            let (x, p) = ci.fuse(&[&a, &b], &[1.0, 1.0], &ctx()).unwrap();
+            assert!(x.iter().all(|v| v.is_finite()), "{x}");
+            assert!(crate::covariance::is_valid(&p), "{p}");
+            assert!(p.trace() <= a.cov.trace().max(b.cov.trace()), "{p}");
+            assert_eq!(ci.fallback_count(), 1);
+            let cc = crate::center::fusion::convex_combination::ConvexCombination;
+            let (x, p) = cc.fuse(&[&a, &b], &[1.0, 1.0], &ctx()).unwrap();
+            assert!(x.iter().all(|v| v.is_finite()), "{x}");
+            assert!(crate::covariance::is_valid(&p), "{p}");
+        }
     }
 }

@@ -18,6 +18,13 @@
 //!   the spread term, `P = (1/n) sum_j [P_j + (x_j - x)(x_j - x)^T]`.
 //! - All-zero weights carry no preference: the members get equal weights.
 //! - Negative, non-finite or missing weights, or an empty group, are an error.
+//! - **Singular and nearly singular covariances** need nothing: eq. 9-10 invert no
+//!   matrix, so every valid member ([`crate::covariance::check_covariance`]) is fused by
+//!   the equations as printed. A fused covariance that leaves the file contract's
+//!   tolerance only by rounding (a weighted sum of members with eigenvalues a little below
+//!   zero) is replaced by the nearest positive semidefinite matrix (negative eigenvalues
+//!   set to zero, [`super::blue::finish_fused`]); a non-finite result (overflow) is an
+//!   error naming the scan and the members.
 //!
 //! # Agreement with 003 eq. 5.4
 //! 003's fuzzy track fusion `TF = sum_k T_k mu_kk / sum_k mu_kk` is the same weighted
@@ -31,6 +38,7 @@
 //! 000: Nazari et al., IEEE Access 7 (2019), eq. 9-10. 003: Anwar, Aljahdali, Sec. 5,
 //! eq. 5.4.
 
+use super::blue::{check_members, finish_fused};
 use crate::center::{CenterError, FusionContext, FusionRule};
 use crate::params::ParamError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
@@ -63,6 +71,11 @@ impl FuzzyFusion {
     }
 }
 
+// Every member must be a valid covariance ([`crate::covariance::check_covariance`]; a
+// singular one is fine: the rule needs no inverse); a fused covariance that leaves the
+// tolerance only by rounding (a weighted sum of members with eigenvalues a little below
+// zero) is replaced by the nearest positive semidefinite matrix
+// ([`super::blue::finish_fused`]), so it reads back from a file.
 impl FusionRule for FuzzyFusion {
     fn name(&self) -> &'static str {
         NAME
@@ -74,7 +87,9 @@ impl FusionRule for FuzzyFusion {
         weights: &[f64],
         _ctx: &FusionContext<'_>,
     ) -> Result<(StateVec, StateCov), CenterError> {
-        weighted_fusion(members, weights)
+        let fused = weighted_fusion(members, weights)?;
+        check_members(NAME, members)?;
+        finish_fused(NAME, members, fused)
     }
 }
 

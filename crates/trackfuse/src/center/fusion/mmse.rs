@@ -27,6 +27,9 @@
 //! estimates; it assumes every local estimate is an update of that same prior, which
 //! independently running local trackers (the setting of 000) do not satisfy, so the
 //! reference here is the ML/BLUE fuser they show the Bar-Shalom–Campo formula to be.
+//! Singular and nearly singular members are treated as in `bc` (its module docs: the
+//! fallback to `cc`, whose last resort floors member eigenvalues at `1e-9` of their
+//! largest).
 //! The member weights and the prior global state are not used.
 
 use super::bar_shalom_campo::{BarShalomCampo, BarShalomCampoParams};

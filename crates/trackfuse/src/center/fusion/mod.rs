@@ -12,3 +12,5 @@ mod properties;
 pub mod sdf;
 pub mod simple;
 pub mod superior;
+#[cfg(test)]
+mod valid_covariances;

@@ -29,12 +29,19 @@
 //! - **Covariance.** The paper fuses states only; the fused covariance is the
 //!   support-weighted mixture `P = sum_j w_j [P_j + (x_j - x)(x_j - x)^T]` (the reading
 //!   ALGORITHMS.md gives for 000 eq. 10), symmetrised.
+//! - **Singular and nearly singular covariances** need nothing: eq. 17-22 use positions
+//!   and velocities only and the covariance is a weighted sum, so every valid member
+//!   ([`crate::covariance::check_covariance`]) is fused as defined; a covariance outside
+//!   the file contract's tolerance only by rounding is replaced by the nearest positive
+//!   semidefinite matrix ([`super::blue::finish_fused`]), a non-finite one (overflow) is
+//!   an error naming the scan and the members.
 //! - The associator's weights (memberships) are not used: eq. 21 defines the weights.
 //!
 //! # Parameters
 //! `[fusion.params.sdf]`, see [`SdfParams`]: the Hough space (`rho_max`, `theta_max`,
 //! `signed_rho`, `origin`), with the same defaults as `ht-t2gt`.
 
+use super::blue::{check_members, finish_fused};
 use crate::center::hough::{HoughPoint, HoughSpace};
 use crate::center::t2ta::ht_t2gt::{default_rho_max, default_theta_max};
 use crate::center::{CenterError, FusionContext, FusionRule};
@@ -196,6 +203,26 @@ impl FusionRule for Sdf {
         weights: &[f64],
         ctx: &FusionContext<'_>,
     ) -> Result<(StateVec, StateCov), CenterError> {
+        let fused = self.fuse_unchecked(members, weights, ctx)?;
+        check_members(NAME, members)?;
+        finish_fused(NAME, members, fused)
+    }
+}
+
+/// Every member must be a valid covariance ([`crate::covariance::check_covariance`]; a
+/// singular one is fine: the rule needs no inverse); a fused covariance that leaves the
+/// tolerance only by rounding (a weighted sum of members with eigenvalues a little below
+/// zero) is replaced by the nearest positive semidefinite matrix
+/// ([`super::blue::finish_fused`]), so it reads back from a file.
+impl Sdf {
+    /// The support-degree fusion itself (eq. 17-22), before the members' and the
+    /// result's checks.
+    fn fuse_unchecked(
+        &self,
+        members: &[&LocalTrack],
+        weights: &[f64],
+        ctx: &FusionContext<'_>,
+    ) -> Result<(StateVec, StateCov), CenterError> {
         let n = members.len();
         if n == 0 {
             return Err(CenterError::EmptyGroup { method: NAME });
@@ -218,7 +245,7 @@ impl FusionRule for Sdf {
             order.sort_unstable_by_key(|&i| key(members[i]));
             let m: Vec<&LocalTrack> = order.iter().map(|&i| members[i]).collect();
             let w: Vec<f64> = order.iter().map(|&i| weights[i]).collect();
-            return self.fuse(&m, &w, ctx);
+            return self.fuse_unchecked(&m, &w, ctx);
         }
         let reference = match ctx.prior {
             Some((x, _)) => *x,

@@ -15,12 +15,18 @@
 //!   - `"spread"`: `P = (1/n) sum_i [P_i + (x_i - x)(x_i - x)^T]`, the covariance of the
 //!     equal-weight mixture of the members (000 eq. 10 read with equal weights): never
 //!     smaller than the members' mean covariance, and it grows when the members disagree.
+//! - **Singular and nearly singular covariances** need nothing: both covariances are
+//!   sums of the members', no inverse, so every valid member
+//!   ([`crate::covariance::check_covariance`]) is fused as defined; a result outside the
+//!   file contract's tolerance only by rounding is replaced by the nearest positive
+//!   semidefinite matrix ([`super::blue::finish_fused`]), a non-finite one (overflow) is
+//!   an error naming the scan and the members.
 //! - The prior global state is not used.
 //!
 //! # References
 //! Anwar & Aljahdali (003), Sec. 6 and Table 5.
 
-use super::blue::{canonical, validate};
+use super::blue::{canonical, finish_fused, validate};
 use crate::center::{CenterError, FusionContext, FusionRule};
 use crate::params::ParamError;
 use crate::types::{symmetrize, LocalTrack, StateCov, StateVec};
@@ -102,7 +108,7 @@ impl FusionRule for SimpleFusion {
                 }) / n
             }
         };
-        Ok((x, symmetrize(&p)))
+        finish_fused("sf", &members, (x, symmetrize(&p)))
     }
 }
 

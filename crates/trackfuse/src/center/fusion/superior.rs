@@ -22,10 +22,14 @@
 //!   `ftta` its `mu_kk`). With equal weights (hard associators) this is the first member.
 //! - Ties go to the first member in the group's order (sorted by `(sensor_id,
 //!   track_id)`), so the result is deterministic.
+//! - **Singular and nearly singular covariances**: the adopted member's covariance is
+//!   returned as it is (valid, since every member is checked with
+//!   [`crate::covariance::check_covariance`]), so eq. 5.3 needs no treatment.
 //!
 //! # Parameters (`[fusion.params.superior]`)
 //! See [`SuperiorParams`].
 
+use super::blue::check_members;
 use crate::center::t2ta::ftta::{
     check_m, default_covariance_scale, default_m, default_one, log_diagonal_membership,
     ResolutionModel, ResolutionSource,
@@ -169,6 +173,8 @@ impl FusionRule for Superior {
         ctx: &FusionContext<'_>,
     ) -> Result<(StateVec, StateCov), CenterError> {
         let k = self.select(members, weights, ctx)?;
+        check_members(NAME, members)?;
+        // the adopted member's covariance is valid: it was checked
         Ok((members[k].state, members[k].cov))
     }
 }

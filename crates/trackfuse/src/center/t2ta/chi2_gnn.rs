@@ -629,6 +629,8 @@ impl Chi2Gnn {
             lsap::solve(nr, nc, &self.cost, false).map_err(|e| CenterError::NumericalFailure {
                 method: "chi2-gnn",
                 what: crate::center::Numerical::Assignment(format!("{e:?}")),
+                scan: None,
+                tracks: Vec::new(),
             })?;
         for (a, b) in rows.into_iter().zip(cols) {
             if self.is_edge[a * nc + b] {
@@ -694,6 +696,7 @@ impl TrackAssociator for Chi2Gnn {
             if !finite(&t.state, &t.cov) {
                 return Err(CenterError::NonFiniteTrack {
                     method: "chi2-gnn",
+                    scan: t.scan,
                     sensor_id: t.sensor_id,
                     track_id: t.track_id,
                 });

@@ -656,6 +656,7 @@ impl TrackAssociator for FdbscTa {
         {
             return Err(CenterError::NonFiniteTrack {
                 method: NAME,
+                scan: t.scan,
                 sensor_id: t.sensor_id,
                 track_id: t.track_id,
             });

@@ -150,6 +150,7 @@ impl ResolutionModel {
                 let s = sensors.iter().find(|s| s.id == track.sensor_id).ok_or(
                     CenterError::UnknownSensor {
                         method,
+                        scan: track.scan,
                         sensor_id: track.sensor_id,
                         track_id: track.track_id,
                     },

@@ -1,0 +1,180 @@
+//! The one definition of a valid covariance (FORMATS.md), used by the readers and by the
+//! fusion rules' input checks, and the eigenvalue helpers the rules use to treat singular
+//! or nearly singular covariances.
+//!
+//! # What is valid
+//! A 4x4 covariance `P` is valid when, with `scale` the largest `|P_rc|`:
+//! - it is symmetric within `1e-9` relative: `|P_rc - P_cr| <= 1e-9 scale`;
+//! - its smallest eigenvalue (of `(P + P^T) / 2`) is at least `-1e-9 scale`.
+//!
+//! So singular covariances (an exact zero eigenvalue, a perfect track) and nearly
+//! singular ones are valid, and every fusion rule must fuse them (each rule's doc comment
+//! says how).
+//!
+//! # Eigenvalue floor
+//! Eigenvalues below `1e-9` of a matrix's largest are below what the file contract
+//! resolves (a matrix within `1e-9` relative of another is as valid as it), so where a
+//! rule needs an inverse that does not exist or is not finite it uses
+//! [`floored_inverse`]: the inverse with each eigenvalue raised to at least
+//! [`EIGEN_FLOOR`] times the largest. That changes `P` by at most `1e-9` of its scale, the
+//! contract's own tolerance.
+
+use crate::center::linalg::cholesky4;
+use crate::types::{symmetrize, StateCov};
+
+/// The relative tolerance of the file contract (FORMATS.md) for symmetry and for the
+/// smallest eigenvalue.
+pub const TOLERANCE: f64 = 1e-9;
+
+/// The floor, relative to a matrix's largest eigenvalue, at which [`floored_inverse`]
+/// clamps the eigenvalues: the contract's [`TOLERANCE`].
+pub const EIGEN_FLOOR: f64 = TOLERANCE;
+
+/// Why a covariance is not one (FORMATS.md).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum CovarianceError {
+    /// `P[row][col]` and `P[col][row]` differ by more than `1e-9` relative.
+    #[error("covariance is not symmetric: P{row}{col} = {upper} but P{col}{row} = {lower}")]
+    NotSymmetric {
+        row: usize,
+        col: usize,
+        upper: f64,
+        lower: f64,
+    },
+    /// The smallest eigenvalue is below `-1e-9` relative.
+    #[error("covariance is not positive semi-definite (smallest eigenvalue {min_eigenvalue})")]
+    NotPositiveSemidefinite { min_eigenvalue: f64 },
+}
+
+/// The largest `|P_rc|` (at least the smallest positive normal number, so a zero matrix
+/// has a positive scale).
+pub fn scale(p: &StateCov) -> f64 {
+    p.iter()
+        .fold(0.0f64, |m, v| m.max(v.abs()))
+        .max(f64::MIN_POSITIVE)
+}
+
+/// Check that a covariance is symmetric positive semi-definite within `1e-9` relative
+/// (the module docs). A positive definite matrix (its Cholesky factorisation succeeds)
+/// is accepted without the eigen-decomposition: its smallest eigenvalue is above
+/// `-1e-15` of its scale (the factorisation is backward stable), so the answer is the
+/// same.
+pub fn check_covariance(p: &StateCov) -> Result<(), CovarianceError> {
+    let scale = scale(p);
+    for r in 0..4 {
+        for c in (r + 1)..4 {
+            if (p[(r, c)] - p[(c, r)]).abs() > TOLERANCE * scale {
+                return Err(CovarianceError::NotSymmetric {
+                    row: r,
+                    col: c,
+                    upper: p[(r, c)],
+                    lower: p[(c, r)],
+                });
+            }
+        }
+    }
+    let sym = symmetrize(p);
+    if cholesky4(&sym).is_some() {
+        return Ok(());
+    }
+    let eig = nalgebra::SymmetricEigen::new(sym);
+    let min = eig.eigenvalues.iter().fold(f64::INFINITY, |m, v| m.min(*v));
+    if min < -TOLERANCE * scale || min.is_nan() {
+        return Err(CovarianceError::NotPositiveSemidefinite {
+            min_eigenvalue: min,
+        });
+    }
+    Ok(())
+}
+
+/// Whether `p` is finite and valid ([`check_covariance`]).
+pub fn is_valid(p: &StateCov) -> bool {
+    p.iter().all(|v| v.is_finite()) && check_covariance(p).is_ok()
+}
+
+/// The nearest positive semidefinite matrix to `(p + p^T) / 2` in the Frobenius norm
+/// (Higham 1988): its negative eigenvalues set to zero.
+pub fn nearest_psd(p: &StateCov) -> StateCov {
+    let eig = symmetrize(p).symmetric_eigen();
+    let lambda = eig.eigenvalues.map(|v| v.max(0.0));
+    symmetrize(
+        &(eig.eigenvectors * StateCov::from_diagonal(&lambda) * eig.eigenvectors.transpose()),
+    )
+}
+
+/// `V diag(1 / max(lambda_k, floor lambda_max)) V^T` for `(p + p^T) / 2 = V diag(lambda) V^T`:
+/// the inverse of `p` with every eigenvalue raised to at least `floor` times the largest.
+/// Symmetric positive definite, condition number at most `1 / floor`. `None` when the
+/// largest eigenvalue is not positive (the zero matrix: a perfect estimate, no inverse)
+/// or the result is not finite.
+///
+/// The decomposition is of `p` divided by its largest entry (the result divided back),
+/// so entries near the ends of the floating-point range do not overflow inside it.
+pub fn floored_inverse(p: &StateCov, floor: f64) -> Option<StateCov> {
+    let s = scale(p);
+    let eig = symmetrize(&(p / s)).symmetric_eigen();
+    let top = eig.eigenvalues.max();
+    if !(top > 0.0 && top.is_finite()) {
+        return None;
+    }
+    let low = top * floor;
+    let inv = eig.eigenvalues.map(|v| 1.0 / v.max(low));
+    let out = symmetrize(
+        &(eig.eigenvectors * StateCov::from_diagonal(&inv) * eig.eigenvectors.transpose()),
+    ) / s;
+    out.iter().all(|v| v.is_finite()).then_some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_contract_tolerances() {
+        let mut p = StateCov::identity();
+        p[(0, 1)] = 1e-10;
+        assert_eq!(check_covariance(&p), Ok(()));
+        p[(0, 1)] = 0.5;
+        assert_eq!(
+            check_covariance(&p),
+            Err(CovarianceError::NotSymmetric {
+                row: 0,
+                col: 1,
+                upper: 0.5,
+                lower: 0.0
+            })
+        );
+        let mut p = StateCov::identity();
+        p[(3, 3)] = -1.0;
+        assert!(matches!(
+            check_covariance(&p),
+            Err(CovarianceError::NotPositiveSemidefinite { min_eigenvalue }) if min_eigenvalue == -1.0
+        ));
+        // singular, zero and within the negative tolerance: valid
+        p[(3, 3)] = 0.0;
+        assert_eq!(check_covariance(&p), Ok(()));
+        assert_eq!(check_covariance(&StateCov::zeros()), Ok(()));
+        p[(3, 3)] = -0.9e-9;
+        assert_eq!(check_covariance(&p), Ok(()));
+        p[(3, 3)] = -1.1e-9;
+        assert!(check_covariance(&p).is_err());
+        let mut nan = StateCov::identity();
+        nan[(1, 1)] = f64::NAN;
+        assert!(!is_valid(&nan));
+    }
+
+    #[test]
+    fn floor_and_projection() {
+        let p = StateCov::from_diagonal(&crate::types::StateVec::new(4.0, 0.0, -1e-12, 2.0));
+        let y = floored_inverse(&p, EIGEN_FLOOR).unwrap();
+        assert_eq!(y[(0, 0)], 0.25);
+        assert_eq!(y[(1, 1)], 1.0 / (4.0 * EIGEN_FLOOR));
+        assert_eq!(y[(2, 2)], 1.0 / (4.0 * EIGEN_FLOOR));
+        assert!(floored_inverse(&StateCov::zeros(), EIGEN_FLOOR).is_none());
+        let q = nearest_psd(&p);
+        assert_eq!(q[(2, 2)], 0.0);
+        assert_eq!(q[(0, 0)], 4.0);
+        assert!(is_valid(&q));
+    }
+}
