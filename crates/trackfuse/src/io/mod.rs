@@ -7,13 +7,17 @@
 //! reason ([`InputError`]). Writers write LF and floats in shortest round-trip form.
 
 mod error;
+mod lines;
 mod reader;
 mod writer;
 
 pub use error::InputError;
 pub use reader::{
-    check_covariance, read_associations, read_fused_tracks, read_local_tracks, read_measurements,
-    read_sensors, read_truth, CovarianceError,
+    check_covariance, no_truth_rows, read_associations, read_associations_from, read_fused_tracks,
+    read_fused_tracks_from, read_local_tracks, read_local_tracks_from, read_measurements,
+    read_measurements_from, read_sensors, read_sensors_from, read_truth, read_truth_from,
+    AssociationStream, CovarianceError, FusedTrackStream, LocalTrackStream, MeasurementStream,
+    TruthStream,
 };
 pub use writer::{
     write_sensors, AssociationWriter, CsvRowWriter, FusedTrackWriter, LocalTrackWriter,
