@@ -553,6 +553,11 @@ macro_rules! scan_stream {
                 &self.0.table.meta.path
             }
 
+            /// The 1-based number of the column `name` in the header, if it has one.
+            pub fn column(&self, name: &str) -> Option<usize> {
+                self.0.table.opt(name).map(|c| c + 1)
+            }
+
             /// Data rows read so far (including one read ahead of the last scan).
             pub fn rows_read(&self) -> u64 {
                 self.0.table.rows
