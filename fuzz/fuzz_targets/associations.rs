@@ -10,7 +10,10 @@ fuzz_target!(|data: &[u8]| {
     let read = read_associations_from(data, "associations.csv");
     assert_named(&read, "associations.csv");
     if let Some(twin) = crlf_twin(data) {
-        assert_same_as_crlf_twin(&read, &read_associations_from(&twin[..], "associations.csv"));
+        assert_same_as_crlf_twin(
+            &read,
+            &read_associations_from(&twin[..], "associations.csv"),
+        );
     }
     let Ok(rows) = read else { return };
     let mut w = AssociationWriter::new(Vec::new()).expect("write to memory");
@@ -18,6 +21,7 @@ fuzz_target!(|data: &[u8]| {
         w.write(r).expect("write to memory");
     }
     let bytes = w.finish().expect("write to memory");
-    let back = read_associations_from(&bytes[..], "written.csv").expect("a written file reads back");
+    let back =
+        read_associations_from(&bytes[..], "written.csv").expect("a written file reads back");
     assert_eq!(back, rows);
 });

@@ -50,8 +50,8 @@ fuzz_target!(|data: &[u8]| {
         w.write(r).expect("write to memory");
     }
     let bytes = w.finish().expect("write to memory");
-    let back = read_measurements_from(&bytes[..], "written.csv", None)
-        .expect("a written file reads back");
+    let back =
+        read_measurements_from(&bytes[..], "written.csv", None).expect("a written file reads back");
     assert_eq!(back, rows);
     let checked = read_measurements_from(&bytes[..], "written.csv", Some(&sensors));
     // rows of one sensor id with both kinds are refused against one sensor per id

@@ -20,10 +20,14 @@ fuzz_target!(|data: &[u8]| {
         assert!(s.id >= 0 && ids.insert(s.id), "{s:?}");
         assert!(s.sigma_a > 0.0 && s.sigma_b > 0.0, "{s:?}");
         assert!((0.0..=1.0).contains(&s.pd), "{s:?}");
-        assert!(s.max_range >= 0.0 && s.clutter_density.is_none_or(|d| d >= 0.0), "{s:?}");
+        assert!(
+            s.max_range >= 0.0 && s.clutter_density.is_none_or(|d| d >= 0.0),
+            "{s:?}"
+        );
     }
     // write_sensors writes a file: one per process (fuzz jobs run side by side)
-    let path = std::env::temp_dir().join(format!("trackfuse-fuzz-sensors-{}.csv", std::process::id()));
+    let path =
+        std::env::temp_dir().join(format!("trackfuse-fuzz-sensors-{}.csv", std::process::id()));
     write_sensors(&path, &sensors).expect("write sensors.csv");
     let bytes = std::fs::read(&path).expect("read back");
     let back = read_sensors_from(&bytes[..], "written.csv").expect("a written file reads back");

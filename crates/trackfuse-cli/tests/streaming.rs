@@ -23,12 +23,15 @@ fn failure(cmd: &mut Command) -> String {
 
 const COV: &str = "P00,P01,P02,P03,P10,P11,P12,P13,P20,P21,P22,P23,P30,P31,P32,P33";
 const ID16: &str = "1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1";
-const SENSORS: &str = "sensor_id,x,y,sigma_r,sigma_theta,pd\n0,0,0,10,0.001,1\n1,1000,0,10,0.001,1\n";
+const SENSORS: &str =
+    "sensor_id,x,y,sigma_r,sigma_theta,pd\n0,0,0,10,0.001,1\n1,1000,0,10,0.001,1\n";
 
 fn local(rows: &[(u32, f64, i64, i64)]) -> String {
     let mut s = format!("scan,time,sensor_id,track_id,x,vx,y,vy,{COV}\n");
     for &(scan, time, sensor, track) in rows {
-        s.push_str(&format!("{scan},{time},{sensor},{track},100,0,100,0,{ID16}\n"));
+        s.push_str(&format!(
+            "{scan},{time},{sensor},{track},100,0,100,0,{ID16}\n"
+        ));
     }
     s
 }
@@ -39,7 +42,12 @@ fn a_local_track_of_a_sensor_not_in_sensors_csv_names_its_line() {
     let lt = write(
         dir.path(),
         "local_tracks.csv",
-        &local(&[(0, 0.0, 0, 1), (0, 0.0, 1, 1), (1, 1.0, 0, 1), (1, 1.0, 7, 3)]),
+        &local(&[
+            (0, 0.0, 0, 1),
+            (0, 0.0, 1, 1),
+            (1, 1.0, 0, 1),
+            (1, 1.0, 7, 3),
+        ]),
     );
     let s = write(dir.path(), "sensors.csv", SENSORS);
     let err = failure(
@@ -70,7 +78,12 @@ fn a_center_error_names_the_scan_and_its_first_line() {
     let lt = write(
         dir.path(),
         "local_tracks.csv",
-        &local(&[(0, 10.0, 0, 1), (0, 10.0, 1, 1), (1, 5.0, 0, 2), (1, 5.0, 1, 2)]),
+        &local(&[
+            (0, 10.0, 0, 1),
+            (0, 10.0, 1, 1),
+            (1, 5.0, 0, 2),
+            (1, 5.0, 1, 2),
+        ]),
     );
     let err = failure(
         trackfuse()
@@ -115,7 +128,9 @@ fn track_refuses_measurements_out_of_scan_order_and_leaves_no_output() {
     let s = write(dir.path(), "sensors.csv", SENSORS);
     let mut m = String::from("scan,time,sensor_id,range,bearing\n");
     for scan in 0..6 {
-        m.push_str(&format!("{scan},{scan},0,5000,0.5\n{scan},{scan},1,5000,2.5\n"));
+        m.push_str(&format!(
+            "{scan},{scan},0,5000,0.5\n{scan},{scan},1,5000,2.5\n"
+        ));
     }
     m.push_str("2,2,0,5100,0.5\n");
     let mp = write(dir.path(), "measurements.csv", &m);
@@ -158,15 +173,14 @@ fn streamed_track_and_fuse_match_the_library_on_a_simulation() {
         .assert()
         .success();
     let sensors = trackfuse::io::read_sensors(&sim.join("sensors.csv")).expect("sensors");
-    let mut meas =
-        trackfuse::io::read_measurements(&sim.join("measurements.csv"), Some(&sensors))
-            .expect("measurements");
+    let mut meas = trackfuse::io::read_measurements(&sim.join("measurements.csv"), Some(&sensors))
+        .expect("measurements");
     for m in &mut meas {
         m.target_id = -1;
     }
     let cfg = trackfuse::local::TrackerConfig::default();
-    let whole = trackfuse::local::track_sensors(&sensors, &meas, &cfg, None, &[], 1, 0)
-        .expect("track");
+    let whole =
+        trackfuse::local::track_sensors(&sensors, &meas, &cfg, None, &[], 1, 0).expect("track");
     let streamed =
         trackfuse::io::read_local_tracks(&tr.join("local_tracks.csv")).expect("local tracks");
     assert!(!whole.is_empty());
