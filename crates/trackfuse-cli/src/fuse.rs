@@ -1,21 +1,35 @@
 //! `trackfuse fuse`: the fusion center over local_tracks.csv (from this project or any
 //! other tool) -> fused_tracks.csv + associations.csv.
+//!
+//! It streams: local_tracks.csv (and truth.csv, with `--truth`) is read one scan at a
+//! time, fused, and that scan's fused tracks and associations written before the next
+//! scan is read, so memory does not grow with the number of scans. `--two-pass` holds
+//! the whole file (pass 2 starts again from the first scan). Errors found while
+//! streaming name the file and line of the row (a local track whose sensor is not in
+//! sensors.csv, a center error about one local track) or of the scan's first row. On an
+//! error the partial outputs are removed.
 
 use crate::common::{load_scenario, scenario_input};
 use crate::config::FusionFlags;
 use crate::output::{Outputs, FUSE_OUTPUTS};
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::Args;
-use std::collections::BTreeSet;
+use std::collections::{BTreeSet, HashMap};
+use trackfuse::io::Sink;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use trackfuse::center::bias::BiasEstimate;
+use trackfuse::center::t2ta::truth::{self, TruthSource};
 use trackfuse::center::{
-    fuse_all, fuse_all_two_pass, registry, CenterError, FusedRun, FusionConfig, Missing,
+    fuse_all_two_pass, registry, CenterError, FusedRun, FusionCenter, FusionConfig, Missing,
+    ScanOutput,
 };
 use trackfuse::io::{
-    read_local_tracks, read_sensors, read_truth, AssociationWriter, FusedTrackWriter,
+    no_truth_rows, read_local_tracks, read_sensors, read_truth, AssociationWriter,
+    FusedTrackWriter, InputError, LocalTrackStream, TruthStream,
 };
 use trackfuse::metrics::label_local_tracks;
-use trackfuse::{Id, LocalTrack, Sensor};
+use trackfuse::{Id, LocalTrack, Sensor, TruthState};
 
 #[derive(Args, Debug)]
 pub struct FuseArgs {
@@ -64,33 +78,43 @@ pub fn write_fused(outs: &mut Outputs, run: &FusedRun) -> Result<()> {
     }
     w.finish().with_context(|| ctx(&p))?;
     if !run.bias.is_empty() {
-        let mut s = String::from("sensor_id,bias_r,bias_theta\n");
-        for (i, b) in run.bias.iter().enumerate() {
-            crate::output::finite_cells(
-                &outs.dir().join("bias_estimates.csv").display().to_string(),
-                i as u64 + 2,
-                &[(2, "bias_r", b.range), (3, "bias_theta", b.bearing)],
-            )?;
-            s.push_str(&format!("{},{},{}\n", b.sensor_id, b.range, b.bearing));
-        }
-        outs.write("bias_estimates.csv", s.as_bytes())?;
+        write_bias(outs, &run.bias)?;
     }
+    Ok(())
+}
+
+/// Write bias_estimates.csv (finite cells only, atomically).
+fn write_bias(outs: &mut Outputs, bias: &[BiasEstimate]) -> Result<()> {
+    let mut s = String::from("sensor_id,bias_r,bias_theta\n");
+    for (i, b) in bias.iter().enumerate() {
+        crate::output::finite_cells(
+            &outs.dir().join("bias_estimates.csv").display().to_string(),
+            i as u64 + 2,
+            &[(2, "bias_r", b.range), (3, "bias_theta", b.bearing)],
+        )?;
+        s.push_str(&format!("{},{},{}\n", b.sensor_id, b.range, b.bearing));
+    }
+    outs.write("bias_estimates.csv", s.as_bytes())?;
     Ok(())
 }
 
 /// Every local track's sensor must be in the given sensors.csv: a method or bias
 /// estimator that reads the sensors would otherwise skip or misread that sensor's tracks.
+/// The error names the row (file, line, column `sensor_id`).
 fn check_sensors_cover(
-    local: &[LocalTrack],
-    sensors: &[Sensor],
-    local_path: &Path,
+    scan_rows: &[LocalTrack],
+    lines: &[u64],
+    local: &LocalTrackStream,
+    known: &BTreeSet<Id>,
     sensors_path: &Path,
 ) -> Result<()> {
-    let known: BTreeSet<Id> = sensors.iter().map(|s| s.id).collect();
-    if let Some(t) = local.iter().find(|t| !known.contains(&t.sensor_id)) {
-        bail!(
-            "{}: sensor_id {} (track {}, scan {}) is not in {} (its sensors: {})",
-            local_path.display(),
+    if let Some((t, &line)) = scan_rows
+        .iter()
+        .zip(lines)
+        .find(|(t, _)| !known.contains(&t.sensor_id))
+    {
+        let reason = format!(
+            "sensor_id {} (track {}, scan {}) is not in {} (its sensors: {})",
             t.sensor_id,
             t.track_id,
             t.scan,
@@ -101,6 +125,8 @@ fn check_sensors_cover(
                 .collect::<Vec<_>>()
                 .join(", ")
         );
+        let column = local.column("sensor_id").unwrap_or(0);
+        return Err(InputError::cell(local.path(), line, column, "sensor_id", reason).into());
     }
     Ok(())
 }
@@ -134,22 +160,94 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         None => FusionConfig::default(),
     };
     let cfg = args.fusion.apply(&base)?;
+    if args.two_pass {
+        return run_two_pass(args, &cfg);
+    }
+    let mut local = LocalTrackStream::open(&args.local_tracks)?;
+    let sensors = args.sensors.as_deref().map(read_sensors).transpose()?;
+    let mut truth = args.truth.as_deref().map(TruthCursor::open).transpose()?;
+    // the labels of the scan being fused, replaced scan by scan
+    let labels = Arc::new(ScanLabels::default());
+    let center = match truth {
+        Some(_) => FusionCenter::with_truth(&cfg, sensors.as_deref(), labels.clone()),
+        None => FusionCenter::new(&cfg, sensors.as_deref()),
+    };
+    let mut center = center.map_err(with_flag_hint)?;
+    if center.lacks_truth() {
+        let method = if cfg.method == truth::NAME {
+            truth::NAME
+        } else {
+            registry::make_rule(&cfg.rule, &cfg.params)?.name()
+        };
+        return Err(with_flag_hint(CenterError::Needs {
+            method,
+            what: Missing::Truth,
+        }));
+    }
+    let scenario_path = scenario_input(args.scenario.as_deref());
+    let mut inputs = vec![args.local_tracks.as_path()];
+    inputs.extend(args.sensors.as_deref());
+    inputs.extend(args.truth.as_deref());
+    inputs.extend(scenario_path.as_deref());
+    let mut outs = Outputs::new(&args.out, FUSE_OUTPUTS, &inputs)?;
+    let fused_path = outs.path("fused_tracks.csv")?;
+    let assoc_path = outs.path("associations.csv")?;
+    let ctx = |p: &Path| format!("writing {}", p.display());
+    // atomic: on an error (a bad row late in the file) the writers are dropped unfinished
+    // and leave no partial file, and `outs` dropped unfinished removes the output set
+    let mut fw = FusedTrackWriter::create(&fused_path).with_context(|| ctx(&fused_path))?;
+    let mut aw = AssociationWriter::create(&assoc_path).with_context(|| ctx(&assoc_path))?;
+    let mut fuse = StreamFusion {
+        center: &mut center,
+        local: &mut local,
+        truth: truth.as_mut(),
+        labels: &labels,
+        label_gate: args.label_gate,
+        sensors: sensors.as_deref().zip(args.sensors.as_deref()),
+    };
+    let stats = fuse.run(&mut fw, &fused_path, &mut aw, &assoc_path)?;
+    fw.finish().with_context(|| ctx(&fused_path))?;
+    aw.finish().with_context(|| ctx(&assoc_path))?;
+    let bias = center.bias_estimates();
+    if !bias.is_empty() {
+        write_bias(&mut outs, &bias)?;
+    }
+    let dir = outs.dir().to_path_buf();
+    outs.finish();
+    eprintln!(
+        "fused {} local-track rows ({} + {}): {} global tracks, {} rows in {:.3} s -> {}",
+        stats.local_rows,
+        cfg.method,
+        cfg.rule,
+        stats.ids.len(),
+        stats.fused_rows,
+        stats.elapsed.as_secs_f64(),
+        dir.display()
+    );
+    print_bias(&bias);
+    Ok(())
+}
+
+/// `--two-pass`: the whole file in memory (pass 2 needs the estimator's final correction
+/// of every scan, which the center does not expose for a second streamed pass).
+fn run_two_pass(args: &FuseArgs, cfg: &FusionConfig) -> Result<()> {
     let local = read_local_tracks(&args.local_tracks)?;
     let sensors = args.sensors.as_deref().map(read_sensors).transpose()?;
     if let (Some(sensors), Some(path)) = (&sensors, &args.sensors) {
-        check_sensors_cover(&local, sensors, &args.local_tracks, path)?;
+        let known: BTreeSet<Id> = sensors.iter().map(|s| s.id).collect();
+        let mut rows = LocalTrackStream::open(&args.local_tracks)?;
+        let mut buf = Vec::new();
+        while rows.next_scan(&mut buf)?.is_some() {
+            check_sensors_cover(&buf, rows.lines(), &rows, &known, path)?;
+        }
     }
     let labels = match &args.truth {
         Some(t) => Some(label_local_tracks(&read_truth(t)?, &local, args.label_gate)),
         None => None,
     };
     let t0 = std::time::Instant::now();
-    let run = if args.two_pass {
-        fuse_all_two_pass(&local, &cfg, sensors.as_deref(), labels.as_ref())
-    } else {
-        fuse_all(&local, &cfg, sensors.as_deref(), labels.as_ref())
-    }
-    .map_err(with_flag_hint)?;
+    let run = fuse_all_two_pass(&local, cfg, sensors.as_deref(), labels.as_ref())
+        .map_err(with_flag_hint)?;
     let elapsed = t0.elapsed();
     let scenario_path = scenario_input(args.scenario.as_deref());
     let mut inputs = vec![args.local_tracks.as_path()];
@@ -160,7 +258,7 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     write_fused(&mut outs, &run)?;
     let dir = outs.dir().to_path_buf();
     outs.finish();
-    let ids: std::collections::BTreeSet<i64> = run.fused.iter().map(|f| f.fused_id).collect();
+    let ids: BTreeSet<i64> = run.fused.iter().map(|f| f.fused_id).collect();
     eprintln!(
         "fused {} local-track rows ({} + {}): {} global tracks, {} rows in {:.3} s -> {}",
         local.len(),
@@ -171,11 +269,176 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         elapsed.as_secs_f64(),
         dir.display()
     );
-    for b in &run.bias {
+    print_bias(&run.bias);
+    Ok(())
+}
+
+fn print_bias(bias: &[BiasEstimate]) {
+    for b in bias {
         eprintln!(
             "  bias estimate sensor {}: range {:.1} m, bearing {:.5} rad",
             b.sensor_id, b.range, b.bearing
         );
     }
-    Ok(())
+}
+
+/// The truth labels of one scan's local tracks, for the `truth` associator (rule
+/// `mmse`): [`StreamFusion`] replaces them before each scan it fuses.
+#[derive(Default)]
+struct ScanLabels(Mutex<HashMap<(u32, Id, Id), Id>>);
+
+impl TruthSource for ScanLabels {
+    fn target_of(&self, scan: u32, sensor_id: Id, track_id: Id) -> Option<Id> {
+        // a poisoned lock means a panic elsewhere; its labels are still whole maps
+        let map = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        map.get(&(scan, sensor_id, track_id)).copied()
+    }
+}
+
+/// truth.csv read in step with local_tracks.csv: the truth of one scan at a time.
+struct TruthCursor {
+    stream: TruthStream,
+    buf: Vec<TruthState>,
+    /// The scan `buf` holds (`None`: not read yet, or the end).
+    scan: Option<u32>,
+    done: bool,
+}
+
+impl TruthCursor {
+    /// Open the file and read its first scan: a file without rows is an error at once.
+    fn open(path: &Path) -> Result<TruthCursor> {
+        let mut c = TruthCursor {
+            stream: TruthStream::open(path)?,
+            buf: Vec::new(),
+            scan: None,
+            done: false,
+        };
+        c.rows_of(0)?;
+        if c.done {
+            return Err(no_truth_rows(path).into());
+        }
+        Ok(c)
+    }
+
+    /// The truth rows of `scan` (none when the file has no rows of it). Scans must be
+    /// asked in increasing order; truth scans in between are skipped (read and checked).
+    fn rows_of(&mut self, scan: u32) -> Result<&[TruthState]> {
+        while !self.done && self.scan.is_none_or(|s| s < scan) {
+            self.scan = self.stream.next_scan(&mut self.buf)?;
+            self.done = self.scan.is_none();
+        }
+        Ok(if self.scan == Some(scan) {
+            &self.buf
+        } else {
+            &[]
+        })
+    }
+
+    /// Read (and so check) the rest of the file.
+    fn finish(&mut self) -> Result<()> {
+        while self.stream.next_scan(&mut self.buf)?.is_some() {}
+        Ok(())
+    }
+}
+
+/// What [`StreamFusion::run`] did.
+#[derive(Default)]
+struct FuseStats {
+    local_rows: usize,
+    fused_rows: usize,
+    ids: BTreeSet<Id>,
+    /// Time spent in the center (not reading or writing).
+    elapsed: std::time::Duration,
+}
+
+/// The center driven scan by scan from local_tracks.csv: each scan is read, checked,
+/// fused and written before the next is read, so memory does not grow with the number
+/// of scans.
+struct StreamFusion<'a> {
+    center: &'a mut FusionCenter,
+    local: &'a mut LocalTrackStream,
+    truth: Option<&'a mut TruthCursor>,
+    labels: &'a ScanLabels,
+    label_gate: f64,
+    /// The sensors and their file, to check every local track's sensor is known.
+    sensors: Option<(&'a [Sensor], &'a Path)>,
+}
+
+impl StreamFusion<'_> {
+    fn run<F: Sink, A: Sink>(
+        &mut self,
+        fw: &mut FusedTrackWriter<F>,
+        fused_path: &Path,
+        aw: &mut AssociationWriter<A>,
+        assoc_path: &Path,
+    ) -> Result<FuseStats> {
+        let ctx = |p: &Path| format!("writing {}", p.display());
+        let known: Option<(BTreeSet<Id>, &Path)> = self
+            .sensors
+            .map(|(s, p)| (s.iter().map(|s| s.id).collect(), p));
+        let mut stats = FuseStats::default();
+        let mut rows = Vec::new();
+        let mut out = ScanOutput::default();
+        while let Some(scan) = self.local.next_scan(&mut rows)? {
+            if let Some((known, path)) = &known {
+                check_sensors_cover(&rows, self.local.lines(), self.local, known, path)?;
+            }
+            if let Some(truth) = self.truth.as_deref_mut() {
+                let labels = label_local_tracks(truth.rows_of(scan)?, &rows, self.label_gate);
+                *self.labels.0.lock().unwrap_or_else(|e| e.into_inner()) = labels;
+            }
+            let t0 = std::time::Instant::now();
+            self.center
+                .process_scan_into(&rows, &mut out)
+                .map_err(|e| self.located(scan, &rows, e))?;
+            stats.elapsed += t0.elapsed();
+            stats.local_rows += rows.len();
+            stats.fused_rows += out.fused.len();
+            for f in &out.fused {
+                fw.write(f).with_context(|| ctx(fused_path))?;
+                stats.ids.insert(f.fused_id);
+            }
+            for a in &out.associations {
+                aw.write(a).with_context(|| ctx(assoc_path))?;
+            }
+        }
+        if let Some(truth) = self.truth.as_deref_mut() {
+            truth.finish()?;
+        }
+        Ok(stats)
+    }
+
+    /// A center error in `scan`, at the line of the local track it names, else at the
+    /// scan's first line.
+    fn located(&self, scan: u32, rows: &[LocalTrack], e: CenterError) -> anyhow::Error {
+        let member = match &e {
+            CenterError::UnknownSensor {
+                sensor_id,
+                track_id,
+                ..
+            }
+            | CenterError::DuplicateTrack {
+                sensor_id,
+                track_id,
+                ..
+            }
+            | CenterError::NonFiniteTrack {
+                sensor_id,
+                track_id,
+                ..
+            } => Some((*sensor_id, *track_id)),
+            _ => None,
+        };
+        let lines = self.local.lines();
+        let line = member
+            .and_then(|m| {
+                rows.iter()
+                    .position(|t| (t.sensor_id, t.track_id) == m)
+                    .map(|i| lines[i])
+            })
+            .or(lines.first().copied())
+            .unwrap_or(0);
+        let path = self.local.path().display().to_string();
+        anyhow::anyhow!("{path}:{line}: scan {scan}: {:#}", with_flag_hint(e))
+    }
 }

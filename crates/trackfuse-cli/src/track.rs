@@ -1,16 +1,24 @@
 //! `trackfuse track`: one local tracker per sensor over sensors.csv + measurements.csv
 //! (from this project or any other tool) -> local_tracks.csv. It never uses the truth:
 //! not truth.csv, not the `target_id` column of measurements.csv.
+//!
+//! It streams: measurements are read one scan at a time, tracked, and that scan's local
+//! tracks written before the next scan is read, so memory does not grow with the number
+//! of scans. On an error (a bad row late in the file) the partial local_tracks.csv is
+//! removed.
 
 use crate::common::{load_scenario, scenario_input};
 use crate::config::TrackerFlags;
 use crate::output::{Outputs, TRACK_OUTPUTS};
-use anyhow::{Context, Result};
+use anyhow::{anyhow, Context, Result};
 use clap::Args;
+use std::collections::BTreeSet;
+use trackfuse::io::Sink;
 use std::path::PathBuf;
-use trackfuse::io::{read_measurements, read_sensors, LocalTrackWriter};
-use trackfuse::local::{track_sensors, TrackerConfig};
+use trackfuse::io::{read_sensors, LocalTrackWriter, MeasurementStream};
+use trackfuse::local::{MultiSensorTracker, TrackerConfig};
 use trackfuse::pipeline::scenario_known_targets;
+use trackfuse::Id;
 
 #[derive(Args, Debug)]
 pub struct TrackArgs {
@@ -57,10 +65,7 @@ pub fn run(args: &TrackArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| args.data.join("measurements.csv"));
     let sensors = read_sensors(&sensors_path)?;
-    let mut measurements = read_measurements(&meas_path, Some(&sensors))?;
-    for m in &mut measurements {
-        m.target_id = -1; // the tracker never sees the truth column
-    }
+    let mut measurements = MeasurementStream::open(&meas_path, Some(&sensors))?;
     let known = scenario
         .as_ref()
         .map(|c| scenario_known_targets(&c.scenario))
@@ -69,43 +74,85 @@ pub fn run(args: &TrackArgs) -> Result<()> {
         .seed
         .or(scenario.as_ref().map(|c| c.scenario.seed))
         .unwrap_or(1);
-    let t0 = std::time::Instant::now();
-    let local = track_sensors(
+    let mut tracker = MultiSensorTracker::new(
         &sensors,
-        &measurements,
         &cfg,
         scenario.as_ref().map(|c| c.scenario.process_noise),
         &known,
         seed,
         0,
     )?;
-    let elapsed = t0.elapsed();
     let scenario_path = scenario_input(args.scenario.as_deref());
     let mut inputs = vec![sensors_path.as_path(), meas_path.as_path()];
     inputs.extend(scenario_path.as_deref());
     let mut outs = Outputs::new(&args.out, TRACK_OUTPUTS, &inputs)?;
     let path = outs.path("local_tracks.csv")?;
-    let mut w =
-        LocalTrackWriter::create(&path).with_context(|| format!("writing {}", path.display()))?;
-    for l in &local {
-        w.write(l)
-            .with_context(|| format!("writing {}", path.display()))?;
-    }
-    w.finish()
-        .with_context(|| format!("writing {}", path.display()))?;
+    let ctx = || format!("writing {}", path.display());
+    // atomic: a failed run (a bad row late in the file) leaves no partial local_tracks.csv,
+    // and `outs` dropped unfinished removes the folder's output set
+    let mut w = LocalTrackWriter::create(&path).with_context(ctx)?;
+    let stats = track_stream(&mut measurements, &mut tracker, &mut w, &path)?;
+    w.finish().with_context(ctx)?;
     outs.finish();
-    let tracks: std::collections::BTreeSet<(i64, i64)> =
-        local.iter().map(|l| (l.sensor_id, l.track_id)).collect();
     eprintln!(
         "tracked {} measurements of {} sensors ({} + {}): {} local tracks, {} rows in {:.3} s -> {}",
-        measurements.len(),
+        stats.measurements,
         sensors.len(),
         cfg.associator,
         cfg.filter,
-        tracks.len(),
-        local.len(),
-        elapsed.as_secs_f64(),
+        stats.tracks.len(),
+        stats.rows,
+        stats.elapsed.as_secs_f64(),
         path.display()
     );
     Ok(())
+}
+
+/// What [`track_stream`] did.
+#[derive(Default)]
+struct TrackStats {
+    measurements: usize,
+    rows: usize,
+    /// Every `(sensor_id, track_id)` reported.
+    tracks: BTreeSet<(Id, Id)>,
+    /// Time spent tracking (not reading or writing).
+    elapsed: std::time::Duration,
+}
+
+/// Read the measurements scan by scan, track each scan and write its local tracks before
+/// reading the next: memory holds one scan, whatever the number of scans.
+fn track_stream<W: Sink>(
+    measurements: &mut MeasurementStream,
+    tracker: &mut MultiSensorTracker,
+    w: &mut LocalTrackWriter<W>,
+    out: &std::path::Path,
+) -> Result<TrackStats> {
+    let mut stats = TrackStats::default();
+    let mut scan_meas = Vec::new();
+    let mut local = Vec::new();
+    while let Some(scan) = measurements.next_scan(&mut scan_meas)? {
+        for m in &mut scan_meas {
+            m.target_id = -1; // the tracker never sees the truth column
+        }
+        local.clear();
+        let t0 = std::time::Instant::now();
+        tracker
+            .process_scan(scan, &scan_meas, &mut local)
+            .map_err(|e| {
+                let line = measurements.lines().first().copied().unwrap_or(0);
+                anyhow!(
+                    "{}:{line}: scan {scan} (from this line on): {e}",
+                    measurements.path().display()
+                )
+            })?;
+        stats.elapsed += t0.elapsed();
+        stats.measurements += scan_meas.len();
+        stats.rows += local.len();
+        for l in &local {
+            w.write(l)
+                .with_context(|| format!("writing {}", out.display()))?;
+            stats.tracks.insert((l.sensor_id, l.track_id));
+        }
+    }
+    Ok(stats)
 }

@@ -214,7 +214,7 @@ fn fuse_rejects_local_tracks_of_a_sensor_missing_from_sensors_csv() {
         .assert()
         .failure()
         .stderr(predicate::str::contains(
-            "local_tracks.csv: sensor_id 5 (track 1, scan 0) is not in",
+            "local_tracks.csv:2:3: column 'sensor_id': sensor_id 5 (track 1, scan 0) is not in",
         ));
 }
 

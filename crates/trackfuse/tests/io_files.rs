@@ -3,8 +3,11 @@
 
 use std::path::{Path, PathBuf};
 use trackfuse::io::{
-    read_associations, read_fused_tracks, read_local_tracks, read_measurements, read_sensors,
-    read_truth, write_sensors, InputError, LocalTrackWriter, MeasurementWriter, TruthWriter,
+    read_associations, read_associations_from, read_fused_tracks, read_fused_tracks_from,
+    read_local_tracks, read_local_tracks_from, read_measurements, read_measurements_from,
+    read_sensors, read_sensors_from, read_truth, read_truth_from, write_sensors, AssociationStream,
+    FusedTrackStream, InputError, LocalTrackStream, LocalTrackWriter, MeasurementStream,
+    MeasurementWriter, TruthStream, TruthWriter,
 };
 use trackfuse::sim::simulate;
 use trackfuse::RunConfig;
@@ -365,4 +368,312 @@ fn a_duplicated_column_is_rejected_and_unknown_duplicates_ignored() {
         "scan,time,target_id,x,vx,y,vy,note,note\n0,0,1,5,0,0,0,a,b\n",
     );
     assert_eq!(read_truth(&p).expect("extra columns ignored").len(), 1);
+}
+
+// ------------------------------------------------------------------ issue 11: readers
+
+/// One valid file of each kind with scan column, with rows for scans 0, 0, 1, 2, 2, 3
+/// (lines 2..=7), and a function to read it from bytes.
+type Reader = fn(&[u8], &str) -> Result<usize, InputError>;
+
+fn kinds() -> Vec<(&'static str, String, Vec<String>, Reader)> {
+    let local = |scan: u32, sensor: i64| format!("{scan},{scan},{sensor},1,0,0,0,0,{ID16}");
+    let fused = |scan: u32, id: i64| format!("{scan},{scan},{id},0,0,0,0,{ID16},1,0:1");
+    let scans = [(0, 0), (0, 1), (1, 0), (2, 0), (2, 1), (3, 0)];
+    vec![
+        (
+            "truth.csv",
+            "scan,time,target_id,x,vx,y,vy".to_string(),
+            scans
+                .iter()
+                .map(|&(s, k)| format!("{s},{s},{k},0,0,0,0"))
+                .collect(),
+            |b, p| read_truth_from(b, p).map(|v| v.len()),
+        ),
+        (
+            "measurements.csv",
+            "scan,time,sensor_id,x,y".to_string(),
+            scans
+                .iter()
+                .map(|&(s, k)| format!("{s},{s},{k},1,2"))
+                .collect(),
+            |b, p| read_measurements_from(b, p, None).map(|v| v.len()),
+        ),
+        (
+            "local_tracks.csv",
+            local_header(),
+            scans.iter().map(|&(s, k)| local(s, k)).collect(),
+            |b, p| read_local_tracks_from(b, p).map(|v| v.len()),
+        ),
+        (
+            "fused_tracks.csv",
+            format!("scan,time,fused_id,x,vx,y,vy,{COV},n_sources,sources"),
+            scans.iter().map(|&(s, k)| fused(s, k)).collect(),
+            |b, p| read_fused_tracks_from(b, p).map(|v| v.len()),
+        ),
+        (
+            "associations.csv",
+            "scan,sensor_id,track_id,fused_id".to_string(),
+            scans.iter().map(|&(s, k)| format!("{s},{k},1,0")).collect(),
+            |b, p| read_associations_from(b, p).map(|v| v.len()),
+        ),
+    ]
+}
+
+fn join(header: &str, rows: &[String], eol: &str) -> Vec<u8> {
+    let mut s = String::from(header);
+    s.push_str(eol);
+    for r in rows {
+        s.push_str(r);
+        s.push_str(eol);
+    }
+    s.into_bytes()
+}
+
+/// Replace the cell of column `col` in `row` with `cell`.
+fn set_cell(row: &str, col: usize, cell: &str) -> String {
+    let mut cells: Vec<&str> = row.split(',').collect();
+    cells[col] = cell;
+    cells.join(",")
+}
+
+#[test]
+fn crlf_and_lf_twins_name_the_same_line_in_every_reader() {
+    for (name, header, rows, read) in kinds() {
+        for eol in ["\n", "\r\n"] {
+            assert_eq!(read(&join(&header, &rows, eol), name), Ok(6), "{name}");
+        }
+        // a bad number in column 2 (time, or sensor_id of associations) of each data line
+        let col_name = header.split(',').nth(1).expect("two columns").to_string();
+        for k in 0..rows.len() {
+            let mut bad = rows.clone();
+            bad[k] = set_cell(&bad[k], 1, "12a");
+            for eol in ["\n", "\r\n"] {
+                let e = read(&join(&header, &bad, eol), name).expect_err("bad cell");
+                assert_eq!(e.file, Path::new(name));
+                assert_eq!(e.line, Some(k as u64 + 2), "{name} {eol:?}: {e}");
+                assert_eq!(e.column, Some(2), "{e}");
+                assert_eq!(e.column_name.as_deref(), Some(col_name.as_str()), "{e}");
+                assert!(e.to_string().contains("'12a' is not"), "{e}");
+            }
+        }
+        // a ragged row (the csv crate's own error) on line 5
+        let mut ragged = rows.clone();
+        ragged[3].push_str(",9");
+        for eol in ["\n", "\r\n"] {
+            let e = read(&join(&header, &ragged, eol), name).expect_err("ragged");
+            assert_eq!(e.line, Some(5), "{name} {eol:?}: {e}");
+            assert!(e.reason.contains("fields, header has"), "{e}");
+        }
+    }
+    // blank lines and a quoted cell holding a line break count as lines
+    let text = "scan,time,target_id,x,vx,y,vy,note\r\n\r\n0,0,1,0,0,0,0,\"a\r\nb\"\r\n1,1,1,0,0,0,0,c\r\n2,2,1,0,NaN,0,0,d\r\n";
+    let e = read_truth_from(text.as_bytes(), "truth.csv").expect_err("NaN");
+    assert_eq!((e.line, e.column), (Some(6), Some(5)), "{e}");
+}
+
+#[test]
+fn crlf_line_numbers_of_sensors_csv() {
+    let rows = ["0,0,0,5,0.001,1", "1,0,0,5,0.001,1", "2,0,0,5,0.001,oops"];
+    for eol in ["\n", "\r\n"] {
+        let mut text = format!("sensor_id,x,y,sigma_r,sigma_theta,pd{eol}");
+        for r in rows {
+            text.push_str(r);
+            text.push_str(eol);
+        }
+        let e = read_sensors_from(text.as_bytes(), "sensors.csv").expect_err("bad pd");
+        assert_eq!(
+            (e.line, e.column, e.column_name.as_deref()),
+            (Some(4), Some(6), Some("pd")),
+            "{e}"
+        );
+    }
+}
+
+#[test]
+fn a_non_utf8_byte_is_reported_as_such_in_its_cell() {
+    let mut text = b"scan,time,target_id,x,vx,y,vy\n0,0,1,0,0,0,0\n1,1,1,0,".to_vec();
+    text.extend_from_slice(&[b'1', 0xff, b'2']);
+    text.extend_from_slice(b",0,0\n");
+    let e = read_truth_from(&text[..], "truth.csv").expect_err("not UTF-8");
+    assert_eq!(
+        (e.line, e.column, e.column_name.as_deref()),
+        (Some(3), Some(5), Some("vx")),
+        "{e}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "truth.csv:3:5: column 'vx': invalid UTF-8 (byte 0xff at byte 2 of the cell); \
+         the file must be UTF-8 text"
+    );
+    // in a text cell (kind) and in the header
+    let s = b"sensor_id,x,y,sigma_r,sigma_theta,pd,kind\n0,0,0,5,0.001,1,rad\xe9\n";
+    let e = read_sensors_from(&s[..], "sensors.csv").expect_err("not UTF-8");
+    assert_eq!((e.line, e.column_name.as_deref()), (Some(2), Some("kind")));
+    assert!(e.reason.starts_with("invalid UTF-8"), "{e}");
+    let h = b"scan,ti\xffme,target_id,x,vx,y,vy\n0,0,1,0,0,0,0\n";
+    let e = read_truth_from(&h[..], "truth.csv").expect_err("not UTF-8");
+    assert_eq!((e.line, e.column), (Some(1), Some(2)), "{e}");
+    assert!(e.reason.starts_with("invalid UTF-8"), "{e}");
+}
+
+#[test]
+fn every_scan_file_must_be_in_scan_order() {
+    for (name, header, rows, read) in kinds() {
+        // any order within a scan is fine
+        let mut within = rows.clone();
+        within.swap(0, 1);
+        within.swap(3, 4);
+        assert_eq!(read(&join(&header, &within, "\n"), name), Ok(6), "{name}");
+        // scan 1 (line 5) after scan 2 (line 4)
+        let mut back = rows.clone();
+        back.swap(2, 3);
+        let e = read(&join(&header, &back, "\n"), name).expect_err("unsorted");
+        let scan_col = header.split(',').position(|h| h == "scan").expect("scan") + 1;
+        assert_eq!(
+            (e.line, e.column, e.column_name.as_deref()),
+            (Some(5), Some(scan_col), Some("scan")),
+            "{name}: {e}"
+        );
+        assert!(
+            e.reason.starts_with("scan 1 comes after scan 2 (line 4): rows must be in non-decreasing scan order (any order within a scan); sort the data rows by the scan column"),
+            "{name}: {e}"
+        );
+    }
+}
+
+#[test]
+fn measurements_within_a_scan_come_back_stable_sorted_by_sensor() {
+    let m = "scan,time,sensor_id,x,y\n0,0,1,1,1\n0,0,0,2,2\n0,0,1,3,3\n1,1,0,4,4\n";
+    let ms = read_measurements_from(m.as_bytes(), "m.csv", None).expect("ok");
+    let got: Vec<(u32, i64, f64)> = ms
+        .iter()
+        .map(|m| (m.scan, m.sensor_id, m.value[0]))
+        .collect();
+    assert_eq!(got, [(0, 0, 2.0), (0, 1, 1.0), (0, 1, 3.0), (1, 0, 4.0)]);
+    // a sensor's time going backwards from scan to scan names the later row
+    let m = "scan,time,sensor_id,x,y\n0,5,0,1,1\n1,4,0,2,2\n";
+    let e = read_measurements_from(m.as_bytes(), "m.csv", None).expect_err("backwards");
+    assert_eq!((e.line, e.column_name.as_deref()), (Some(3), Some("time")));
+    assert!(e.reason.contains("time goes backwards for sensor 0"), "{e}");
+}
+
+#[test]
+fn sensors_follow_the_scenario_value_rule() {
+    let head = "sensor_id,x,y,sigma_r,sigma_theta,pd,kind,sigma_x,sigma_y,bias_r\n";
+    let cases = [
+        (
+            "0,0,0,0,0.001,1,,,,",
+            "sigma_r",
+            4,
+            "0 must be a positive number",
+        ),
+        (
+            "0,0,0,5,-0.001,1,,,,",
+            "sigma_theta",
+            5,
+            "-0.001 must be a positive number",
+        ),
+        (
+            "0,0,0,,,1,position,3,0,",
+            "sigma_y",
+            9,
+            "0 must be a positive number",
+        ),
+        (
+            "-2,0,0,5,0.001,1,,,,",
+            "sensor_id",
+            1,
+            "-2 must not be negative",
+        ),
+        (
+            "0,0,0,,,1,position,3,3,10",
+            "bias_r",
+            10,
+            "range/bearing biases apply to range_bearing sensors only",
+        ),
+    ];
+    for (row, col, n, reason) in cases {
+        let text = format!("{head}1,0,0,5,0.001,1,,,,\n{row}\n");
+        let e = read_sensors_from(text.as_bytes(), "sensors.csv").expect_err(row);
+        assert_eq!(e.line, Some(3), "{e}");
+        assert_eq!(e.column, Some(n), "{e}");
+        assert_eq!(e.column_name.as_deref(), Some(col), "{e}");
+        assert_eq!(e.reason, reason, "{e}");
+    }
+    // pd 0 (a sensor that never detects) is a valid value, in the scenario as here
+    let ok = format!("{head}0,0,0,5,0.001,0,,,,\n");
+    assert_eq!(
+        read_sensors_from(ok.as_bytes(), "s.csv").expect("pd 0")[0].pd,
+        0.0
+    );
+}
+
+#[test]
+fn a_header_only_truth_file_is_an_error() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let p = write(dir.path(), "truth.csv", "scan,time,target_id,x,vx,y,vy\n");
+    let e = read_truth(&p).expect_err("no rows");
+    assert_eq!((e.line, e.column), (None, None));
+    assert_eq!(e.file, p);
+    assert_eq!(
+        e.reason,
+        "no truth rows (the file has a header but no rows)"
+    );
+}
+
+#[test]
+fn streams_give_one_scan_at_a_time_with_lines() {
+    let text = format!(
+        "{}\n0,0,1,2,0,0,0,0,{ID16}\n0,0,0,5,0,0,0,0,{ID16}\n2,2,0,5,0,0,0,0,{ID16}\n",
+        local_header()
+    );
+    let mut s = LocalTrackStream::from_reader(text.as_bytes(), "lt.csv").expect("open");
+    let mut buf = Vec::new();
+    assert_eq!(s.next_scan(&mut buf), Ok(Some(0)));
+    let keys: Vec<(i64, i64)> = buf.iter().map(|t| (t.sensor_id, t.track_id)).collect();
+    assert_eq!(keys, [(0, 5), (1, 2)]);
+    assert_eq!(s.lines(), [3, 2]);
+    assert_eq!(s.next_scan(&mut buf), Ok(Some(2)));
+    assert_eq!((buf.len(), s.lines()), (1, &[4u64][..]));
+    assert_eq!(s.next_scan(&mut buf), Ok(None));
+    assert!(buf.is_empty());
+    assert_eq!(s.path(), Path::new("lt.csv"));
+    // an error is returned again, not skipped
+    let bad = format!(
+        "{}\n1,1,0,5,0,0,0,0,{ID16}\n0,0,0,5,0,0,0,0,{ID16}\n",
+        local_header()
+    );
+    let mut s = LocalTrackStream::from_reader(bad.as_bytes(), "lt.csv").expect("open");
+    let e = s.next_scan(&mut buf).expect_err("unsorted");
+    assert_eq!(s.next_scan(&mut buf), Err(e));
+    // the whole-file readers are the streams collected
+    let mut t = TruthStream::from_reader(
+        "scan,time,target_id,x,vx,y,vy\n0,0,1,0,0,0,0\n0,0,2,0,0,0,0\n1,1,1,0,0,0,0\n".as_bytes(),
+        "truth.csv",
+    )
+    .expect("open");
+    let mut truth = Vec::new();
+    assert_eq!(t.next_scan(&mut truth), Ok(Some(0)));
+    assert_eq!(truth.len(), 2);
+    assert_eq!(t.lines(), [2, 3]);
+    let m = MeasurementStream::from_reader(
+        "scan,time,sensor_id,x,y\n3,1,0,1,1\n".as_bytes(),
+        "m.csv",
+        None,
+    )
+    .expect("open");
+    assert_eq!(m.collect_rows().expect("rows")[0].scan, 3);
+    let fused = format!("scan,time,fused_id,x,vx,y,vy,{COV},n_sources\n0,0,3,1,2,3,4,{ID16},2\n");
+    let f = FusedTrackStream::from_reader(fused.as_bytes(), "f.csv").expect("open");
+    assert_eq!(f.collect_rows().expect("rows").len(), 1);
+    let mut a = AssociationStream::from_reader(
+        "scan,sensor_id,track_id,fused_id\n4,1,1,0\n4,0,1,0\n".as_bytes(),
+        "a.csv",
+    )
+    .expect("open");
+    let mut rows = Vec::new();
+    assert_eq!(a.next_scan(&mut rows), Ok(Some(4)));
+    assert_eq!(rows[0].sensor_id, 0);
+    assert_eq!(a.lines(), [3, 2]);
 }

@@ -1,5 +1,6 @@
 //! CSV readers with validation. See the module docs of [`crate::io`].
 
+use crate::io::lines::LineCounter;
 use crate::io::{InputError, COV_COLUMNS};
 use crate::models::wrap_angle;
 use crate::types::{
@@ -7,7 +8,9 @@ use crate::types::{
     TruthState, Vec2,
 };
 use std::collections::{HashMap, HashSet};
-use std::path::Path;
+use std::fs::File;
+use std::io::Read;
+use std::path::{Path, PathBuf};
 
 /// Every column name a FORMATS.md reader looks up, besides the covariance cells.
 const FORMATS_COLUMNS: &[&str] = &[
@@ -37,16 +40,26 @@ const FORMATS_COLUMNS: &[&str] = &[
     "clutter_density",
 ];
 
+/// The hint of the ordering error: how to bring a file into scan order.
+const SORT_HINT: &str = "rows must be in non-decreasing scan order (any order within a scan); \
+     sort the data rows by the scan column, keeping the header first";
+
 /// File name and header of a table, for error reports.
 struct Meta {
-    path: std::path::PathBuf,
+    path: PathBuf,
     headers: Vec<String>,
+    /// The header's line (1 unless blank lines come first).
+    header_line: u64,
 }
 
-/// A CSV file opened for reading with its header resolved.
-struct Table {
+/// A CSV input with its header resolved, read one record at a time.
+struct Table<R: Read> {
     meta: Meta,
-    reader: csv::Reader<std::fs::File>,
+    reader: csv::Reader<LineCounter<R>>,
+    /// The record last read.
+    rec: csv::ByteRecord,
+    /// Data rows read so far.
+    rows: u64,
 }
 
 /// One row being parsed, with enough context to report errors.
@@ -56,23 +69,42 @@ struct Row<'a> {
     line: u64,
 }
 
-impl Table {
-    fn open(path: &Path) -> Result<Table, InputError> {
-        let file = std::fs::File::open(path)
-            .map_err(|e| InputError::file(path, format!("cannot open: {e}")))?;
+/// Open `path` for a reader.
+fn open_file(path: &Path) -> Result<File, InputError> {
+    File::open(path).map_err(|e| InputError::file(path, format!("cannot open: {e}")))
+}
+
+impl<R: Read> Table<R> {
+    fn new(input: R, path: &Path) -> Result<Table<R>, InputError> {
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(true)
             .flexible(false)
             .trim(csv::Trim::All)
-            .from_reader(file);
-        let headers = reader
-            .headers()
-            .map_err(|e| csv_error(path, e))?
-            .iter()
-            .map(|h| h.trim_start_matches('\u{feff}').to_string())
-            .collect::<Vec<_>>();
+            .from_reader(LineCounter::new(input));
+        let header = match reader.byte_headers() {
+            Ok(h) => h.clone(),
+            Err(e) => return Err(csv_error(path, e, reader.get_mut())),
+        };
+        let header_line = header
+            .position()
+            .map_or(1, |p| reader.get_mut().line_of(p.byte()));
+        let mut headers = Vec::with_capacity(header.len());
+        for (i, h) in header.iter().enumerate() {
+            let name = std::str::from_utf8(h).map_err(|e| InputError {
+                file: path.to_path_buf(),
+                line: Some(header_line),
+                column: Some(i + 1),
+                column_name: Some(String::from_utf8_lossy(h).into_owned()),
+                reason: utf8_reason(h, e),
+            })?;
+            headers.push(name.trim_start_matches('\u{feff}').to_string());
+        }
         if headers.iter().all(|h| h.is_empty()) {
-            return Err(InputError::line(path, 1, "empty file or empty header row"));
+            return Err(InputError::line(
+                path,
+                header_line,
+                "empty file or empty header row",
+            ));
         }
         // A column a reader looks up by name must be unambiguous; unknown extra columns
         // are ignored, duplicated or not.
@@ -84,7 +116,7 @@ impl Table {
             {
                 return Err(InputError {
                     file: path.to_path_buf(),
-                    line: Some(1),
+                    line: Some(header_line),
                     column: Some(i + 1),
                     column_name: Some(h.clone()),
                     reason: format!(
@@ -99,8 +131,11 @@ impl Table {
             meta: Meta {
                 path: path.to_path_buf(),
                 headers,
+                header_line,
             },
             reader,
+            rec: csv::ByteRecord::new(),
+            rows: 0,
         })
     }
 
@@ -112,7 +147,7 @@ impl Table {
             .position(|h| h == name)
             .ok_or_else(|| InputError {
                 file: m.path.clone(),
-                line: Some(1),
+                line: Some(m.header_line),
                 column: None,
                 column_name: Some(name.to_string()),
                 reason: format!(
@@ -127,40 +162,54 @@ impl Table {
         self.meta.headers.iter().position(|h| h == name)
     }
 
-    /// Visit every data row.
+    /// Read the next data record into `self.rec`: its 1-based line, or `None` at the end.
+    fn next_record(&mut self) -> Result<Option<u64>, InputError> {
+        match self.reader.read_byte_record(&mut self.rec) {
+            Ok(false) => Ok(None),
+            Ok(true) => {
+                self.rows += 1;
+                let byte = self.rec.position().map_or(0, |p| p.byte());
+                Ok(Some(self.reader.get_mut().line_of(byte)))
+            }
+            Err(e) => Err(csv_error(&self.meta.path, e, self.reader.get_mut())),
+        }
+    }
+
+    /// The record last read, as a row at `line`.
+    fn row(&self, line: u64) -> Row<'_> {
+        Row {
+            table: &self.meta,
+            rec: &self.rec,
+            line,
+        }
+    }
+
+    /// Visit every data row (files without a scan column).
     fn for_each_row(
         &mut self,
         mut f: impl FnMut(&Row<'_>) -> Result<(), InputError>,
     ) -> Result<(), InputError> {
-        let mut rec = csv::ByteRecord::new();
-        let Table { meta, reader } = self;
-        loop {
-            match reader.read_byte_record(&mut rec) {
-                Ok(false) => break,
-                Ok(true) => {
-                    let line = rec.position().map(|p| p.line()).unwrap_or(0);
-                    f(&Row {
-                        table: meta,
-                        rec: &rec,
-                        line,
-                    })?;
-                }
-                Err(e) => return Err(csv_error(&meta.path, e)),
-            }
+        while let Some(line) = self.next_record()? {
+            f(&self.row(line))?;
         }
         Ok(())
     }
 }
 
-fn csv_error(path: &Path, e: csv::Error) -> InputError {
-    let line = e.position().map(|p| p.line());
+/// A csv crate error, with the line counted by `lines` (the crate's own line is wrong
+/// for CRLF files).
+fn csv_error<R>(path: &Path, e: csv::Error, lines: &mut LineCounter<R>) -> InputError {
+    let line = e.position().map(|p| lines.line_of(p.byte()));
     let reason = match e.kind() {
         csv::ErrorKind::UnequalLengths {
             expected_len, len, ..
         } => {
             format!("row has {len} fields, header has {expected_len}")
         }
-        csv::ErrorKind::Utf8 { .. } => "invalid UTF-8".to_string(),
+        csv::ErrorKind::Utf8 { err, .. } => {
+            format!("invalid UTF-8 in field {}", err.field() + 1)
+        }
+        csv::ErrorKind::Io(io) => format!("cannot read: {io}"),
         _ => e.to_string(),
     };
     InputError {
@@ -172,13 +221,23 @@ fn csv_error(path: &Path, e: csv::Error) -> InputError {
     }
 }
 
+/// The reason of a cell that is not UTF-8: which byte, where.
+fn utf8_reason(cell: &[u8], e: std::str::Utf8Error) -> String {
+    let at = e.valid_up_to();
+    format!(
+        "invalid UTF-8 (byte 0x{:02x} at byte {} of the cell); the file must be UTF-8 text",
+        cell.get(at).copied().unwrap_or(0),
+        at + 1
+    )
+}
+
 impl Row<'_> {
-    fn raw(&self, col: usize) -> &str {
-        self.rec
-            .get(col)
-            .and_then(|b| std::str::from_utf8(b).ok())
-            .unwrap_or("")
-            .trim()
+    /// The cell's text, trimmed; an error when it is not UTF-8.
+    fn raw(&self, col: usize) -> Result<&str, InputError> {
+        let cell = self.rec.get(col).unwrap_or(b"");
+        std::str::from_utf8(cell)
+            .map(str::trim)
+            .map_err(|e| self.err(col, utf8_reason(cell, e)))
     }
 
     fn err(&self, col: usize, reason: impl Into<String>) -> InputError {
@@ -191,13 +250,14 @@ impl Row<'_> {
         )
     }
 
+    /// Whether the cell is empty (or blank); a cell with any other byte is not.
     fn is_empty(&self, col: usize) -> bool {
-        self.raw(col).is_empty()
+        self.rec.get(col).is_none_or(|b| b.trim_ascii().is_empty())
     }
 
     /// A finite float.
     fn f64(&self, col: usize) -> Result<f64, InputError> {
-        let s = self.raw(col);
+        let s = self.raw(col)?;
         if s.is_empty() {
             return Err(self.err(col, "empty cell, a number is required"));
         }
@@ -219,7 +279,7 @@ impl Row<'_> {
     }
 
     fn int(&self, col: usize) -> Result<i64, InputError> {
-        let s = self.raw(col);
+        let s = self.raw(col)?;
         s.parse::<i64>().map_err(|_| {
             if s.is_empty() {
                 self.err(col, "empty cell, an integer is required")
@@ -241,53 +301,20 @@ impl Row<'_> {
         }
         Ok(v)
     }
-}
 
-/// Why a covariance read from a file is not one (FORMATS.md).
-#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum CovarianceError {
-    /// `P[row][col]` and `P[col][row]` differ by more than `1e-9` relative.
-    #[error("covariance is not symmetric: P{row}{col} = {upper} but P{col}{row} = {lower}")]
-    NotSymmetric {
-        row: usize,
-        col: usize,
-        upper: f64,
-        lower: f64,
-    },
-    /// The smallest eigenvalue is below `-1e-9` relative.
-    #[error("covariance is not positive semi-definite (smallest eigenvalue {min_eigenvalue})")]
-    NotPositiveSemidefinite { min_eigenvalue: f64 },
-}
-
-/// Check that a covariance is symmetric positive semi-definite within `1e-9` relative
-/// (FORMATS.md).
-pub fn check_covariance(p: &StateCov) -> Result<(), CovarianceError> {
-    let scale = p
-        .iter()
-        .fold(0.0f64, |m, v| m.max(v.abs()))
-        .max(f64::MIN_POSITIVE);
-    for r in 0..4 {
-        for c in (r + 1)..4 {
-            if (p[(r, c)] - p[(c, r)]).abs() > 1e-9 * scale {
-                return Err(CovarianceError::NotSymmetric {
-                    row: r,
-                    col: c,
-                    upper: p[(r, c)],
-                    lower: p[(c, r)],
-                });
-            }
+    /// A finite number above 0 (the scenario file's rule and wording for the same value).
+    fn positive(&self, col: usize) -> Result<f64, InputError> {
+        let v = self.f64(col)?;
+        if v <= 0.0 {
+            return Err(self.err(col, format!("{v} must be a positive number")));
         }
+        Ok(v)
     }
-    let eig = nalgebra::SymmetricEigen::new(crate::types::symmetrize(p));
-    let min = eig.eigenvalues.iter().fold(f64::INFINITY, |m, v| m.min(*v));
-    if min < -1e-9 * scale {
-        return Err(CovarianceError::NotPositiveSemidefinite {
-            min_eigenvalue: min,
-        });
-    }
-    Ok(())
 }
+
+/// The file contract's one definition of a valid covariance, shared with the fusion
+/// rules ([`crate::covariance`]).
+pub use crate::covariance::{check_covariance, CovarianceError};
 
 struct StateCols {
     state: [usize; 4],
@@ -295,7 +322,7 @@ struct StateCols {
 }
 
 impl StateCols {
-    fn find(t: &Table) -> Result<StateCols, InputError> {
+    fn find<R: Read>(t: &Table<R>) -> Result<StateCols, InputError> {
         let mut cov = [0usize; 16];
         for (i, name) in COV_COLUMNS.iter().enumerate() {
             cov[i] = t.col(name)?;
@@ -321,9 +348,211 @@ impl StateCols {
     }
 }
 
+/// Time must not go backwards within one key (a target, a track); `last` holds each
+/// key's latest time and its line.
+fn check_time<K: std::hash::Hash + Eq + std::fmt::Debug>(
+    row: &Row<'_>,
+    c_time: usize,
+    last: &mut HashMap<K, (f64, u64)>,
+    key: K,
+    time: f64,
+) -> Result<(), InputError> {
+    if let Some(&(t_prev, line_prev)) = last.get(&key) {
+        if time < t_prev {
+            return Err(row.err(
+                c_time,
+                format!(
+                    "time goes backwards for {key:?}: {time} after {t_prev} (line {line_prev})"
+                ),
+            ));
+        }
+    }
+    last.insert(key, (time, row.line));
+    Ok(())
+}
+
+/// How one file kind's rows are parsed, checked and ordered within a scan.
+trait ScanRows {
+    type Item;
+    /// Index of the `scan` column.
+    fn scan_col(&self) -> usize;
+    /// A new scan starts: forget what only one scan needs (duplicate sets, per-scan
+    /// maps), so memory does not grow with the number of scans.
+    fn start_scan(&mut self);
+    /// Parse and check one row of scan `scan`.
+    fn parse(&mut self, row: &Row<'_>, scan: u32) -> Result<Self::Item, InputError>;
+    /// Bring one scan's rows (with their lines) into the order the reader returns.
+    fn order(rows: &mut [(Self::Item, u64)]);
+}
+
+/// The scan-at-a-time reader behind every `*Stream`.
+struct ScanReader<P: ScanRows, R: Read> {
+    table: Table<R>,
+    rows: P,
+    /// `table.rec` holds a record already read that starts the next scan: its line and
+    /// scan.
+    pending: Option<(u64, u32)>,
+    /// Scan and line of the last row read (the ordering rule).
+    prev: Option<(u32, u64)>,
+    /// The first error: the stream returns it again rather than going on past it.
+    failed: Option<InputError>,
+    scratch: Vec<(P::Item, u64)>,
+    /// The line of each row of the last scan returned.
+    lines: Vec<u64>,
+}
+
+impl<P: ScanRows, R: Read> ScanReader<P, R> {
+    fn new(table: Table<R>, rows: P) -> Self {
+        ScanReader {
+            table,
+            rows,
+            pending: None,
+            prev: None,
+            failed: None,
+            scratch: Vec::new(),
+            lines: Vec::new(),
+        }
+    }
+
+    fn next_scan(&mut self, buf: &mut Vec<P::Item>) -> Result<Option<u32>, InputError> {
+        buf.clear();
+        self.lines.clear();
+        self.scratch.clear();
+        if let Some(e) = &self.failed {
+            return Err(e.clone());
+        }
+        match self.fill() {
+            Ok(Some(scan)) => {
+                P::order(&mut self.scratch);
+                for (item, line) in self.scratch.drain(..) {
+                    buf.push(item);
+                    self.lines.push(line);
+                }
+                Ok(Some(scan))
+            }
+            Ok(None) => Ok(None),
+            Err(e) => {
+                self.scratch.clear();
+                self.failed = Some(e.clone());
+                Err(e)
+            }
+        }
+    }
+
+    /// Read the rows of the next scan into `scratch`.
+    fn fill(&mut self) -> Result<Option<u32>, InputError> {
+        let mut current = None;
+        loop {
+            let (line, scan) = match self.pending.take() {
+                Some(p) => p,
+                None => {
+                    let Some(line) = self.table.next_record()? else {
+                        break;
+                    };
+                    let row = self.table.row(line);
+                    let c = self.rows.scan_col();
+                    let scan = row.scan(c)?;
+                    if let Some((prev_scan, prev_line)) = self.prev {
+                        if scan < prev_scan {
+                            return Err(row.err(
+                                c,
+                                format!(
+                                    "scan {scan} comes after scan {prev_scan} (line \
+                                     {prev_line}): {SORT_HINT}"
+                                ),
+                            ));
+                        }
+                    }
+                    self.prev = Some((scan, line));
+                    (line, scan)
+                }
+            };
+            match current {
+                Some(c) if c != scan => {
+                    self.pending = Some((line, scan));
+                    break;
+                }
+                Some(_) => {}
+                None => {
+                    current = Some(scan);
+                    self.rows.start_scan();
+                }
+            }
+            let item = self.rows.parse(&self.table.row(line), scan)?;
+            self.scratch.push((item, line));
+        }
+        Ok(current)
+    }
+}
+
+/// The public streams: one scan at a time, and the whole file collected.
+macro_rules! scan_stream {
+    ($(#[$doc:meta])* $name:ident, $rows:ty, $item:ty) => {
+        $(#[$doc])*
+        pub struct $name<R: Read = File>(ScanReader<$rows, R>);
+
+        impl<R: Read> $name<R> {
+            /// The rows of the next scan, into `buf` (cleared first, its capacity
+            /// reused), in the order the whole-file reader returns them; the scan index,
+            /// or `None` at the end of the file. After an error every later call returns
+            /// the same error.
+            pub fn next_scan(&mut self, buf: &mut Vec<$item>) -> Result<Option<u32>, InputError> {
+                self.0.next_scan(buf)
+            }
+
+            /// The 1-based file line of each row the last [`Self::next_scan`] returned
+            /// (same order as its rows), to name the line of a row in later errors.
+            pub fn lines(&self) -> &[u64] {
+                &self.0.lines
+            }
+
+            /// The file name used in messages.
+            pub fn path(&self) -> &Path {
+                &self.0.table.meta.path
+            }
+
+            /// The 1-based number of the column `name` in the header, if it has one.
+            pub fn column(&self, name: &str) -> Option<usize> {
+                self.0.table.opt(name).map(|c| c + 1)
+            }
+
+            /// Data rows read so far (including one read ahead of the last scan).
+            pub fn rows_read(&self) -> u64 {
+                self.0.table.rows
+            }
+
+            /// Every remaining row (the whole file when called first).
+            pub fn collect_rows(mut self) -> Result<Vec<$item>, InputError> {
+                let mut out = Vec::new();
+                let mut buf = Vec::new();
+                while self.next_scan(&mut buf)?.is_some() {
+                    out.append(&mut buf);
+                }
+                Ok(out)
+            }
+        }
+    };
+}
+
+// ---------------------------------------------------------------- sensors.csv
+
 /// Read `sensors.csv`.
 pub fn read_sensors(path: &Path) -> Result<Vec<Sensor>, InputError> {
-    let mut t = Table::open(path)?;
+    read_sensors_from(open_file(path)?, path)
+}
+
+/// [`read_sensors`] from any input; `path` names it in messages.
+///
+/// Values follow the scenario file's rule for the same keys: `sigma_r`, `sigma_theta`
+/// (range_bearing) and `sigma_x`, `sigma_y` (position) must be positive, `pd` in
+/// [0, 1], `max_range` and `clutter_density` >= 0, `sensor_id` >= 0, and a position
+/// sensor's `bias_r`, `bias_theta` 0 (biases apply to range_bearing sensors only).
+pub fn read_sensors_from<R: Read>(
+    reader: R,
+    path: impl AsRef<Path>,
+) -> Result<Vec<Sensor>, InputError> {
+    let path = path.as_ref();
+    let mut t = Table::new(reader, path)?;
     let c_id = t.col("sensor_id")?;
     let c_x = t.col("x")?;
     let c_y = t.col("y")?;
@@ -346,6 +575,9 @@ pub fn read_sensors(path: &Path) -> Result<Vec<Sensor>, InputError> {
     let mut seen = HashMap::new();
     t.for_each_row(|row| {
         let id = row.int(c_id)?;
+        if id < 0 {
+            return Err(row.err(c_id, format!("{id} must not be negative")));
+        }
         if let Some(prev) = seen.insert(id, row.line) {
             return Err(row.err(
                 c_id,
@@ -353,7 +585,7 @@ pub fn read_sensors(path: &Path) -> Result<Vec<Sensor>, InputError> {
             ));
         }
         let kind = match c_kind {
-            Some(c) if !row.is_empty(c) => match row.raw(c) {
+            Some(c) if !row.is_empty(c) => match row.raw(c)? {
                 "range_bearing" => SensorKind::RangeBearing,
                 "position" => SensorKind::Position,
                 other => {
@@ -367,7 +599,7 @@ pub fn read_sensors(path: &Path) -> Result<Vec<Sensor>, InputError> {
         };
         let need = |c: Option<usize>, name: &str| -> Result<f64, InputError> {
             match c {
-                Some(c) => row.nonneg(c),
+                Some(c) => row.positive(c),
                 None => Err(InputError::line(
                     &row.table.path,
                     row.line,
@@ -391,6 +623,18 @@ pub fn read_sensors(path: &Path) -> Result<Vec<Sensor>, InputError> {
             Some(c) if !row.is_empty(c) => Some(row.nonneg(c)?),
             _ => None,
         };
+        let bias_r = row.opt_f64(c_br)?.unwrap_or(0.0);
+        let bias_theta = row.opt_f64(c_bt)?.unwrap_or(0.0);
+        if kind == SensorKind::Position {
+            for (c, b) in [(c_br, bias_r), (c_bt, bias_theta)] {
+                if let (Some(c), true) = (c, b != 0.0) {
+                    return Err(row.err(
+                        c,
+                        "range/bearing biases apply to range_bearing sensors only",
+                    ));
+                }
+            }
+        }
         out.push(Sensor {
             id,
             kind,
@@ -399,8 +643,8 @@ pub fn read_sensors(path: &Path) -> Result<Vec<Sensor>, InputError> {
             sigma_a: sa,
             sigma_b: sb,
             pd,
-            bias_r: row.opt_f64(c_br)?.unwrap_or(0.0),
-            bias_theta: row.opt_f64(c_bt)?.unwrap_or(0.0),
+            bias_r,
+            bias_theta,
             max_range,
             clutter_density,
         });
@@ -415,106 +659,141 @@ pub fn read_sensors(path: &Path) -> Result<Vec<Sensor>, InputError> {
     Ok(out)
 }
 
-/// Read `truth.csv`. Rows must not repeat `(scan, target_id)`; time must not go backwards
-/// within a target.
-pub fn read_truth(path: &Path) -> Result<Vec<TruthState>, InputError> {
-    let mut t = Table::open(path)?;
-    let c_scan = t.col("scan")?;
-    let c_time = t.col("time")?;
-    let c_tid = t.col("target_id")?;
-    let cs = [t.col("x")?, t.col("vx")?, t.col("y")?, t.col("vy")?];
-    let mut out = Vec::new();
-    let mut seen: HashSet<(u32, Id)> = HashSet::new();
-    let mut last: HashMap<Id, (f64, u32)> = HashMap::new();
-    t.for_each_row(|row| {
-        let scan = row.scan(c_scan)?;
-        let time = row.f64(c_time)?;
-        let target_id = row.int(c_tid)?;
-        if !seen.insert((scan, target_id)) {
+// ---------------------------------------------------------------- truth.csv
+
+struct TruthRows {
+    c_scan: usize,
+    c_time: usize,
+    c_tid: usize,
+    cs: [usize; 4],
+    /// Targets seen in the current scan.
+    seen: HashSet<Id>,
+    last: HashMap<Id, (f64, u64)>,
+}
+
+impl ScanRows for TruthRows {
+    type Item = TruthState;
+    fn scan_col(&self) -> usize {
+        self.c_scan
+    }
+    fn start_scan(&mut self) {
+        self.seen.clear();
+    }
+    fn parse(&mut self, row: &Row<'_>, scan: u32) -> Result<TruthState, InputError> {
+        let time = row.f64(self.c_time)?;
+        let target_id = row.int(self.c_tid)?;
+        if !self.seen.insert(target_id) {
             return Err(InputError::line(
                 &row.table.path,
                 row.line,
                 format!("duplicate row for scan {scan}, target_id {target_id}"),
             ));
         }
-        check_time(row, c_time, &mut last, target_id, time, scan)?;
+        check_time(row, self.c_time, &mut self.last, target_id, time)?;
         let mut state = StateVec::zeros();
         for i in 0..4 {
-            state[i] = row.f64(cs[i])?;
+            state[i] = row.f64(self.cs[i])?;
         }
-        out.push(TruthState {
+        Ok(TruthState {
             scan,
             time,
             target_id,
             state,
-        });
-        Ok(())
-    })?;
+        })
+    }
+    /// The file's order within a scan.
+    fn order(_: &mut [(TruthState, u64)]) {}
+}
+
+scan_stream!(
+    /// `truth.csv`, one scan at a time (rows in the file's order). Rows must not repeat
+    /// `(scan, target_id)`; time must not go backwards within a target.
+    TruthStream,
+    TruthRows,
+    TruthState
+);
+
+impl TruthStream<File> {
+    pub fn open(path: &Path) -> Result<Self, InputError> {
+        Self::from_reader(open_file(path)?, path)
+    }
+}
+
+impl<R: Read> TruthStream<R> {
+    /// The stream over any input; `path` names it in messages.
+    pub fn from_reader(reader: R, path: impl AsRef<Path>) -> Result<Self, InputError> {
+        let t = Table::new(reader, path.as_ref())?;
+        let rows = TruthRows {
+            c_scan: t.col("scan")?,
+            c_time: t.col("time")?,
+            c_tid: t.col("target_id")?,
+            cs: [t.col("x")?, t.col("vx")?, t.col("y")?, t.col("vy")?],
+            seen: HashSet::new(),
+            last: HashMap::new(),
+        };
+        Ok(TruthStream(ScanReader::new(t, rows)))
+    }
+}
+
+/// The error of a truth file without rows: metrics against no truth would all be
+/// undefined, so it is refused rather than evaluated to nothing.
+pub fn no_truth_rows(path: &Path) -> InputError {
+    InputError::file(path, "no truth rows (the file has a header but no rows)")
+}
+
+/// Read `truth.csv` (see [`TruthStream`]). A file with a header and no rows is an error.
+pub fn read_truth(path: &Path) -> Result<Vec<TruthState>, InputError> {
+    read_truth_from(open_file(path)?, path)
+}
+
+/// [`read_truth`] from any input; `path` names it in messages.
+pub fn read_truth_from<R: Read>(
+    reader: R,
+    path: impl AsRef<Path>,
+) -> Result<Vec<TruthState>, InputError> {
+    let out = TruthStream::from_reader(reader, path.as_ref())?.collect_rows()?;
+    if out.is_empty() {
+        return Err(no_truth_rows(path.as_ref()));
+    }
     Ok(out)
 }
 
-fn check_time<K: std::hash::Hash + Eq + std::fmt::Debug>(
-    row: &Row<'_>,
+// ---------------------------------------------------------------- measurements.csv
+
+struct MeasurementRows {
+    c_scan: usize,
     c_time: usize,
-    last: &mut HashMap<K, (f64, u32)>,
-    key: K,
-    time: f64,
-    scan: u32,
-) -> Result<(), InputError> {
-    if let Some(&(t_prev, line_prev)) = last.get(&key) {
-        if time < t_prev {
-            return Err(row.err(
-                c_time,
-                format!(
-                    "time goes backwards for {key:?}: {time} after {t_prev} (line {line_prev})"
-                ),
-            ));
-        }
-    }
-    let _ = scan;
-    last.insert(key, (time, row.line as u32));
-    Ok(())
+    c_sid: usize,
+    rb_cols: Option<(usize, usize)>,
+    pos_cols: Option<(usize, usize)>,
+    c_tid: Option<usize>,
+    kinds: Option<HashMap<Id, SensorKind>>,
+    /// `(sensor, range|x bits, bearing|y bits)` of the current scan.
+    seen: HashSet<(Id, u64, u64)>,
+    /// Each sensor's time in the current scan.
+    scan_time: HashMap<Id, f64>,
+    /// Each sensor's time in its latest scan, with the scan and a line of it.
+    last: HashMap<Id, (f64, u32, u64)>,
 }
 
-/// Read `measurements.csv`. When `sensors` is given, every `sensor_id` must be one of them
-/// and each row must carry the cells of its sensor's kind. Rows are returned sorted by
-/// `(scan, sensor_id)` (stable, so the file's order within a scan and sensor is kept).
-/// The `target_id` column is read for evaluation; trackers must not use it.
-pub fn read_measurements(
-    path: &Path,
-    sensors: Option<&[Sensor]>,
-) -> Result<Vec<Measurement>, InputError> {
-    let mut t = Table::open(path)?;
-    let c_scan = t.col("scan")?;
-    let c_time = t.col("time")?;
-    let c_sid = t.col("sensor_id")?;
-    let c_r = t.opt("range");
-    let c_b = t.opt("bearing");
-    let c_x = t.opt("x");
-    let c_y = t.opt("y");
-    let c_tid = t.opt("target_id");
-    let rb_cols = c_r.zip(c_b);
-    let pos_cols = c_x.zip(c_y);
-    if rb_cols.is_none() && pos_cols.is_none() {
-        return Err(InputError {
-            file: path.to_path_buf(),
-            line: Some(1),
-            column: None,
-            column_name: Some("range,bearing / x,y".into()),
-            reason: "missing measurement columns: need range and bearing, or x and y".into(),
-        });
+impl ScanRows for MeasurementRows {
+    type Item = Measurement;
+    fn scan_col(&self) -> usize {
+        self.c_scan
     }
-    let kinds: Option<HashMap<Id, SensorKind>> =
-        sensors.map(|s| s.iter().map(|s| (s.id, s.kind)).collect());
-    let mut out: Vec<(Measurement, u64)> = Vec::new();
-    let mut seen: HashSet<(u32, Id, u64, u64)> = HashSet::new();
-    let mut scan_time: HashMap<(Id, u32), f64> = HashMap::new();
-    t.for_each_row(|row| {
-        let scan = row.scan(c_scan)?;
-        let time = row.f64(c_time)?;
-        let sensor_id = row.int(c_sid)?;
-        let has_rb = rb_cols.is_some_and(|(r, b)| !row.is_empty(r) || !row.is_empty(b));
-        let has_pos = pos_cols.is_some_and(|(x, y)| !row.is_empty(x) || !row.is_empty(y));
+    fn start_scan(&mut self) {
+        self.seen.clear();
+        self.scan_time.clear();
+    }
+    fn parse(&mut self, row: &Row<'_>, scan: u32) -> Result<Measurement, InputError> {
+        let time = row.f64(self.c_time)?;
+        let sensor_id = row.int(self.c_sid)?;
+        let has_rb = self
+            .rb_cols
+            .is_some_and(|(r, b)| !row.is_empty(r) || !row.is_empty(b));
+        let has_pos = self
+            .pos_cols
+            .is_some_and(|(x, y)| !row.is_empty(x) || !row.is_empty(y));
         let kind = match (has_rb, has_pos) {
             (true, false) => SensorKind::RangeBearing,
             (false, true) => SensorKind::Position,
@@ -531,17 +810,17 @@ pub fn read_measurements(
                 ))
             }
         };
-        if let Some(k) = &kinds {
+        if let Some(k) = &self.kinds {
             match k.get(&sensor_id) {
                 None => {
                     return Err(row.err(
-                        c_sid,
+                        self.c_sid,
                         format!("sensor_id {sensor_id} is not in sensors.csv"),
                     ))
                 }
                 Some(&sk) if sk != kind => {
                     return Err(row.err(
-                        c_sid,
+                        self.c_sid,
                         format!(
                             "sensor {sensor_id} is a {} sensor but this row has {} cells",
                             sk.as_str(),
@@ -554,135 +833,285 @@ pub fn read_measurements(
         }
         let value = match kind {
             SensorKind::RangeBearing => {
-                let (cr, cb) = rb_cols.unwrap_or((0, 0));
+                let (cr, cb) = self.rb_cols.unwrap_or((0, 0));
                 let r = row.nonneg(cr)?;
                 Vec2::new(r, wrap_angle(row.f64(cb)?))
             }
             SensorKind::Position => {
-                let (cx, cy) = pos_cols.unwrap_or((0, 0));
+                let (cx, cy) = self.pos_cols.unwrap_or((0, 0));
                 Vec2::new(row.f64(cx)?, row.f64(cy)?)
             }
         };
-        let target_id = match c_tid {
+        let target_id = match self.c_tid {
             Some(c) if !row.is_empty(c) => row.int(c)?,
             _ => -1,
         };
-        match scan_time.get(&(sensor_id, scan)) {
+        match self.scan_time.get(&sensor_id) {
             Some(&t0) if t0 != time => {
                 return Err(row.err(
-                    c_time,
+                    self.c_time,
                     format!("scan {scan} of sensor {sensor_id} has two times: {t0} and {time}"),
                 ))
             }
-            _ => {
-                scan_time.insert((sensor_id, scan), time);
+            Some(_) => {}
+            None => {
+                self.scan_time.insert(sensor_id, time);
             }
         }
-        if !seen.insert((scan, sensor_id, value[0].to_bits(), value[1].to_bits())) {
+        if !self
+            .seen
+            .insert((sensor_id, value[0].to_bits(), value[1].to_bits()))
+        {
             return Err(InputError::line(
                 &row.table.path,
                 row.line,
                 "duplicate row (same scan, sensor and measurement as an earlier row)",
             ));
         }
-        out.push((
-            Measurement {
-                scan,
-                time,
-                sensor_id,
-                kind,
-                value,
-                target_id,
-            },
-            row.line,
-        ));
-        Ok(())
-    })?;
-    out.sort_by_key(|(m, _)| (m.scan, m.sensor_id));
-    // time must not go backwards as the scan index grows, per sensor
-    let mut last: HashMap<Id, (f64, u64)> = HashMap::new();
-    for (m, line) in &out {
-        if let Some(&(t_prev, l_prev)) = last.get(&m.sensor_id) {
-            if m.time < t_prev {
-                let c = t.col("time")?;
-                return Err(InputError::cell(
-                    path,
-                    *line,
-                    c + 1,
-                    "time",
-                    format!("time goes backwards for sensor {}: scan {} at {} but an earlier scan (line {l_prev}) at {t_prev}", m.sensor_id, m.scan, m.time),
+        // time must not go backwards as the scan index grows, per sensor
+        if let Some(&(t_prev, s_prev, l_prev)) = self.last.get(&sensor_id) {
+            if s_prev != scan && time < t_prev {
+                return Err(row.err(
+                    self.c_time,
+                    format!(
+                        "time goes backwards for sensor {sensor_id}: scan {scan} at {time} but \
+                         an earlier scan (line {l_prev}) at {t_prev}"
+                    ),
                 ));
             }
         }
-        last.insert(m.sensor_id, (m.time, *line));
+        self.last.insert(sensor_id, (time, scan, row.line));
+        Ok(Measurement {
+            scan,
+            time,
+            sensor_id,
+            kind,
+            value,
+            target_id,
+        })
     }
-    Ok(out.into_iter().map(|(m, _)| m).collect())
+    /// Stable by sensor: the file's order within a sensor is kept.
+    fn order(rows: &mut [(Measurement, u64)]) {
+        rows.sort_by_key(|(m, _)| m.sensor_id);
+    }
 }
 
-/// Read `local_tracks.csv`. Rows are returned sorted by `(scan, sensor_id, track_id)`.
-pub fn read_local_tracks(path: &Path) -> Result<Vec<LocalTrack>, InputError> {
-    let mut t = Table::open(path)?;
-    let c_scan = t.col("scan")?;
-    let c_time = t.col("time")?;
-    let c_sid = t.col("sensor_id")?;
-    let c_tid = t.col("track_id")?;
-    let sc = StateCols::find(&t)?;
-    let mut out = Vec::new();
-    let mut seen: HashMap<(u32, Id, Id), u64> = HashMap::new();
-    let mut last: HashMap<(Id, Id), (f64, u32)> = HashMap::new();
-    t.for_each_row(|row| {
-        let scan = row.scan(c_scan)?;
-        let time = row.f64(c_time)?;
-        let sensor_id = row.int(c_sid)?;
-        let track_id = row.int(c_tid)?;
-        if let Some(prev) = seen.insert((scan, sensor_id, track_id), row.line) {
+scan_stream!(
+    /// `measurements.csv`, one scan at a time, each scan's rows stable-sorted by
+    /// `sensor_id` (the file's order within a sensor is kept). When sensors are given,
+    /// every `sensor_id` must be one of them and each row must carry the cells of its
+    /// sensor's kind. One sensor's rows of one scan share one time, and a sensor's time
+    /// must not go backwards from scan to scan. The `target_id` column is read for
+    /// evaluation; trackers must not use it.
+    MeasurementStream,
+    MeasurementRows,
+    Measurement
+);
+
+impl MeasurementStream<File> {
+    pub fn open(path: &Path, sensors: Option<&[Sensor]>) -> Result<Self, InputError> {
+        Self::from_reader(open_file(path)?, path, sensors)
+    }
+}
+
+impl<R: Read> MeasurementStream<R> {
+    /// The stream over any input; `path` names it in messages.
+    pub fn from_reader(
+        reader: R,
+        path: impl AsRef<Path>,
+        sensors: Option<&[Sensor]>,
+    ) -> Result<Self, InputError> {
+        let path = path.as_ref();
+        let t = Table::new(reader, path)?;
+        let c_scan = t.col("scan")?;
+        let c_time = t.col("time")?;
+        let c_sid = t.col("sensor_id")?;
+        let rb_cols = t.opt("range").zip(t.opt("bearing"));
+        let pos_cols = t.opt("x").zip(t.opt("y"));
+        if rb_cols.is_none() && pos_cols.is_none() {
+            return Err(InputError {
+                file: path.to_path_buf(),
+                line: Some(t.meta.header_line),
+                column: None,
+                column_name: Some("range,bearing / x,y".into()),
+                reason: "missing measurement columns: need range and bearing, or x and y".into(),
+            });
+        }
+        let rows = MeasurementRows {
+            c_scan,
+            c_time,
+            c_sid,
+            rb_cols,
+            pos_cols,
+            c_tid: t.opt("target_id"),
+            kinds: sensors.map(|s| s.iter().map(|s| (s.id, s.kind)).collect()),
+            seen: HashSet::new(),
+            scan_time: HashMap::new(),
+            last: HashMap::new(),
+        };
+        Ok(MeasurementStream(ScanReader::new(t, rows)))
+    }
+}
+
+/// Read `measurements.csv` (see [`MeasurementStream`]): rows in scan order, each scan
+/// stable-sorted by `sensor_id`.
+pub fn read_measurements(
+    path: &Path,
+    sensors: Option<&[Sensor]>,
+) -> Result<Vec<Measurement>, InputError> {
+    MeasurementStream::open(path, sensors)?.collect_rows()
+}
+
+/// [`read_measurements`] from any input; `path` names it in messages.
+pub fn read_measurements_from<R: Read>(
+    reader: R,
+    path: impl AsRef<Path>,
+    sensors: Option<&[Sensor]>,
+) -> Result<Vec<Measurement>, InputError> {
+    MeasurementStream::from_reader(reader, path, sensors)?.collect_rows()
+}
+
+// ---------------------------------------------------------------- local_tracks.csv
+
+struct LocalTrackRows {
+    c_scan: usize,
+    c_time: usize,
+    c_sid: usize,
+    c_tid: usize,
+    sc: StateCols,
+    /// `(sensor, track)` of the current scan and its line.
+    seen: HashMap<(Id, Id), u64>,
+    last: HashMap<(Id, Id), (f64, u64)>,
+}
+
+impl ScanRows for LocalTrackRows {
+    type Item = LocalTrack;
+    fn scan_col(&self) -> usize {
+        self.c_scan
+    }
+    fn start_scan(&mut self) {
+        self.seen.clear();
+    }
+    fn parse(&mut self, row: &Row<'_>, scan: u32) -> Result<LocalTrack, InputError> {
+        let time = row.f64(self.c_time)?;
+        let sensor_id = row.int(self.c_sid)?;
+        let track_id = row.int(self.c_tid)?;
+        if let Some(prev) = self.seen.insert((sensor_id, track_id), row.line) {
             return Err(InputError::line(
                 &row.table.path,
                 row.line,
                 format!("duplicate row: scan {scan}, sensor {sensor_id}, track {track_id} already on line {prev}"),
             ));
         }
-        check_time(row, c_time, &mut last, (sensor_id, track_id), time, scan)?;
-        let (state, cov) = sc.read(row)?;
-        out.push(LocalTrack { scan, time, sensor_id, track_id, state, cov });
-        Ok(())
-    })?;
-    out.sort_by_key(|l| (l.scan, l.sensor_id, l.track_id));
-    Ok(out)
+        check_time(
+            row,
+            self.c_time,
+            &mut self.last,
+            (sensor_id, track_id),
+            time,
+        )?;
+        let (state, cov) = self.sc.read(row)?;
+        Ok(LocalTrack {
+            scan,
+            time,
+            sensor_id,
+            track_id,
+            state,
+            cov,
+        })
+    }
+    fn order(rows: &mut [(LocalTrack, u64)]) {
+        rows.sort_by_key(|(l, _)| (l.sensor_id, l.track_id));
+    }
 }
 
-/// Read `fused_tracks.csv`. Rows are returned sorted by `(scan, fused_id)`.
-pub fn read_fused_tracks(path: &Path) -> Result<Vec<FusedTrack>, InputError> {
-    let mut t = Table::open(path)?;
-    let c_scan = t.col("scan")?;
-    let c_time = t.col("time")?;
-    let c_fid = t.col("fused_id")?;
-    let c_n = t.col("n_sources")?;
-    let c_src = t.opt("sources");
-    let sc = StateCols::find(&t)?;
-    let mut out = Vec::new();
-    let mut seen: HashMap<(u32, Id), u64> = HashMap::new();
-    let mut last: HashMap<Id, (f64, u32)> = HashMap::new();
-    t.for_each_row(|row| {
-        let scan = row.scan(c_scan)?;
-        let time = row.f64(c_time)?;
-        let fused_id = row.int(c_fid)?;
-        if let Some(prev) = seen.insert((scan, fused_id), row.line) {
+scan_stream!(
+    /// `local_tracks.csv`, one scan at a time, each scan's rows sorted by
+    /// `(sensor_id, track_id)`. A `(sensor_id, track_id)` appears once per scan; time
+    /// must not go backwards within one `(sensor_id, track_id)`.
+    LocalTrackStream,
+    LocalTrackRows,
+    LocalTrack
+);
+
+impl LocalTrackStream<File> {
+    pub fn open(path: &Path) -> Result<Self, InputError> {
+        Self::from_reader(open_file(path)?, path)
+    }
+}
+
+impl<R: Read> LocalTrackStream<R> {
+    /// The stream over any input; `path` names it in messages.
+    pub fn from_reader(reader: R, path: impl AsRef<Path>) -> Result<Self, InputError> {
+        let t = Table::new(reader, path.as_ref())?;
+        let rows = LocalTrackRows {
+            c_scan: t.col("scan")?,
+            c_time: t.col("time")?,
+            c_sid: t.col("sensor_id")?,
+            c_tid: t.col("track_id")?,
+            sc: StateCols::find(&t)?,
+            seen: HashMap::new(),
+            last: HashMap::new(),
+        };
+        Ok(LocalTrackStream(ScanReader::new(t, rows)))
+    }
+}
+
+/// Read `local_tracks.csv` (see [`LocalTrackStream`]): rows sorted by
+/// `(scan, sensor_id, track_id)`.
+pub fn read_local_tracks(path: &Path) -> Result<Vec<LocalTrack>, InputError> {
+    LocalTrackStream::open(path)?.collect_rows()
+}
+
+/// [`read_local_tracks`] from any input; `path` names it in messages.
+pub fn read_local_tracks_from<R: Read>(
+    reader: R,
+    path: impl AsRef<Path>,
+) -> Result<Vec<LocalTrack>, InputError> {
+    LocalTrackStream::from_reader(reader, path)?.collect_rows()
+}
+
+// ---------------------------------------------------------------- fused_tracks.csv
+
+struct FusedTrackRows {
+    c_scan: usize,
+    c_time: usize,
+    c_fid: usize,
+    c_n: usize,
+    c_src: Option<usize>,
+    sc: StateCols,
+    /// `fused_id`s of the current scan and their lines.
+    seen: HashMap<Id, u64>,
+    last: HashMap<Id, (f64, u64)>,
+}
+
+impl ScanRows for FusedTrackRows {
+    type Item = FusedTrack;
+    fn scan_col(&self) -> usize {
+        self.c_scan
+    }
+    fn start_scan(&mut self) {
+        self.seen.clear();
+    }
+    fn parse(&mut self, row: &Row<'_>, scan: u32) -> Result<FusedTrack, InputError> {
+        let time = row.f64(self.c_time)?;
+        let fused_id = row.int(self.c_fid)?;
+        if let Some(prev) = self.seen.insert(fused_id, row.line) {
             return Err(InputError::line(
                 &row.table.path,
                 row.line,
                 format!("duplicate row: scan {scan}, fused_id {fused_id} already on line {prev}"),
             ));
         }
-        check_time(row, c_time, &mut last, fused_id, time, scan)?;
-        let (state, cov) = sc.read(row)?;
-        let n = row.int(c_n)?;
+        check_time(row, self.c_time, &mut self.last, fused_id, time)?;
+        let (state, cov) = self.sc.read(row)?;
+        let n = row.int(self.c_n)?;
         if n < 0 {
-            return Err(row.err(c_n, "n_sources must not be negative"));
+            return Err(row.err(self.c_n, "n_sources must not be negative"));
         }
         let mut sources = Vec::new();
-        if let Some(c) = c_src {
-            let s = row.raw(c);
+        if let Some(c) = self.c_src {
+            let s = row.raw(c)?;
             if !s.is_empty() {
                 for part in s.split('|') {
                     let parsed = part.split_once(':').and_then(|(a, b)| {
@@ -705,37 +1134,93 @@ pub fn read_fused_tracks(path: &Path) -> Result<Vec<FusedTrack>, InputError> {
                 }
             }
         }
-        out.push(FusedTrack {
+        Ok(FusedTrack {
             scan,
             time,
             fused_id,
             state,
             cov,
             sources,
-        });
-        Ok(())
-    })?;
-    out.sort_by_key(|f| (f.scan, f.fused_id));
-    Ok(out)
+        })
+    }
+    fn order(rows: &mut [(FusedTrack, u64)]) {
+        rows.sort_by_key(|(f, _)| f.fused_id);
+    }
 }
 
-/// Read `associations.csv`. A `(scan, sensor_id, track_id)` may appear once.
-pub fn read_associations(path: &Path) -> Result<Vec<Association>, InputError> {
-    let mut t = Table::open(path)?;
-    let c_scan = t.col("scan")?;
-    let c_sid = t.col("sensor_id")?;
-    let c_tid = t.col("track_id")?;
-    let c_fid = t.col("fused_id")?;
-    let mut out = Vec::new();
-    let mut seen: HashMap<(u32, Id, Id), u64> = HashMap::new();
-    t.for_each_row(|row| {
-        let a = Association {
-            scan: row.scan(c_scan)?,
-            sensor_id: row.int(c_sid)?,
-            track_id: row.int(c_tid)?,
-            fused_id: row.int(c_fid)?,
+scan_stream!(
+    /// `fused_tracks.csv`, one scan at a time, each scan's rows sorted by `fused_id`. A
+    /// `fused_id` appears once per scan; time must not go backwards within one
+    /// `fused_id`.
+    FusedTrackStream,
+    FusedTrackRows,
+    FusedTrack
+);
+
+impl FusedTrackStream<File> {
+    pub fn open(path: &Path) -> Result<Self, InputError> {
+        Self::from_reader(open_file(path)?, path)
+    }
+}
+
+impl<R: Read> FusedTrackStream<R> {
+    /// The stream over any input; `path` names it in messages.
+    pub fn from_reader(reader: R, path: impl AsRef<Path>) -> Result<Self, InputError> {
+        let t = Table::new(reader, path.as_ref())?;
+        let rows = FusedTrackRows {
+            c_scan: t.col("scan")?,
+            c_time: t.col("time")?,
+            c_fid: t.col("fused_id")?,
+            c_n: t.col("n_sources")?,
+            c_src: t.opt("sources"),
+            sc: StateCols::find(&t)?,
+            seen: HashMap::new(),
+            last: HashMap::new(),
         };
-        if let Some(prev) = seen.insert((a.scan, a.sensor_id, a.track_id), row.line) {
+        Ok(FusedTrackStream(ScanReader::new(t, rows)))
+    }
+}
+
+/// Read `fused_tracks.csv` (see [`FusedTrackStream`]): rows sorted by `(scan, fused_id)`.
+pub fn read_fused_tracks(path: &Path) -> Result<Vec<FusedTrack>, InputError> {
+    FusedTrackStream::open(path)?.collect_rows()
+}
+
+/// [`read_fused_tracks`] from any input; `path` names it in messages.
+pub fn read_fused_tracks_from<R: Read>(
+    reader: R,
+    path: impl AsRef<Path>,
+) -> Result<Vec<FusedTrack>, InputError> {
+    FusedTrackStream::from_reader(reader, path)?.collect_rows()
+}
+
+// ---------------------------------------------------------------- associations.csv
+
+struct AssociationRows {
+    c_scan: usize,
+    c_sid: usize,
+    c_tid: usize,
+    c_fid: usize,
+    /// `(sensor, track)` of the current scan and its line.
+    seen: HashMap<(Id, Id), u64>,
+}
+
+impl ScanRows for AssociationRows {
+    type Item = Association;
+    fn scan_col(&self) -> usize {
+        self.c_scan
+    }
+    fn start_scan(&mut self) {
+        self.seen.clear();
+    }
+    fn parse(&mut self, row: &Row<'_>, scan: u32) -> Result<Association, InputError> {
+        let a = Association {
+            scan,
+            sensor_id: row.int(self.c_sid)?,
+            track_id: row.int(self.c_tid)?,
+            fused_id: row.int(self.c_fid)?,
+        };
+        if let Some(prev) = self.seen.insert((a.sensor_id, a.track_id), row.line) {
             return Err(InputError::line(
                 &row.table.path,
                 row.line,
@@ -745,11 +1230,53 @@ pub fn read_associations(path: &Path) -> Result<Vec<Association>, InputError> {
                 ),
             ));
         }
-        out.push(a);
-        Ok(())
-    })?;
-    out.sort();
-    Ok(out)
+        Ok(a)
+    }
+    fn order(rows: &mut [(Association, u64)]) {
+        rows.sort_by_key(|(a, _)| *a);
+    }
+}
+
+scan_stream!(
+    /// `associations.csv`, one scan at a time, each scan's rows sorted by
+    /// `(sensor_id, track_id)`. A `(sensor_id, track_id)` appears once per scan.
+    AssociationStream,
+    AssociationRows,
+    Association
+);
+
+impl AssociationStream<File> {
+    pub fn open(path: &Path) -> Result<Self, InputError> {
+        Self::from_reader(open_file(path)?, path)
+    }
+}
+
+impl<R: Read> AssociationStream<R> {
+    /// The stream over any input; `path` names it in messages.
+    pub fn from_reader(reader: R, path: impl AsRef<Path>) -> Result<Self, InputError> {
+        let t = Table::new(reader, path.as_ref())?;
+        let rows = AssociationRows {
+            c_scan: t.col("scan")?,
+            c_sid: t.col("sensor_id")?,
+            c_tid: t.col("track_id")?,
+            c_fid: t.col("fused_id")?,
+            seen: HashMap::new(),
+        };
+        Ok(AssociationStream(ScanReader::new(t, rows)))
+    }
+}
+
+/// Read `associations.csv` (see [`AssociationStream`]): rows sorted.
+pub fn read_associations(path: &Path) -> Result<Vec<Association>, InputError> {
+    AssociationStream::open(path)?.collect_rows()
+}
+
+/// [`read_associations`] from any input; `path` names it in messages.
+pub fn read_associations_from<R: Read>(
+    reader: R,
+    path: impl AsRef<Path>,
+) -> Result<Vec<Association>, InputError> {
+    AssociationStream::from_reader(reader, path)?.collect_rows()
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ pub mod gating;
 pub mod registry;
 pub mod tracker;
 
-pub use tracker::{track_sensors, KnownTarget, SensorTracker, TrackerError};
+pub use tracker::{track_sensors, KnownTarget, MultiSensorTracker, SensorTracker, TrackerError};
 
 use crate::params::{ParamError, ParamTables};
 use serde::{Deserialize, Serialize};

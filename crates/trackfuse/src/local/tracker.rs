@@ -36,7 +36,7 @@ use crate::types::{
     Id, LocalTrack, Mat2, Measurement, Sensor, SensorKind, StateCov, StateVec, Vec2,
 };
 use rayon::prelude::*;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 
 /// A local-tracking problem: a configuration the registry cannot build, or input the
 /// tracker cannot process. Each variant is one situation, with the ids that locate it.
@@ -82,6 +82,9 @@ pub enum TrackerError {
         lists: usize,
         tracks: usize,
     },
+    /// A scan fed to [`MultiSensorTracker`] that is not after the previous one.
+    #[error("scan {scan} comes after scan {previous}: scans must come in increasing order")]
+    ScanNotAfter { scan: u32, previous: u32 },
     /// A measurement of a sensor that is not among the sensors.
     #[error("measurement of sensor {sensor_id} at scan {scan}: no such sensor")]
     UnknownSensor { sensor_id: Id, scan: u32 },
@@ -724,6 +727,159 @@ impl SensorTracker {
     }
 }
 
+/// Every sensor's tracker, fed one scan of measurements at a time: [`track_sensors`]
+/// for a caller that reads scan by scan (the CLI's `track`), so that memory does not
+/// grow with the number of scans.
+///
+/// Each scan, exactly as [`track_sensors`] does: a sensor's measurements are sorted
+/// (the order within a scan is the file's accident), a sensor with measurements takes
+/// the time of its first one, a sensor without any takes the scan's earliest time among
+/// the sensors that have one (its tracks coast), and the scan's confirmed local tracks
+/// are appended in `(sensor_id, track_id)` order. Sensors are tracked in parallel
+/// (rayon); the result does not depend on the thread count. After an error the trackers
+/// are in an unknown state: do not feed them further.
+pub struct MultiSensorTracker {
+    trackers: Vec<SensorTracker>,
+    /// One slot per distinct sensor id: the id, its kind, its time in the current scan
+    /// (`None`: no measurement) and its measurement values.
+    slots: Vec<SensorSlot>,
+    slot_of: HashMap<Id, usize>,
+    /// The slot of each tracker.
+    tracker_slot: Vec<usize>,
+    /// Each tracker's output of the current scan.
+    outs: Vec<Vec<LocalTrack>>,
+    last_scan: Option<u32>,
+}
+
+struct SensorSlot {
+    kind: SensorKind,
+    time: Option<f64>,
+    values: Vec<Vec2>,
+}
+
+impl MultiSensorTracker {
+    /// One [`SensorTracker`] per sensor (see [`SensorTracker::new`]; the `i`-th sensor's
+    /// randomised associators are seeded with sensor index `i`). A configuration error
+    /// is the first sensor's, in the order given.
+    pub fn new(
+        sensors: &[Sensor],
+        cfg: &TrackerConfig,
+        scenario_process_noise: Option<[f64; 2]>,
+        known: &[KnownTarget],
+        seed: u64,
+        run: u64,
+    ) -> Result<Self, TrackerError> {
+        let trackers = sensors
+            .par_iter()
+            .enumerate()
+            .map(|(si, sensor)| {
+                SensorTracker::new(
+                    sensor,
+                    cfg,
+                    scenario_process_noise,
+                    known,
+                    seed,
+                    run,
+                    si as u64,
+                )
+            })
+            .collect::<Vec<_>>()
+            .into_iter()
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut slots: Vec<SensorSlot> = Vec::new();
+        let mut slot_of = HashMap::new();
+        let mut tracker_slot = Vec::with_capacity(sensors.len());
+        for s in sensors {
+            // the first sensor of an id gives the kind its measurements are checked with
+            let i = *slot_of.entry(s.id).or_insert_with(|| {
+                slots.push(SensorSlot {
+                    kind: s.kind,
+                    time: None,
+                    values: Vec::new(),
+                });
+                slots.len() - 1
+            });
+            tracker_slot.push(i);
+        }
+        Ok(MultiSensorTracker {
+            outs: vec![Vec::new(); trackers.len()],
+            trackers,
+            slots,
+            slot_of,
+            tracker_slot,
+            last_scan: None,
+        })
+    }
+
+    /// Process scan `scan`: `measurements` are all of its measurements, of any sensor,
+    /// in any order (each with `scan` as its scan index). Appends the confirmed local
+    /// tracks after the scan to `out`, sorted by `(sensor_id, track_id)`. A scan without
+    /// measurements carries no time and is skipped, as [`track_sensors`] skips scan
+    /// indices absent from its input. Scans must come in increasing order.
+    pub fn process_scan(
+        &mut self,
+        scan: u32,
+        measurements: &[Measurement],
+        out: &mut Vec<LocalTrack>,
+    ) -> Result<(), TrackerError> {
+        if measurements.is_empty() {
+            return Ok(());
+        }
+        if let Some(previous) = self.last_scan.filter(|&p| scan <= p) {
+            return Err(TrackerError::ScanNotAfter { scan, previous });
+        }
+        for slot in &mut self.slots {
+            slot.time = None;
+            slot.values.clear();
+        }
+        let mut scan_time = f64::INFINITY;
+        for m in measurements {
+            let Some(slot) = self.slot_of.get(&m.sensor_id).map(|&i| &mut self.slots[i]) else {
+                return Err(TrackerError::UnknownSensor {
+                    sensor_id: m.sensor_id,
+                    scan: m.scan,
+                });
+            };
+            if slot.kind != m.kind {
+                return Err(TrackerError::KindMismatch {
+                    sensor_id: m.sensor_id,
+                    scan: m.scan,
+                    measurement: m.kind,
+                    sensor: slot.kind,
+                });
+            }
+            scan_time = scan_time.min(m.time);
+            slot.time.get_or_insert(m.time);
+            slot.values.push(m.value);
+        }
+        // the measurement order within a scan is the file's accident: sort it away
+        for slot in &mut self.slots {
+            slot.values
+                .sort_unstable_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+        }
+        let slots = &self.slots;
+        let results: Vec<Result<(), TrackerError>> = self
+            .trackers
+            .par_iter_mut()
+            .zip(self.outs.par_iter_mut())
+            .zip(self.tracker_slot.par_iter())
+            .map(|((tracker, o), &si)| {
+                o.clear();
+                let slot = &slots[si];
+                tracker.process_scan(scan, slot.time.unwrap_or(scan_time), &slot.values, o)
+            })
+            .collect();
+        results.into_iter().collect::<Result<(), _>>()?;
+        self.last_scan = Some(scan);
+        let start = out.len();
+        for o in &self.outs {
+            out.extend_from_slice(o);
+        }
+        out[start..].sort_by_key(|l| (l.sensor_id, l.track_id));
+        Ok(())
+    }
+}
+
 /// Run one tracker per sensor over a whole measurement set (any order) and return the
 /// confirmed local tracks of every scan, sorted by `(scan, sensor_id, track_id)`.
 ///
@@ -732,7 +888,9 @@ impl SensorTracker {
 /// sensor with no measurement in a scan takes that scan's earliest time among the
 /// sensors that have one (its tracks coast). Scan indices absent from the whole file
 /// carry no time and are skipped. Sensors are tracked in parallel (rayon); the result
-/// does not depend on the thread count.
+/// does not depend on the thread count. It is [`MultiSensorTracker`] fed scan after
+/// scan; a measurement of an unknown sensor or of the wrong kind is an error before any
+/// tracking.
 pub fn track_sensors(
     sensors: &[Sensor],
     measurements: &[Measurement],
@@ -742,8 +900,7 @@ pub fn track_sensors(
     seed: u64,
     run: u64,
 ) -> Result<Vec<LocalTrack>, TrackerError> {
-    let mut scan_time: BTreeMap<u32, f64> = BTreeMap::new();
-    let mut per_sensor: BTreeMap<Id, BTreeMap<u32, (f64, Vec<Vec2>)>> = BTreeMap::new();
+    let mut by_scan: BTreeMap<u32, Vec<Measurement>> = BTreeMap::new();
     for m in measurements {
         let Some(s) = sensors.iter().find(|s| s.id == m.sensor_id) else {
             return Err(TrackerError::UnknownSensor {
@@ -759,54 +916,14 @@ pub fn track_sensors(
                 sensor: s.kind,
             });
         }
-        let t = scan_time.entry(m.scan).or_insert(m.time);
-        *t = t.min(m.time);
-        per_sensor
-            .entry(m.sensor_id)
-            .or_default()
-            .entry(m.scan)
-            .or_insert_with(|| (m.time, Vec::new()))
-            .1
-            .push(m.value);
+        by_scan.entry(m.scan).or_default().push(*m);
     }
-    // the measurement order within a scan is the file's accident: sort it away
-    for scans in per_sensor.values_mut() {
-        for (_, z) in scans.values_mut() {
-            z.sort_unstable_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
-        }
-    }
-    let empty = BTreeMap::new();
-    let results: Vec<Result<Vec<LocalTrack>, TrackerError>> = sensors
-        .par_iter()
-        .enumerate()
-        .map(|(si, sensor)| {
-            let mut tracker = SensorTracker::new(
-                sensor,
-                cfg,
-                scenario_process_noise,
-                known,
-                seed,
-                run,
-                si as u64,
-            )?;
-            let mine = per_sensor.get(&sensor.id).unwrap_or(&empty);
-            let mut out = Vec::new();
-            let none: Vec<Vec2> = Vec::new();
-            for (&scan, &time) in &scan_time {
-                let (t, z) = match mine.get(&scan) {
-                    Some((t, z)) => (*t, z),
-                    None => (time, &none),
-                };
-                tracker.process_scan(scan, t, z, &mut out)?;
-            }
-            Ok(out)
-        })
-        .collect();
+    let mut tracker =
+        MultiSensorTracker::new(sensors, cfg, scenario_process_noise, known, seed, run)?;
     let mut all = Vec::new();
-    for r in results {
-        all.extend(r?);
+    for (&scan, ms) in &by_scan {
+        tracker.process_scan(scan, ms, &mut all)?;
     }
-    all.sort_by_key(|l| (l.scan, l.sensor_id, l.track_id));
     Ok(all)
 }
 
