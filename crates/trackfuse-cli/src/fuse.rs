@@ -3,8 +3,9 @@
 //!
 //! It streams: local_tracks.csv (and truth.csv, with `--truth`) is read one scan at a
 //! time, fused, and that scan's fused tracks and associations written before the next
-//! scan is read, so memory does not grow with the number of scans. `--two-pass` holds
-//! the whole file (pass 2 starts again from the first scan). Errors found while
+//! scan is read, so memory does not grow with the number of scans. `--two-pass` streams
+//! twice: pass 1 estimates the biases, pass 2 reads the files again and fuses every scan
+//! corrected with pass 1's final estimates. Errors found while
 //! streaming name the file and line of the row (a local track whose sensor is not in
 //! sensors.csv, a center error about one local track) or of the scan's first row. On an
 //! error the partial outputs are removed.
@@ -15,17 +16,16 @@ use crate::output::{Outputs, FUSE_OUTPUTS};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::collections::{BTreeSet, HashMap};
-use trackfuse::io::Sink;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use trackfuse::center::bias::BiasEstimate;
 use trackfuse::center::t2ta::truth::{self, TruthSource};
 use trackfuse::center::{
-    fuse_all_two_pass, registry, CenterError, FusedRun, FusionCenter, FusionConfig, Missing,
+    registry, CenterError, FusedRun, FusionCenter, FusionConfig, Missing,
     ScanOutput,
 };
 use trackfuse::io::{
-    no_truth_rows, read_local_tracks, read_sensors, read_truth, AssociationWriter,
+    no_truth_rows, read_sensors, AssociationWriter,
     FusedTrackWriter, InputError, LocalTrackStream, TruthStream,
 };
 use trackfuse::metrics::label_local_tracks;
@@ -160,30 +160,18 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         None => FusionConfig::default(),
     };
     let cfg = args.fusion.apply(&base)?;
-    if args.two_pass {
-        return run_two_pass(args, &cfg);
-    }
-    let mut local = LocalTrackStream::open(&args.local_tracks)?;
     let sensors = args.sensors.as_deref().map(read_sensors).transpose()?;
-    let mut truth = args.truth.as_deref().map(TruthCursor::open).transpose()?;
     // the labels of the scan being fused, replaced scan by scan
     let labels = Arc::new(ScanLabels::default());
-    let center = match truth {
-        Some(_) => FusionCenter::with_truth(&cfg, sensors.as_deref(), labels.clone()),
-        None => FusionCenter::new(&cfg, sensors.as_deref()),
-    };
-    let mut center = center.map_err(with_flag_hint)?;
-    if center.lacks_truth() {
-        let method = if cfg.method == truth::NAME {
-            truth::NAME
-        } else {
-            registry::make_rule(&cfg.rule, &cfg.params)?.name()
-        };
+    let mut center = new_center(args, &cfg, sensors.as_deref(), &labels)?;
+    if args.two_pass && !center.has_bias_estimator() {
         return Err(with_flag_hint(CenterError::Needs {
-            method,
-            what: Missing::Truth,
+            method: "two-pass fusion",
+            what: Missing::BiasEstimator,
         }));
     }
+    // the headers are read and checked before the output folder is touched
+    let mut first = StreamFusion::open(args, &labels, sensors.as_deref())?;
     let scenario_path = scenario_input(args.scenario.as_deref());
     let mut inputs = vec![args.local_tracks.as_path()];
     inputs.extend(args.sensors.as_deref());
@@ -197,18 +185,38 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     // and leave no partial file, and `outs` dropped unfinished removes the output set
     let mut fw = FusedTrackWriter::create(&fused_path).with_context(|| ctx(&fused_path))?;
     let mut aw = AssociationWriter::create(&assoc_path).with_context(|| ctx(&assoc_path))?;
-    let mut fuse = StreamFusion {
-        center: &mut center,
-        local: &mut local,
-        truth: truth.as_mut(),
-        labels: &labels,
-        label_gate: args.label_gate,
-        sensors: sensors.as_deref().zip(args.sensors.as_deref()),
+    let mut write = |out: &ScanOutput| -> Result<()> {
+        for f in &out.fused {
+            fw.write(f).with_context(|| ctx(&fused_path))?;
+        }
+        for a in &out.associations {
+            aw.write(a).with_context(|| ctx(&assoc_path))?;
+        }
+        Ok(())
     };
-    let stats = fuse.run(&mut fw, &fused_path, &mut aw, &assoc_path)?;
+    let (stats, bias) = if args.two_pass {
+        // pass 1 estimates the biases and writes nothing; pass 2 reads the files again,
+        // corrects every scan with pass 1's final estimates and fuses without estimator
+        // (what `fuse_all_two_pass` does on a whole file in memory)
+        let first_stats = first.run(&mut center, None, |_| Ok(()))?;
+        let second_cfg = FusionConfig {
+            bias: None,
+            ..cfg.clone()
+        };
+        let mut second = new_center(args, &second_cfg, sensors.as_deref(), &labels)?;
+        let mut stats = StreamFusion::open(args, &labels, sensors.as_deref())?.run(
+            &mut second,
+            Some(&center),
+            &mut write,
+        )?;
+        stats.elapsed += first_stats.elapsed;
+        (stats, center.bias_estimates())
+    } else {
+        let stats = first.run(&mut center, None, &mut write)?;
+        (stats, center.bias_estimates())
+    };
     fw.finish().with_context(|| ctx(&fused_path))?;
     aw.finish().with_context(|| ctx(&assoc_path))?;
-    let bias = center.bias_estimates();
     if !bias.is_empty() {
         write_bias(&mut outs, &bias)?;
     }
@@ -228,49 +236,31 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     Ok(())
 }
 
-/// `--two-pass`: the whole file in memory (pass 2 needs the estimator's final correction
-/// of every scan, which the center does not expose for a second streamed pass).
-fn run_two_pass(args: &FuseArgs, cfg: &FusionConfig) -> Result<()> {
-    let local = read_local_tracks(&args.local_tracks)?;
-    let sensors = args.sensors.as_deref().map(read_sensors).transpose()?;
-    if let (Some(sensors), Some(path)) = (&sensors, &args.sensors) {
-        let known: BTreeSet<Id> = sensors.iter().map(|s| s.id).collect();
-        let mut rows = LocalTrackStream::open(&args.local_tracks)?;
-        let mut buf = Vec::new();
-        while rows.next_scan(&mut buf)?.is_some() {
-            check_sensors_cover(&buf, rows.lines(), &rows, &known, path)?;
-        }
-    }
-    let labels = match &args.truth {
-        Some(t) => Some(label_local_tracks(&read_truth(t)?, &local, args.label_gate)),
-        None => None,
+/// The center of `cfg`, fed the per-scan `labels` when `--truth` is given; a config that
+/// asks for the true association without `--truth` is an error up front.
+fn new_center(
+    args: &FuseArgs,
+    cfg: &FusionConfig,
+    sensors: Option<&[Sensor]>,
+    labels: &Arc<ScanLabels>,
+) -> Result<FusionCenter> {
+    let center = match args.truth {
+        Some(_) => FusionCenter::with_truth(cfg, sensors, labels.clone()),
+        None => FusionCenter::new(cfg, sensors),
     };
-    let t0 = std::time::Instant::now();
-    let run = fuse_all_two_pass(&local, cfg, sensors.as_deref(), labels.as_ref())
-        .map_err(with_flag_hint)?;
-    let elapsed = t0.elapsed();
-    let scenario_path = scenario_input(args.scenario.as_deref());
-    let mut inputs = vec![args.local_tracks.as_path()];
-    inputs.extend(args.sensors.as_deref());
-    inputs.extend(args.truth.as_deref());
-    inputs.extend(scenario_path.as_deref());
-    let mut outs = Outputs::new(&args.out, FUSE_OUTPUTS, &inputs)?;
-    write_fused(&mut outs, &run)?;
-    let dir = outs.dir().to_path_buf();
-    outs.finish();
-    let ids: BTreeSet<i64> = run.fused.iter().map(|f| f.fused_id).collect();
-    eprintln!(
-        "fused {} local-track rows ({} + {}): {} global tracks, {} rows in {:.3} s -> {}",
-        local.len(),
-        cfg.method,
-        cfg.rule,
-        ids.len(),
-        run.fused.len(),
-        elapsed.as_secs_f64(),
-        dir.display()
-    );
-    print_bias(&run.bias);
-    Ok(())
+    let center = center.map_err(with_flag_hint)?;
+    if center.lacks_truth() {
+        let method = if cfg.method == truth::NAME {
+            truth::NAME
+        } else {
+            registry::make_rule(&cfg.rule, &cfg.params)?.name()
+        };
+        return Err(with_flag_hint(CenterError::Needs {
+            method,
+            what: Missing::Truth,
+        }));
+    }
+    Ok(center)
 }
 
 fn print_bias(bias: &[BiasEstimate]) {
@@ -355,54 +345,67 @@ struct FuseStats {
 /// fused and written before the next is read, so memory does not grow with the number
 /// of scans.
 struct StreamFusion<'a> {
-    center: &'a mut FusionCenter,
-    local: &'a mut LocalTrackStream,
-    truth: Option<&'a mut TruthCursor>,
+    local: LocalTrackStream,
+    truth: Option<TruthCursor>,
     labels: &'a ScanLabels,
     label_gate: f64,
     /// The sensors and their file, to check every local track's sensor is known.
-    sensors: Option<(&'a [Sensor], &'a Path)>,
+    sensors: Option<(BTreeSet<Id>, &'a Path)>,
 }
 
-impl StreamFusion<'_> {
-    fn run<F: Sink, A: Sink>(
+impl<'a> StreamFusion<'a> {
+    /// Open local_tracks.csv (and truth.csv) and check their headers.
+    fn open(
+        args: &'a FuseArgs,
+        labels: &'a ScanLabels,
+        sensors: Option<&[Sensor]>,
+    ) -> Result<StreamFusion<'a>> {
+        Ok(StreamFusion {
+            local: LocalTrackStream::open(&args.local_tracks)?,
+            truth: args.truth.as_deref().map(TruthCursor::open).transpose()?,
+            labels,
+            label_gate: args.label_gate,
+            sensors: sensors
+                .zip(args.sensors.as_deref())
+                .map(|(s, p)| (s.iter().map(|s| s.id).collect(), p)),
+        })
+    }
+
+    /// Fuse the whole file with `center`, scan by scan, handing each scan's output to
+    /// `write`. With `corrector` (pass 2 of `--two-pass`), each scan's local tracks are
+    /// first corrected with that center's bias estimates; the truth labels are those of
+    /// the rows as read, as in `fuse_all_two_pass`.
+    fn run(
         &mut self,
-        fw: &mut FusedTrackWriter<F>,
-        fused_path: &Path,
-        aw: &mut AssociationWriter<A>,
-        assoc_path: &Path,
+        center: &mut FusionCenter,
+        corrector: Option<&FusionCenter>,
+        mut write: impl FnMut(&ScanOutput) -> Result<()>,
     ) -> Result<FuseStats> {
-        let ctx = |p: &Path| format!("writing {}", p.display());
-        let known: Option<(BTreeSet<Id>, &Path)> = self
-            .sensors
-            .map(|(s, p)| (s.iter().map(|s| s.id).collect(), p));
         let mut stats = FuseStats::default();
         let mut rows = Vec::new();
         let mut out = ScanOutput::default();
         while let Some(scan) = self.local.next_scan(&mut rows)? {
-            if let Some((known, path)) = &known {
-                check_sensors_cover(&rows, self.local.lines(), self.local, known, path)?;
+            if let Some((known, path)) = &self.sensors {
+                check_sensors_cover(&rows, self.local.lines(), &self.local, known, path)?;
             }
-            if let Some(truth) = self.truth.as_deref_mut() {
+            if let Some(truth) = self.truth.as_mut() {
                 let labels = label_local_tracks(truth.rows_of(scan)?, &rows, self.label_gate);
                 *self.labels.0.lock().unwrap_or_else(|e| e.into_inner()) = labels;
             }
+            if let Some(c) = corrector {
+                c.correct_with_bias(&mut rows);
+            }
             let t0 = std::time::Instant::now();
-            self.center
+            center
                 .process_scan_into(&rows, &mut out)
                 .map_err(|e| self.located(scan, &rows, e))?;
             stats.elapsed += t0.elapsed();
             stats.local_rows += rows.len();
             stats.fused_rows += out.fused.len();
-            for f in &out.fused {
-                fw.write(f).with_context(|| ctx(fused_path))?;
-                stats.ids.insert(f.fused_id);
-            }
-            for a in &out.associations {
-                aw.write(a).with_context(|| ctx(assoc_path))?;
-            }
+            stats.ids.extend(out.fused.iter().map(|f| f.fused_id));
+            write(&out)?;
         }
-        if let Some(truth) = self.truth.as_deref_mut() {
+        if let Some(truth) = self.truth.as_mut() {
             truth.finish()?;
         }
         Ok(stats)
@@ -411,7 +414,7 @@ impl StreamFusion<'_> {
     /// A center error in `scan`, at the line of the local track it names, else at the
     /// scan's first line.
     fn located(&self, scan: u32, rows: &[LocalTrack], e: CenterError) -> anyhow::Error {
-        let member = match &e {
+        let members: Vec<(Id, Id)> = match &e {
             CenterError::UnknownSensor {
                 sensor_id,
                 track_id,
@@ -426,19 +429,37 @@ impl StreamFusion<'_> {
                 sensor_id,
                 track_id,
                 ..
-            } => Some((*sensor_id, *track_id)),
-            _ => None,
+            }
+            | CenterError::InvalidCovariance {
+                sensor_id,
+                track_id,
+                ..
+            } => vec![(*sensor_id, *track_id)],
+            CenterError::NonFiniteFusion { tracks, .. }
+            | CenterError::NumericalFailure { tracks, .. } => tracks.clone(),
+            _ => Vec::new(),
         };
         let lines = self.local.lines();
-        let line = member
-            .and_then(|m| {
+        let member_lines: Vec<u64> = members
+            .iter()
+            .filter_map(|m| {
                 rows.iter()
-                    .position(|t| (t.sensor_id, t.track_id) == m)
+                    .position(|t| (t.sensor_id, t.track_id) == *m)
                     .map(|i| lines[i])
             })
-            .or(lines.first().copied())
+            .collect();
+        let line = member_lines
+            .first()
+            .or(lines.first())
+            .copied()
             .unwrap_or(0);
         let path = self.local.path().display().to_string();
-        anyhow::anyhow!("{path}:{line}: scan {scan}: {:#}", with_flag_hint(e))
+        let others = if member_lines.len() > 1 {
+            let l: Vec<String> = member_lines.iter().map(|l| l.to_string()).collect();
+            format!(" (the local tracks on lines {})", l.join(", "))
+        } else {
+            String::new()
+        };
+        anyhow::anyhow!("{path}:{line}: scan {scan}{others}: {:#}", with_flag_hint(e))
     }
 }

@@ -243,6 +243,22 @@ impl FusionCenter {
         self.truth_missing
     }
 
+    /// Whether the center runs a bias estimator.
+    pub fn has_bias_estimator(&self) -> bool {
+        self.bias.is_some()
+    }
+
+    /// Correct `tracks` (one scan, sorted by `(sensor_id, track_id)`) in place with the
+    /// bias estimator's current estimates, the correction [`fuse_all_two_pass`] applies
+    /// to every scan for its second pass; nothing without an estimator or sensors. A
+    /// streaming caller runs a whole first pass, then corrects each scan of a second
+    /// pass with this center's final estimates.
+    pub fn correct_with_bias(&self, tracks: &mut [LocalTrack]) {
+        if let (Some(est), Some(known)) = (self.bias.as_ref(), self.sensors.as_ref()) {
+            est.correct(tracks, known);
+        }
+    }
+
     /// Process one scan of local tracks (any order).
     pub fn process_scan(&mut self, tracks: &[LocalTrack]) -> Result<ScanOutput, CenterError> {
         let mut out = ScanOutput::default();
