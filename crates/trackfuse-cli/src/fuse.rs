@@ -21,12 +21,11 @@ use std::sync::{Arc, Mutex};
 use trackfuse::center::bias::BiasEstimate;
 use trackfuse::center::t2ta::truth::{self, TruthSource};
 use trackfuse::center::{
-    registry, CenterError, FusedRun, FusionCenter, FusionConfig, Missing,
-    ScanOutput,
+    registry, CenterError, FusedRun, FusionCenter, FusionConfig, Missing, ScanOutput,
 };
 use trackfuse::io::{
-    no_truth_rows, read_sensors, AssociationWriter,
-    FusedTrackWriter, InputError, LocalTrackStream, TruthStream,
+    no_truth_rows, read_sensors, AssociationWriter, FusedTrackWriter, InputError, LocalTrackStream,
+    TruthStream,
 };
 use trackfuse::metrics::label_local_tracks;
 use trackfuse::{Id, LocalTrack, Sensor, TruthState};
@@ -448,11 +447,7 @@ impl<'a> StreamFusion<'a> {
                     .map(|i| lines[i])
             })
             .collect();
-        let line = member_lines
-            .first()
-            .or(lines.first())
-            .copied()
-            .unwrap_or(0);
+        let line = member_lines.first().or(lines.first()).copied().unwrap_or(0);
         let path = self.local.path().display().to_string();
         let others = if member_lines.len() > 1 {
             let l: Vec<String> = member_lines.iter().map(|l| l.to_string()).collect();
@@ -460,6 +455,9 @@ impl<'a> StreamFusion<'a> {
         } else {
             String::new()
         };
-        anyhow::anyhow!("{path}:{line}: scan {scan}{others}: {:#}", with_flag_hint(e))
+        anyhow::anyhow!(
+            "{path}:{line}: scan {scan}{others}: {:#}",
+            with_flag_hint(e)
+        )
     }
 }

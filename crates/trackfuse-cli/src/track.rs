@@ -13,8 +13,8 @@ use crate::output::{Outputs, TRACK_OUTPUTS};
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use std::collections::BTreeSet;
-use trackfuse::io::Sink;
 use std::path::PathBuf;
+use trackfuse::io::Sink;
 use trackfuse::io::{read_sensors, LocalTrackWriter, MeasurementStream};
 use trackfuse::local::{MultiSensorTracker, TrackerConfig};
 use trackfuse::pipeline::scenario_known_targets;
@@ -69,6 +69,7 @@ pub fn run(args: &TrackArgs) -> Result<()> {
     let known = scenario
         .as_ref()
         .map(|c| scenario_known_targets(&c.scenario))
+        .transpose()?
         .unwrap_or_default();
     let seed = args
         .seed

@@ -206,4 +206,42 @@ fn streamed_track_and_fuse_match_the_library_on_a_simulation() {
     let assoc =
         trackfuse::io::read_associations(&fu.join("associations.csv")).expect("associations");
     assert_eq!(assoc, run.associations);
+
+    // --two-pass streams twice (pass 2 reads the file again and corrects each scan with
+    // pass 1's final estimates): the same as the whole-file two-pass fusion
+    let fu2 = dir.path().join("fuse2");
+    trackfuse()
+        .args([
+            "fuse",
+            "--bias",
+            "track-pair-ls",
+            "--two-pass",
+            "--local-tracks",
+        ])
+        .arg(tr.join("local_tracks.csv"))
+        .arg("--sensors")
+        .arg(sim.join("sensors.csv"))
+        .arg("--out")
+        .arg(&fu2)
+        .assert()
+        .success();
+    let cfg2 = trackfuse::center::FusionConfig {
+        bias: Some("track-pair-ls".into()),
+        ..trackfuse::center::FusionConfig::default()
+    };
+    let run2 = trackfuse::center::fuse_all_two_pass(&whole, &cfg2, Some(&sensors), None)
+        .expect("two-pass fusion");
+    assert!(
+        run2.bias.iter().any(|b| b.range.abs() > 1.0),
+        "{:?}",
+        run2.bias
+    );
+    assert_ne!(run2.fused, run.fused);
+    let fused2 = trackfuse::io::read_fused_tracks(&fu2.join("fused_tracks.csv")).expect("fused");
+    assert_eq!(fused2, run2.fused);
+    let assoc2 =
+        trackfuse::io::read_associations(&fu2.join("associations.csv")).expect("associations");
+    assert_eq!(assoc2, run2.associations);
+    let bias = std::fs::read_to_string(fu2.join("bias_estimates.csv")).expect("bias file");
+    assert_eq!(bias.lines().count(), run2.bias.len() + 1, "{bias}");
 }

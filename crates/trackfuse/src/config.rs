@@ -1,6 +1,6 @@
 //! The run configuration: a simulation scenario and the configuration of every stage that
 //! processes its output (local trackers, fusion center, evaluation, Monte Carlo defaults).
-//! A scenario file (`scenarios/*.toml`, FORMATS.md) parses into one [`RunConfig`].
+//! A scenario file (`scenarios/*.toml`, docs/formats.md) parses into one [`RunConfig`].
 //!
 //! The simulator sees only [`Scenario`]; the trackers, the center and the evaluation see
 //! only their own section. This module sits above all of them and is what

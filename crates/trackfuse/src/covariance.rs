@@ -1,4 +1,4 @@
-//! The one definition of a valid covariance (FORMATS.md), used by the readers and by the
+//! The one definition of a valid covariance (docs/formats.md), used by the readers and by the
 //! fusion rules' input checks, and the eigenvalue helpers the rules use to treat singular
 //! or nearly singular covariances.
 //!
@@ -22,7 +22,7 @@
 use crate::center::linalg::cholesky4;
 use crate::types::{symmetrize, StateCov};
 
-/// The relative tolerance of the file contract (FORMATS.md) for symmetry and for the
+/// The relative tolerance of the file contract (docs/formats.md) for symmetry and for the
 /// smallest eigenvalue.
 pub const TOLERANCE: f64 = 1e-9;
 
@@ -30,7 +30,7 @@ pub const TOLERANCE: f64 = 1e-9;
 /// clamps the eigenvalues: the contract's [`TOLERANCE`].
 pub const EIGEN_FLOOR: f64 = TOLERANCE;
 
-/// Why a covariance is not one (FORMATS.md).
+/// Why a covariance is not one (docs/formats.md).
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum CovarianceError {

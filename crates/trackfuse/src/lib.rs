@@ -4,7 +4,7 @@
 //! ([`local`]), a fusion center ([`center`]) associates the local tracks that follow the
 //! same target (track-to-track association) and fuses them (track-to-track fusion).
 //!
-//! Every stage reads and writes the files of `FORMATS.md` ([`io`]) and is one library call,
+//! Every stage reads and writes the files of `docs/formats.md` ([`io`]) and is one library call,
 //! so the CLI, the Monte Carlo engine ([`montecarlo`]) and a service share one code path.
 //! The library holds no global state and prints nothing.
 

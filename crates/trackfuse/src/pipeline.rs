@@ -141,8 +141,9 @@ pub fn run_with(
 
 /// The known targets a scenario defines (for `trackfuse track --scenario S --init known`
 /// on files): each explicit target's `initial` state at its `start_scan`, and the grid
-/// targets' generated initial states at scan 0.
-pub fn scenario_known_targets(sc: &Scenario) -> Vec<KnownTarget> {
+/// targets' generated initial states at scan 0. A simulator error on that first scan is
+/// returned, never mapped to "no grid targets".
+pub fn scenario_known_targets(sc: &Scenario) -> Result<Vec<KnownTarget>, SimError> {
     let mut known: Vec<KnownTarget> = sc
         .targets
         .iter()
@@ -154,13 +155,12 @@ pub fn scenario_known_targets(sc: &Scenario) -> Vec<KnownTarget> {
     if sc.target_grid.is_some() {
         let mut sim = crate::sim::Simulation::new(sc, 0);
         let (mut truth, mut meas) = (Vec::new(), Vec::new());
-        // the first scan of a validated scenario is finite (its initial states are bounded)
-        if let Ok(true) = sim.next_scan(&mut truth, &mut meas) {
+        if sim.next_scan(&mut truth, &mut meas)? {
             known.extend(truth.iter().skip(sc.targets.len()).map(|t| KnownTarget {
                 start_scan: 0,
                 state: t.state,
             }));
         }
     }
-    known
+    Ok(known)
 }

@@ -3,7 +3,7 @@
 //!
 //! # Units
 //! SI throughout: metres, seconds, metres per second, radians. State order is
-//! `[x, vx, y, vy]` (the order the papers use), see `FORMATS.md`.
+//! `[x, vx, y, vy]` (the order the papers use), see `docs/formats.md`.
 
 use nalgebra::{SMatrix, SVector};
 use serde::{Deserialize, Serialize};

@@ -1,4 +1,4 @@
-//! Readers and writers against FORMATS.md: exact headers, exact round trip, and every
+//! Readers and writers against docs/formats.md: exact headers, exact round trip, and every
 //! malformed-file case giving an error that names file, line, column and reason.
 
 use std::path::{Path, PathBuf};

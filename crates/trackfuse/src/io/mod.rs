@@ -1,4 +1,4 @@
-//! Readers and writers for every file of `FORMATS.md`.
+//! Readers and writers for every file of `docs/formats.md`.
 //!
 //! Readers find columns by header name (any order, extra columns ignored), accept LF and
 //! CRLF, and reject — never repair — missing columns, unparsable or non-finite numbers,

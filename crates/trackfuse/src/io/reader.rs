@@ -12,7 +12,7 @@ use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-/// Every column name a FORMATS.md reader looks up, besides the covariance cells.
+/// Every column name a docs/formats.md reader looks up, besides the covariance cells.
 const FORMATS_COLUMNS: &[&str] = &[
     "scan",
     "time",
