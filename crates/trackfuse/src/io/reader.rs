@@ -1278,29 +1278,3 @@ pub fn read_associations_from<R: Read>(
 ) -> Result<Vec<Association>, InputError> {
     AssociationStream::from_reader(reader, path)?.collect_rows()
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn covariance_errors_say_which_entry_or_eigenvalue() {
-        let mut p = StateCov::identity();
-        p[(0, 1)] = 0.5;
-        assert_eq!(
-            check_covariance(&p),
-            Err(CovarianceError::NotSymmetric {
-                row: 0,
-                col: 1,
-                upper: 0.5,
-                lower: 0.0
-            })
-        );
-        let p = -StateCov::identity();
-        assert!(matches!(
-            check_covariance(&p),
-            Err(CovarianceError::NotPositiveSemidefinite { min_eigenvalue }) if min_eigenvalue == -1.0
-        ));
-        assert_eq!(check_covariance(&StateCov::identity()), Ok(()));
-    }
-}
