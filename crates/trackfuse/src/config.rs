@@ -303,26 +303,18 @@ fn check_every_fusion_params(cfg: &FusionConfig) -> Result<(), ParamError> {
         CenterError::Config(p) => p,
         other => ParamError::new(format!("params.{name}"), other.to_string()),
     };
-    let has = |entries: &[&str], name: &str| entries.contains(&name);
-    let methods: Vec<&str> = registry.methods().iter().map(|e| e.name.as_str()).collect();
-    let rules: Vec<&str> = registry.rules().iter().map(|e| e.name.as_str()).collect();
-    let bias: Vec<&str> = registry
-        .bias_estimators()
-        .iter()
-        .map(|e| e.name.as_str())
-        .collect();
     for name in cfg.params.keys() {
-        if has(&methods, name) {
+        if registry.methods().iter().any(|e| e.name == *name) {
             registry
                 .make_method(name, &cfg.params)
                 .map_err(|e| as_param(name, e))?;
         }
-        if has(&rules, name) {
+        if registry.rules().iter().any(|e| e.name == *name) {
             registry
                 .make_rule(name, &cfg.params)
                 .map_err(|e| as_param(name, e))?;
         }
-        if has(&bias, name) {
+        if registry.bias_estimators().iter().any(|e| e.name == *name) {
             registry
                 .make_bias(name, &cfg.params)
                 .map_err(|e| as_param(name, e))?;
