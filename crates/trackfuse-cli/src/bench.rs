@@ -64,6 +64,12 @@ pub enum BenchWhat {
         #[arg(long, value_delimiter = ',', default_value = "100,1000,10000,100000")]
         sweep: Vec<usize>,
     },
+    /// What a user gets on a folder of radar files with no flags: runs `track` and
+    /// `fuse` with their defaults, then prints fused GOSPA (c = 500 m, p = 1), missed and
+    /// false tracks per scan, fused RMSE, each radar's local GOSPA and RMSE, and the
+    /// fused RMSE against the best radar's (`--reference` scores another tool's output
+    /// folder beside it).
+    Real(crate::bench_real::RealArgs),
 }
 
 /// Peak resident set size of this process (kB), from /proc on Linux.
@@ -116,6 +122,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             scans,
             sweep,
         } => bench_fuse(fusion, *targets, *sensors, *scans, sweep)?,
+        BenchWhat::Real(a) => crate::bench_real::run(a)?,
     }
     Ok(())
 }

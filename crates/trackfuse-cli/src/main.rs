@@ -1,6 +1,7 @@
 //! The `trackfuse` command-line tool.
 
 mod bench;
+mod bench_real;
 mod common;
 mod config;
 mod evaluate;
