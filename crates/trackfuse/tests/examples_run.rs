@@ -41,6 +41,7 @@ fn trace_weighted_rule_by_hand() {
     let ctx = FusionContext {
         time: 0.0,
         prior: None,
+        global: None,
         sensors: None,
         dt: 0.0,
         process_noise: 1.0,

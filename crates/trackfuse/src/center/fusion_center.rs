@@ -489,6 +489,7 @@ impl FusionCenter {
             let ctx = FusionContext {
                 time,
                 prior,
+                global: g.global.map(|gi| self.globals[gi].id),
                 sensors: self.sensors.as_deref(),
                 dt: gdt,
                 process_noise: self.cfg.process_noise,

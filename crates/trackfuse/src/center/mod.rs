@@ -135,6 +135,10 @@ pub struct FusionContext<'a> {
     pub time: f64,
     /// The global track's predicted estimate, when the group continues one.
     pub prior: Option<(&'a StateVec, &'a StateCov)>,
+    /// The id of the global track the group continues (`None` for a new one): a rule
+    /// with memory of the members it fused before (`imf`) knows by it whether their
+    /// earlier information is already in `prior`.
+    pub global: Option<Id>,
     /// What the center knows of the sensors, when given.
     pub sensors: Option<&'a [Sensor]>,
     /// Seconds since the global track's last update (for cross-covariance models), 0 for

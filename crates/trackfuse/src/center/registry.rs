@@ -20,8 +20,8 @@
 
 use super::bias::BiasEstimator;
 use super::fusion::{
-    bar_shalom_campo, convex_combination, covariance_intersection, fuzzy, mmse, sdf, simple,
-    superior,
+    bar_shalom_campo, convex_combination, covariance_intersection, fuzzy, information_matrix, mmse,
+    sdf, simple, superior,
 };
 use super::t2ta::{chi2_gnn, fdbsc, fdtta, fta, ftta, ht_t2gt, wfc};
 use super::{CenterError, FusionRule, TrackAssociator};
@@ -176,6 +176,17 @@ pub const RULES: &[RuleInfo] = &[
                 p,
                 bar_shalom_campo::NAME,
                 bar_shalom_campo::BarShalomCampo::new,
+            )
+        },
+    },
+    RuleInfo {
+        name: information_matrix::NAME,
+        summary: "information matrix fusion: the global track updated with each local track's new information (memory)",
+        make: |p| {
+            rule(
+                p,
+                information_matrix::NAME,
+                information_matrix::InformationMatrix::new,
             )
         },
     },
@@ -463,6 +474,7 @@ mod tests {
             covariance_intersection::NAME,
         );
         same::<bar_shalom_campo::BarShalomCampoParams>(bar_shalom_campo::NAME);
+        same::<information_matrix::InformationMatrixParams>(information_matrix::NAME);
         same::<mmse::MmseParams>(mmse::NAME);
         same::<superior::SuperiorParams>(superior::NAME);
         same::<sdf::SdfParams>(sdf::NAME);

@@ -119,6 +119,7 @@ pub fn fusion_ctx() -> FusionContext<'static> {
     FusionContext {
         time: 0.0,
         prior: None,
+        global: None,
         sensors: None,
         dt: 1.0,
         process_noise: 1.0,

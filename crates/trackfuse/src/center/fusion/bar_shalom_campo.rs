@@ -729,6 +729,7 @@ mod tests {
         FusionContext {
             time: 0.0,
             prior: None,
+            global: None,
             sensors: None,
             dt,
             process_noise: q,

@@ -109,6 +109,7 @@ mod tests {
         let ctx = FusionContext {
             time: 0.0,
             prior: None,
+            global: None,
             sensors: None,
             dt,
             process_noise: q,

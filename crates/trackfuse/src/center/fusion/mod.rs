@@ -6,6 +6,7 @@ pub(crate) mod blue;
 pub mod convex_combination;
 pub mod covariance_intersection;
 pub mod fuzzy;
+pub mod information_matrix;
 pub mod mmse;
 #[cfg(test)]
 mod properties;

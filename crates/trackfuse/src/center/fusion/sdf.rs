@@ -285,6 +285,7 @@ mod tests {
         FusionContext {
             time: 0.0,
             prior,
+            global: None,
             sensors: None,
             dt: 1.0,
             process_noise: 0.0,

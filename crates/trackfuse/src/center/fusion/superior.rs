@@ -206,6 +206,7 @@ mod tests {
         FusionContext {
             time: 0.0,
             prior: None,
+            global: None,
             sensors,
             dt: 0.0,
             process_noise: 0.0,

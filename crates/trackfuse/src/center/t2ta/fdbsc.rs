@@ -824,6 +824,7 @@ mod tests {
         let fctx = FusionContext {
             time: 1.0,
             prior: None,
+            global: None,
             sensors: None,
             dt: 1.0,
             process_noise: 1.0,

@@ -1,0 +1,97 @@
+//! `trackfuse bench real DIR`: the table it prints is what `track`, `fuse` and
+//! `evaluate` give on the same folder.
+
+use assert_cmd::Command;
+use std::path::Path;
+
+fn trackfuse() -> Command {
+    Command::cargo_bin("trackfuse").expect("binary")
+}
+
+/// The cells of the first table row whose first cell is `label`.
+fn row<'a>(table: &'a str, label: &str) -> Vec<&'a str> {
+    let line = table
+        .lines()
+        .find(|l| l.starts_with(label))
+        .unwrap_or_else(|| panic!("no row {label:?} in\n{table}"));
+    line[label.len()..].split_whitespace().collect()
+}
+
+fn gospa_of(summary: &Path) -> f64 {
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(summary).expect("summary")).expect("json");
+    v["gospa"]["mean"].as_f64().expect("gospa mean")
+}
+
+#[test]
+fn bench_real_scores_what_the_commands_write() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let data = dir.path().join("data");
+    trackfuse()
+        .args(["simulate", "bias-radars-nobias", "--seed", "3", "--out"])
+        .arg(&data)
+        .assert()
+        .success();
+    let out = dir.path().join("bench");
+    let res = trackfuse()
+        .args(["bench", "real"])
+        .arg(&data)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let stdout = String::from_utf8(res.get_output().stdout.clone()).expect("utf8");
+    let fused = row(&stdout, "trackfuse fused");
+    let printed: f64 = fused[0].parse().expect("GOSPA cell");
+    assert!(fused.iter().any(|c| *c == "x"), "no RMSE ratio: {fused:?}");
+    // one local row per radar of sensors.csv
+    let sensors = std::fs::read_to_string(data.join("sensors.csv")).expect("sensors");
+    let n = sensors.lines().count() - 1;
+    assert_eq!(stdout.matches("trackfuse radar ").count(), n, "{stdout}");
+
+    // the same GOSPA from `evaluate` on the fused file bench real left behind
+    let summary = dir.path().join("summary.json");
+    trackfuse()
+        .args(["evaluate", "--gospa-c", "500", "--gospa-p", "1", "--truth"])
+        .arg(data.join("truth.csv"))
+        .arg("--tracks")
+        .arg(out.join("fuse/fused_tracks.csv"))
+        .arg("--summary")
+        .arg(&summary)
+        .assert()
+        .success();
+    let evaluated = gospa_of(&summary);
+    assert!(
+        (printed - evaluated).abs() <= 0.5,
+        "bench real printed {printed}, evaluate says {evaluated}"
+    );
+
+    // a reference folder is scored beside ours, with the ratio row
+    let res = trackfuse()
+        .args(["bench", "real"])
+        .arg(&data)
+        .arg("--out")
+        .arg(dir.path().join("bench2"))
+        .arg("--reference")
+        .arg(out.join("fuse"))
+        .assert()
+        .success();
+    let stdout = String::from_utf8(res.get_output().stdout.clone()).expect("utf8");
+    let reference: f64 = row(&stdout, "reference fused")[0].parse().expect("cell");
+    assert!((reference - printed).abs() <= 0.5, "{stdout}");
+    assert!(stdout.contains("ours / reference GOSPA"), "{stdout}");
+}
+
+#[test]
+fn bench_real_names_a_missing_file() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let res = trackfuse()
+        .args(["bench", "real"])
+        .arg(dir.path())
+        .arg("--out")
+        .arg(dir.path().join("o"))
+        .assert()
+        .failure();
+    let stderr = String::from_utf8(res.get_output().stderr.clone()).expect("utf8");
+    assert!(stderr.contains("sensors.csv: no such file"), "{stderr}");
+}
