@@ -18,10 +18,17 @@
 //!    for `delete_after` scans are deleted; the fused tracks and associations are
 //!    published.
 //!
+//! With track management on (`[fusion.management]`, [`super::management`]), between
+//! steps 4 and 5 the method's moves of local tracks still gated with their global track
+//! are held (hysteresis), after the fusion duplicate global tracks are merged (the merged
+//! groups fused again), each global track's status is updated, and only confirmed ones
+//! are published (unless `publish = "all"`); every local track keeps its association row.
+//!
 //! Ids are never reused. The center keeps all its state itself, so the CLI, the Monte
 //! Carlo engine and a streaming service drive it the same way.
 
 use super::bias::{BiasEstimate, BiasEstimator};
+use super::management::{Manager, Publish};
 use super::registry::{make_rule, CenterRegistry};
 use super::t2ta::truth::{self, TruthAssociator, TruthSource};
 use super::{
@@ -30,7 +37,7 @@ use super::{
 };
 use crate::models::{cv_transition, process_noise};
 use crate::types::{
-    symmetrize, Association, FusedTrack, Id, LocalTrack, Sensor, StateCov, StateVec,
+    symmetrize, Association, FusedTrack, Id, LocalTrack, Sensor, StateCov, StateVec, TrackStatus,
 };
 use std::collections::{BTreeMap, HashMap};
 
@@ -85,6 +92,10 @@ pub struct FusionCenter {
     /// What the center knows of the sensors (true biases zeroed).
     sensors: Option<Vec<Sensor>>,
     globals: Vec<GlobalTrack>,
+    /// Each global track's status (same order as `globals`).
+    status: Vec<TrackStatus>,
+    /// Track management (`None`: off, the papers' center).
+    mgmt: Option<Manager>,
     next_id: Id,
     last: Option<(u32, f64)>,
     /// Whether the method is the `truth` associator built without labels.
@@ -191,6 +202,7 @@ impl FusionCenter {
         bias: Option<Box<dyn BiasEstimator>>,
         sensors: Option<&[Sensor]>,
     ) -> Result<Self, CenterError> {
+        cfg.management.check()?;
         if let (Some(b), None) = (&bias, sensors) {
             return Err(CenterError::Needs {
                 method: b.name(),
@@ -214,6 +226,11 @@ impl FusionCenter {
             bias,
             sensors,
             globals: Vec::new(),
+            status: Vec::new(),
+            mgmt: cfg
+                .management
+                .enabled
+                .then(|| Manager::new(&cfg.management)),
             next_id: 0,
             last: None,
             truth_missing: false,
@@ -226,6 +243,12 @@ impl FusionCenter {
     /// The global tracks alive after the last scan, sorted by id.
     pub fn globals(&self) -> &[GlobalTrack] {
         &self.globals
+    }
+
+    /// The status of each global track of [`FusionCenter::globals`] (same order); all
+    /// confirmed without track management.
+    pub fn global_status(&self) -> &[TrackStatus] {
+        &self.status
     }
 
     /// The bias estimates so far (empty without a bias estimator).
@@ -292,7 +315,7 @@ impl FusionCenter {
         out: &mut ScanOutput,
     ) -> Result<(), CenterError> {
         if tracks.is_empty() {
-            self.age_globals(&[]);
+            self.age_globals(&[], &[]);
             out.fused.clear();
             return Ok(());
         }
@@ -325,14 +348,50 @@ impl FusionCenter {
             &mut buf.seen,
         )?;
         order_members(&mut buf.groups);
-        self.fuse_groups(
+        let mut mgmt = self.mgmt.take();
+        if let Some(m) = mgmt.as_mut() {
+            if m.hold_moves(sorted, &mut buf.groups, &self.globals, &self.predicted) {
+                order_members(&mut buf.groups);
+                check_groups(
+                    "track management",
+                    sorted,
+                    &buf.groups,
+                    self.globals.len(),
+                    &mut buf.seen,
+                )?;
+            }
+        }
+        let fused = self.fuse_groups(
             scan,
             time,
             sorted,
             &buf.groups,
             &mut buf.fused_est,
             &mut buf.keys,
-        )?;
+        );
+        let fused = fused.and_then(|()| {
+            let merged = mgmt.as_mut().is_some_and(|m| {
+                m.merge_duplicates(sorted, &mut buf.groups, &buf.fused_est, &self.globals)
+            });
+            if !merged {
+                return Ok(());
+            }
+            // the merged groups fused again
+            order_members(&mut buf.groups);
+            self.fuse_groups(
+                scan,
+                time,
+                sorted,
+                &buf.groups,
+                &mut buf.fused_est,
+                &mut buf.keys,
+            )
+        });
+        if let Err(e) = fused {
+            self.mgmt = mgmt;
+            return Err(e);
+        }
+        self.mgmt = mgmt;
         self.update_globals(
             scan,
             time,
@@ -345,9 +404,20 @@ impl FusionCenter {
         if let (Some(b), Some(s)) = (&mut self.bias, &self.sensors) {
             b.update(raw, &buf.groups, &buf.fused_est, s);
         }
-        self.age_globals(&buf.continued);
         self.last = Some((scan, time));
         publish(out);
+        let keep = self.cfg.delete_after;
+        match self.mgmt.as_mut() {
+            Some(m) => {
+                m.remember(&out.associations, keep);
+                let dead = std::mem::take(&mut m.dead);
+                self.age_globals(&buf.continued, &dead);
+                if let Some(m) = self.mgmt.as_mut() {
+                    m.dead = dead;
+                }
+            }
+            None => self.age_globals(&buf.continued, &[]),
+        }
         Ok(())
     }
 
@@ -530,8 +600,16 @@ impl FusionCenter {
         continued.clear();
         continued.resize(self.globals.len(), false);
         out.fused.truncate(groups.len());
+        let mgmt = self.mgmt.as_ref();
+        let (confirm_scans, publish_all) = match mgmt {
+            Some(m) => (m.cfg.confirm_scans, m.cfg.publish == Publish::All),
+            None => (1, true),
+        };
         let mut offset = 0;
-        for (k, (g, (x, p))) in groups.iter().zip(fused_est).enumerate() {
+        // the next row of `out.fused` to write (tentative tracks are not published unless
+        // asked)
+        let mut k = 0;
+        for (g, (x, p)) in groups.iter().zip(fused_est) {
             if k == out.fused.len() {
                 out.fused.push(FusedTrack {
                     scan,
@@ -540,6 +618,7 @@ impl FusionCenter {
                     state: *x,
                     cov: *p,
                     sources: Vec::with_capacity(g.members.len()),
+                    status: TrackStatus::Confirmed,
                 });
             }
             let src = &keys[offset..offset + g.members.len()];
@@ -548,7 +627,10 @@ impl FusionCenter {
             row.sources.clear();
             row.sources.extend_from_slice(src);
             row.sources.sort_unstable();
-            let id = match g.global {
+            // two sensors in one scan, or a local track held for `confirm_scans` scans
+            let evidence = g.members.len() >= 2
+                || mgmt.is_none_or(|m| g.members.iter().any(|&i| m.age(i) >= confirm_scans));
+            let (id, status) = match g.global {
                 Some(gi) => {
                     continued[gi] = true;
                     let gt = &mut self.globals[gi];
@@ -561,7 +643,10 @@ impl FusionCenter {
                     gt.sources.extend_from_slice(&row.sources);
                     gt.updates += 1;
                     gt.misses = 0;
-                    gt.id
+                    if evidence {
+                        self.status[gi] = TrackStatus::Confirmed;
+                    }
+                    (gt.id, self.status[gi])
                 }
                 None => {
                     let id = self.next_id;
@@ -577,8 +662,14 @@ impl FusionCenter {
                         updates: 1,
                         misses: 0,
                     });
+                    let status = if evidence {
+                        TrackStatus::Confirmed
+                    } else {
+                        TrackStatus::Tentative
+                    };
+                    self.status.push(status);
                     continued.push(true);
-                    id
+                    (id, status)
                 }
             };
             for &(sensor_id, track_id) in src {
@@ -594,19 +685,32 @@ impl FusionCenter {
             row.fused_id = id;
             row.state = *x;
             row.cov = *p;
+            row.status = status;
+            if publish_all || status == TrackStatus::Confirmed {
+                k += 1;
+            }
         }
+        out.fused.truncate(k);
     }
 
     /// Count a miss for every global track not continued, and delete those missed
-    /// `delete_after` scans in a row.
-    fn age_globals(&mut self, continued: &[bool]) {
-        for (i, g) in self.globals.iter_mut().enumerate() {
+    /// `delete_after` scans in a row and those `dead` (merged into another this scan).
+    fn age_globals(&mut self, continued: &[bool], dead: &[bool]) {
+        let limit = self.cfg.delete_after;
+        let mut kept = 0;
+        for i in 0..self.globals.len() {
+            let g = &mut self.globals[i];
             if !continued.get(i).copied().unwrap_or(false) {
-                g.misses += 1;
+                g.misses = g.misses.saturating_add(1);
+            }
+            if g.misses < limit && !dead.get(i).copied().unwrap_or(false) {
+                self.globals.swap(kept, i);
+                self.status.swap(kept, i);
+                kept += 1;
             }
         }
-        let limit = self.cfg.delete_after;
-        self.globals.retain(|g| g.misses < limit);
+        self.globals.truncate(kept);
+        self.status.truncate(kept);
     }
 }
 
