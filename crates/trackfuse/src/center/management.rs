@@ -316,7 +316,10 @@ impl Manager {
                     1
                 };
                 link.pending = target;
-                if link.count >= switch {
+                // a move to an existing global track once asked for `switch` scans; a
+                // new one would duplicate the track it is gated with (with `switch` 1,
+                // no hysteresis at all)
+                if switch <= 1 || (target != NEW && link.count >= switch) {
                     continue;
                 }
                 self.moves.push((i, k, oi));
