@@ -5,7 +5,7 @@
 use anyhow::{anyhow, Result};
 use clap::Args;
 use trackfuse::center::registry as center_registry;
-use trackfuse::center::{CenterError, FusionConfig};
+use trackfuse::center::{CenterError, FusionConfig, Publish};
 use trackfuse::local::registry as local_registry;
 use trackfuse::local::{InitiationMethod, TrackerConfig};
 use trackfuse::params::{parse_cli_param, ParamTables};
@@ -142,6 +142,28 @@ pub struct FusionFlags {
     /// Delete a global track after this many scans without a local track.
     #[arg(long)]
     pub global_delete_after: Option<u32>,
+    /// No global track management (the papers' center: every global track published at
+    /// once, no merge, no hysteresis); `[fusion.management] enabled = false`.
+    #[arg(long)]
+    pub no_management: bool,
+    /// Which global tracks to publish: confirmed (default) or all (tentative ones too,
+    /// with their status).
+    #[arg(long, value_name = "confirmed|all")]
+    pub publish: Option<String>,
+    /// Updates after which a global track seen by one sensor is confirmed (default 3).
+    #[arg(long, value_name = "N")]
+    pub confirm_scans: Option<u32>,
+    /// Consecutive scans two global tracks must pass the merge test to be merged
+    /// (default 3).
+    #[arg(long, value_name = "N")]
+    pub merge_scans: Option<u32>,
+    /// Consecutive scans a still-gated local track must be moved by the method before it
+    /// moves to another global track (default 3; 1 = no hysteresis).
+    #[arg(long, value_name = "N")]
+    pub switch_scans: Option<u32>,
+    /// Chi-square gate probability of the merge and hysteresis tests (default 0.99).
+    #[arg(long, value_name = "P")]
+    pub management_gate: Option<f64>,
 }
 
 impl FusionFlags {
@@ -172,6 +194,26 @@ impl FusionFlags {
         }
         if let Some(d) = self.global_delete_after {
             c.delete_after = d;
+        }
+        let m = &mut c.management;
+        if self.no_management {
+            m.enabled = false;
+        }
+        if let Some(p) = &self.publish {
+            m.publish = Publish::parse(p)
+                .ok_or_else(|| anyhow!("--publish {p}: expected confirmed or all"))?;
+        }
+        if let Some(n) = self.confirm_scans {
+            m.confirm_scans = n;
+        }
+        if let Some(n) = self.merge_scans {
+            m.merge_scans = n;
+        }
+        if let Some(n) = self.switch_scans {
+            m.switch_scans = n;
+        }
+        if let Some(p) = self.management_gate {
+            m.gate_probability = p;
         }
         c.check().map_err(|e| self.with_flag_hint(e))?;
         Ok(c)

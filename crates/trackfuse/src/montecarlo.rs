@@ -91,6 +91,7 @@ mod tests {
                         state: s,
                         cov: StateCov::identity() * 100.0,
                         sources: vec![],
+                        status: crate::types::TrackStatus::Confirmed,
                     }
                 })
                 .collect();

@@ -142,6 +142,41 @@ pub struct FusedTrack {
     pub cov: StateCov,
     /// `(sensor_id, track_id)` of the local tracks fused into this estimate, sorted.
     pub sources: Vec<(Id, Id)>,
+    /// Whether the center has confirmed the global track (the optional `status` column;
+    /// `confirmed` when a file has none).
+    pub status: TrackStatus,
+}
+
+/// A global track's status at the fusion center (`status` in fused_tracks.csv).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TrackStatus {
+    /// Not yet confirmed by the evidence (one sensor, fewer scans than the center's
+    /// `confirm_scans`); published only when the center is asked for all tracks.
+    Tentative,
+    /// Confirmed (the default: a file without the column, or a center without track
+    /// management, publishes confirmed tracks only).
+    #[default]
+    Confirmed,
+}
+
+impl TrackStatus {
+    /// The name in files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            TrackStatus::Tentative => "tentative",
+            TrackStatus::Confirmed => "confirmed",
+        }
+    }
+
+    /// `tentative` or `confirmed`.
+    pub fn parse(s: &str) -> Option<TrackStatus> {
+        match s {
+            "tentative" => Some(TrackStatus::Tentative),
+            "confirmed" => Some(TrackStatus::Confirmed),
+            _ => None,
+        }
+    }
 }
 
 impl FusedTrack {

@@ -18,10 +18,17 @@
 //!    for `delete_after` scans are deleted; the fused tracks and associations are
 //!    published.
 //!
+//! With track management on (`[fusion.management]`, [`super::management`]), between
+//! steps 4 and 5 the method's moves of local tracks still gated with their global track
+//! are held (hysteresis), after the fusion duplicate global tracks are merged (the merged
+//! groups fused again), each global track's status is updated, and only confirmed ones
+//! are published (unless `publish = "all"`); every local track keeps its association row.
+//!
 //! Ids are never reused. The center keeps all its state itself, so the CLI, the Monte
 //! Carlo engine and a streaming service drive it the same way.
 
 use super::bias::{BiasEstimate, BiasEstimator};
+use super::management::{Manager, Publish};
 use super::registry::{make_rule, CenterRegistry};
 use super::t2ta::truth::{self, TruthAssociator, TruthSource};
 use super::{
@@ -30,7 +37,7 @@ use super::{
 };
 use crate::models::{cv_transition, process_noise};
 use crate::types::{
-    symmetrize, Association, FusedTrack, Id, LocalTrack, Sensor, StateCov, StateVec,
+    symmetrize, Association, FusedTrack, Id, LocalTrack, Sensor, StateCov, StateVec, TrackStatus,
 };
 use std::collections::{BTreeMap, HashMap};
 
@@ -85,6 +92,10 @@ pub struct FusionCenter {
     /// What the center knows of the sensors (true biases zeroed).
     sensors: Option<Vec<Sensor>>,
     globals: Vec<GlobalTrack>,
+    /// Each global track's status (same order as `globals`).
+    status: Vec<TrackStatus>,
+    /// Track management (`None`: off, the papers' center).
+    mgmt: Option<Manager>,
     next_id: Id,
     last: Option<(u32, f64)>,
     /// Whether the method is the `truth` associator built without labels.
@@ -191,6 +202,7 @@ impl FusionCenter {
         bias: Option<Box<dyn BiasEstimator>>,
         sensors: Option<&[Sensor]>,
     ) -> Result<Self, CenterError> {
+        cfg.management.check()?;
         if let (Some(b), None) = (&bias, sensors) {
             return Err(CenterError::Needs {
                 method: b.name(),
@@ -214,6 +226,11 @@ impl FusionCenter {
             bias,
             sensors,
             globals: Vec::new(),
+            status: Vec::new(),
+            mgmt: cfg
+                .management
+                .enabled
+                .then(|| Manager::new(&cfg.management)),
             next_id: 0,
             last: None,
             truth_missing: false,
@@ -226,6 +243,12 @@ impl FusionCenter {
     /// The global tracks alive after the last scan, sorted by id.
     pub fn globals(&self) -> &[GlobalTrack] {
         &self.globals
+    }
+
+    /// The status of each global track of [`FusionCenter::globals`] (same order); all
+    /// confirmed without track management.
+    pub fn global_status(&self) -> &[TrackStatus] {
+        &self.status
     }
 
     /// The bias estimates so far (empty without a bias estimator).
@@ -292,7 +315,7 @@ impl FusionCenter {
         out: &mut ScanOutput,
     ) -> Result<(), CenterError> {
         if tracks.is_empty() {
-            self.age_globals(&[]);
+            self.age_globals(&[], &[]);
             out.fused.clear();
             return Ok(());
         }
@@ -325,14 +348,50 @@ impl FusionCenter {
             &mut buf.seen,
         )?;
         order_members(&mut buf.groups);
-        self.fuse_groups(
+        let mut mgmt = self.mgmt.take();
+        if let Some(m) = mgmt.as_mut() {
+            if m.hold_moves(sorted, &mut buf.groups, &self.globals, &self.predicted) {
+                order_members(&mut buf.groups);
+                check_groups(
+                    "track management",
+                    sorted,
+                    &buf.groups,
+                    self.globals.len(),
+                    &mut buf.seen,
+                )?;
+            }
+        }
+        let fused = self.fuse_groups(
             scan,
             time,
             sorted,
             &buf.groups,
             &mut buf.fused_est,
             &mut buf.keys,
-        )?;
+        );
+        let fused = fused.and_then(|()| {
+            let merged = mgmt.as_mut().is_some_and(|m| {
+                m.merge_duplicates(sorted, &mut buf.groups, &buf.fused_est, &self.globals)
+            });
+            if !merged {
+                return Ok(());
+            }
+            // the merged groups fused again
+            order_members(&mut buf.groups);
+            self.fuse_groups(
+                scan,
+                time,
+                sorted,
+                &buf.groups,
+                &mut buf.fused_est,
+                &mut buf.keys,
+            )
+        });
+        if let Err(e) = fused {
+            self.mgmt = mgmt;
+            return Err(e);
+        }
+        self.mgmt = mgmt;
         self.update_globals(
             scan,
             time,
@@ -345,9 +404,20 @@ impl FusionCenter {
         if let (Some(b), Some(s)) = (&mut self.bias, &self.sensors) {
             b.update(raw, &buf.groups, &buf.fused_est, s);
         }
-        self.age_globals(&buf.continued);
         self.last = Some((scan, time));
         publish(out);
+        let keep = self.cfg.delete_after;
+        match self.mgmt.as_mut() {
+            Some(m) => {
+                m.remember(&out.associations, keep);
+                let dead = std::mem::take(&mut m.dead);
+                self.age_globals(&buf.continued, &dead);
+                if let Some(m) = self.mgmt.as_mut() {
+                    m.dead = dead;
+                }
+            }
+            None => self.age_globals(&buf.continued, &[]),
+        }
         Ok(())
     }
 
@@ -531,8 +601,16 @@ impl FusionCenter {
         continued.clear();
         continued.resize(self.globals.len(), false);
         out.fused.truncate(groups.len());
+        let mgmt = self.mgmt.as_ref();
+        let (confirm_scans, publish_all) = match mgmt {
+            Some(m) => (m.cfg.confirm_scans, m.cfg.publish == Publish::All),
+            None => (1, true),
+        };
         let mut offset = 0;
-        for (k, (g, (x, p))) in groups.iter().zip(fused_est).enumerate() {
+        // the next row of `out.fused` to write (tentative tracks are not published unless
+        // asked)
+        let mut k = 0;
+        for (g, (x, p)) in groups.iter().zip(fused_est) {
             if k == out.fused.len() {
                 out.fused.push(FusedTrack {
                     scan,
@@ -541,6 +619,7 @@ impl FusionCenter {
                     state: *x,
                     cov: *p,
                     sources: Vec::with_capacity(g.members.len()),
+                    status: TrackStatus::Confirmed,
                 });
             }
             let src = &keys[offset..offset + g.members.len()];
@@ -549,7 +628,10 @@ impl FusionCenter {
             row.sources.clear();
             row.sources.extend_from_slice(src);
             row.sources.sort_unstable();
-            let id = match g.global {
+            // two sensors in one scan, or a local track held for `confirm_scans` scans
+            let evidence = g.members.len() >= 2
+                || mgmt.is_none_or(|m| g.members.iter().any(|&i| m.age(i) >= confirm_scans));
+            let (id, status) = match g.global {
                 Some(gi) => {
                     continued[gi] = true;
                     let gt = &mut self.globals[gi];
@@ -562,7 +644,10 @@ impl FusionCenter {
                     gt.sources.extend_from_slice(&row.sources);
                     gt.updates += 1;
                     gt.misses = 0;
-                    gt.id
+                    if evidence {
+                        self.status[gi] = TrackStatus::Confirmed;
+                    }
+                    (gt.id, self.status[gi])
                 }
                 None => {
                     let id = self.next_id;
@@ -578,8 +663,14 @@ impl FusionCenter {
                         updates: 1,
                         misses: 0,
                     });
+                    let status = if evidence {
+                        TrackStatus::Confirmed
+                    } else {
+                        TrackStatus::Tentative
+                    };
+                    self.status.push(status);
                     continued.push(true);
-                    id
+                    (id, status)
                 }
             };
             for &(sensor_id, track_id) in src {
@@ -595,19 +686,32 @@ impl FusionCenter {
             row.fused_id = id;
             row.state = *x;
             row.cov = *p;
+            row.status = status;
+            if publish_all || status == TrackStatus::Confirmed {
+                k += 1;
+            }
         }
+        out.fused.truncate(k);
     }
 
     /// Count a miss for every global track not continued, and delete those missed
-    /// `delete_after` scans in a row.
-    fn age_globals(&mut self, continued: &[bool]) {
-        for (i, g) in self.globals.iter_mut().enumerate() {
+    /// `delete_after` scans in a row and those `dead` (merged into another this scan).
+    fn age_globals(&mut self, continued: &[bool], dead: &[bool]) {
+        let limit = self.cfg.delete_after;
+        let mut kept = 0;
+        for i in 0..self.globals.len() {
+            let g = &mut self.globals[i];
             if !continued.get(i).copied().unwrap_or(false) {
-                g.misses += 1;
+                g.misses = g.misses.saturating_add(1);
+            }
+            if g.misses < limit && !dead.get(i).copied().unwrap_or(false) {
+                self.globals.swap(kept, i);
+                self.status.swap(kept, i);
+                kept += 1;
             }
         }
-        let limit = self.cfg.delete_after;
-        self.globals.retain(|g| g.misses < limit);
+        self.globals.truncate(kept);
+        self.status.truncate(kept);
     }
 }
 
@@ -874,6 +978,7 @@ fn locate(e: CenterError, scan: u32, members: &[&LocalTrack]) -> CenterError {
 mod tests {
     use super::*;
     use crate::center::testing::local;
+    use crate::center::{ManagementConfig, Publish};
     use proptest::prelude::*;
 
     /// Test associator: tracks within 50 m of a predicted global continue it (nearest
@@ -1199,6 +1304,257 @@ mod tests {
         }
         let mut c = FusionCenter::new(&cfg, Some(&[radar(0), radar(1)])).expect("center");
         assert!(c.process_scan(&two_targets(0)).is_ok());
+    }
+
+    /// Test associator that splits each scan's tracks by sensor pair (sensors 0 and 1 in
+    /// one group, 2 and 3 in another): a group continues the global track that fused one
+    /// of its members last scan, unless another group took it first (then it starts a new
+    /// one), as a method with a too tight gate splits one target's four local tracks.
+    struct SplitPairs;
+    impl TrackAssociator for SplitPairs {
+        fn name(&self) -> &'static str {
+            "split-pairs"
+        }
+        fn associate(
+            &mut self,
+            _ctx: &AssociationContext<'_>,
+            tracks: &[LocalTrack],
+            globals: &[GlobalTrack],
+        ) -> Result<Vec<TrackGroup>, CenterError> {
+            let mut groups: Vec<TrackGroup> = Vec::new();
+            for (i, t) in tracks.iter().enumerate() {
+                let pair = t.sensor_id / 2;
+                match groups
+                    .iter_mut()
+                    .find(|g| tracks[g.members[0]].sensor_id / 2 == pair)
+                {
+                    Some(g) => {
+                        g.members.push(i);
+                        g.weights.push(1.0);
+                    }
+                    None => groups.push(TrackGroup {
+                        members: vec![i],
+                        weights: vec![1.0],
+                        global: None,
+                    }),
+                }
+            }
+            let mut taken = vec![false; globals.len()];
+            for g in &mut groups {
+                let keys: Vec<(Id, Id)> = g
+                    .members
+                    .iter()
+                    .map(|&m| (tracks[m].sensor_id, tracks[m].track_id))
+                    .collect();
+                g.global = (0..globals.len())
+                    .find(|&gi| !taken[gi] && globals[gi].sources.iter().any(|s| keys.contains(s)));
+                if let Some(gi) = g.global {
+                    taken[gi] = true;
+                }
+            }
+            Ok(groups)
+        }
+    }
+
+    fn managed(cfg: &FusionConfig, method: Box<dyn TrackAssociator>) -> FusionCenter {
+        FusionCenter::with_parts(cfg, method, Box::new(Mean(false)), None, None).expect("center")
+    }
+
+    /// A local track of `sensor` at scan `scan` on a straight line from `(x0, y0)` with
+    /// velocity `(vx, vy)`, 50 m / 5 m/s standard deviations.
+    #[allow(clippy::too_many_arguments)]
+    fn moving(
+        sensor: Id,
+        track: Id,
+        scan: u32,
+        x0: f64,
+        y0: f64,
+        vx: f64,
+        vy: f64,
+        dx: f64,
+    ) -> LocalTrack {
+        let t = scan as f64 * 5.0;
+        let mut l = local(sensor, track, x0 + vx * t + dx, vx, y0 + vy * t, vy, 1.0);
+        l.scan = scan;
+        l.time = t;
+        l.cov = StateCov::from_diagonal(&StateVec::new(2500.0, 25.0, 2500.0, 25.0));
+        l
+    }
+
+    #[test]
+    fn a_duplicate_pair_of_global_tracks_merges_into_the_older() {
+        let cfg = FusionConfig::default();
+        let m = cfg.management.merge_scans;
+        let mut c = managed(&cfg, Box::new(SplitPairs));
+        // one target, four sensors; the method splits it into two global tracks of two
+        let scan = |k: u32| -> Vec<LocalTrack> {
+            (0..4)
+                .map(|s| moving(s, 10 + s, k, 0.0, 0.0, 200.0, 0.0, 20.0 * s as f64))
+                .collect()
+        };
+        let first = c.process_scan(&scan(0)).expect("scan 0");
+        let ids: Vec<Id> = first.fused.iter().map(|f| f.fused_id).collect();
+        assert_eq!(ids.len(), 2, "the method split the target in two");
+        let older = ids[0].min(ids[1]);
+        // tested from the scan after they started: merged at the m-th test
+        for k in 1..m {
+            let out = c.process_scan(&scan(k)).expect("scan");
+            assert_eq!(out.fused.len(), 2, "not merged before {m} scans (scan {k})");
+        }
+        for k in m..m + 8 {
+            let out = c.process_scan(&scan(k)).expect("scan");
+            assert_eq!(out.fused.len(), 1, "merged at scan {k}");
+            assert_eq!(out.fused[0].fused_id, older, "the older id survives");
+            assert_eq!(out.fused[0].sources.len(), 4, "the younger's sources moved");
+            assert!(out.associations.iter().all(|a| a.fused_id == older));
+            assert_eq!(c.globals().len(), 1);
+        }
+        // without management the split stays
+        let mut off = managed(
+            &FusionConfig {
+                management: ManagementConfig::disabled(),
+                ..FusionConfig::default()
+            },
+            Box::new(SplitPairs),
+        );
+        for k in 0..m + 3 {
+            assert_eq!(off.process_scan(&scan(k)).expect("scan").fused.len(), 2);
+        }
+    }
+
+    #[test]
+    fn a_crossing_does_not_merge() {
+        let cfg = FusionConfig::default();
+        let mut c = managed(&cfg, Box::new(SplitPairs));
+        // sensors 0, 1 see a target flying east, sensors 2, 3 one flying north-east (45
+        // degrees apart at 200 m/s); they pass through the origin together at scan 10
+        let scan = |k: u32| -> Vec<LocalTrack> {
+            let h = 200.0 / 2f64.sqrt();
+            let t0 = 50.0;
+            vec![
+                moving(0, 1, k, -200.0 * t0, 0.0, 200.0, 0.0, 0.0),
+                moving(1, 1, k, -200.0 * t0, 0.0, 200.0, 0.0, 15.0),
+                moving(2, 1, k, -h * t0, -h * t0, h, h, 0.0),
+                moving(3, 1, k, -h * t0, -h * t0, h, h, -15.0),
+            ]
+        };
+        let first = c.process_scan(&scan(0)).expect("scan 0");
+        let ids: Vec<Id> = first.fused.iter().map(|f| f.fused_id).collect();
+        assert_eq!(ids.len(), 2);
+        for k in 1..21 {
+            let out = c.process_scan(&scan(k)).expect("scan");
+            let now: Vec<Id> = out.fused.iter().map(|f| f.fused_id).collect();
+            assert_eq!(now, ids, "both tracks kept through the crossing (scan {k})");
+        }
+    }
+
+    #[test]
+    fn a_lone_clutter_born_local_track_stays_tentative_and_unpublished() {
+        let cfg = FusionConfig::default();
+        assert!(
+            cfg.management.confirm_scans >= 3,
+            "the test needs 2 scans below it"
+        );
+        let scan = |k: u32| -> Vec<LocalTrack> {
+            let mut ts = two_targets(k);
+            // one sensor's short-lived track far from everything, for two scans
+            if k < 2 {
+                ts.push(at(local(2, 99, 50_000.0, 0.0, 50_000.0, 0.0, 25.0), k));
+            }
+            ts
+        };
+        let mut c = center(false);
+        let mut all = FusionCenter::with_parts(
+            &FusionConfig {
+                management: ManagementConfig {
+                    publish: Publish::All,
+                    ..ManagementConfig::default()
+                },
+                ..FusionConfig::default()
+            },
+            Box::new(Near),
+            Box::new(Mean(false)),
+            None,
+            None,
+        )
+        .expect("center");
+        for k in 0..5 {
+            let out = c.process_scan(&scan(k)).expect("scan");
+            // the two targets seen by two sensors each: confirmed at once
+            assert_eq!(out.fused.len(), 2, "scan {k}");
+            assert!(out.fused.iter().all(|f| f.status == TrackStatus::Confirmed));
+            assert!(out.fused.iter().all(|f| !f.sources.contains(&(2, 99))));
+            // its association row is kept
+            assert_eq!(
+                out.associations.iter().any(|a| a.sensor_id == 2),
+                k < 2,
+                "scan {k}"
+            );
+            let with_all = all.process_scan(&scan(k)).expect("scan");
+            let lone: Vec<&FusedTrack> = with_all
+                .fused
+                .iter()
+                .filter(|f| f.sources == [(2, 99)])
+                .collect();
+            assert_eq!(lone.len(), usize::from(k < 2), "scan {k}");
+            assert!(lone.iter().all(|f| f.status == TrackStatus::Tentative));
+        }
+        let lone = all.globals().iter().position(|g| g.sources == [(2, 99)]);
+        assert!(lone.is_none(), "deleted after its misses");
+        // held for confirm_scans scans, the same track is confirmed
+        let mut c = center(false);
+        let n = cfg.management.confirm_scans;
+        for k in 0..n {
+            let mut ts = two_targets(k);
+            ts.push(at(local(2, 99, 50_000.0, 0.0, 50_000.0, 0.0, 25.0), k));
+            let out = c.process_scan(&ts).expect("scan");
+            let published = out.fused.iter().any(|f| f.sources == [(2, 99)]);
+            assert_eq!(published, k + 1 >= n, "scan {k}");
+        }
+    }
+
+    #[test]
+    fn a_still_gated_local_track_is_not_moved_on_one_scan() {
+        // sensor 1's track sits between two targets' globals; the method (nearest) moves
+        // it for one scan to the other global: management keeps it with its own
+        let scan = |k: u32, jump: bool| -> Vec<LocalTrack> {
+            let y = if jump { 40.0 } else { 0.0 };
+            vec![
+                at(local(0, 1, 0.0, 10.0, 0.0, 0.0, 400.0), k),
+                at(local(1, 7, 0.0, 10.0, y, 0.0, 400.0), k),
+                at(local(0, 2, 0.0, 10.0, 70.0, 0.0, 400.0), k),
+                at(local(2, 3, 0.0, 10.0, 70.0, 0.0, 400.0), k),
+            ]
+        };
+        let sources_of = |out: &ScanOutput, key: (Id, Id)| -> Id {
+            out.associations
+                .iter()
+                .find(|a| (a.sensor_id, a.track_id) == key)
+                .map(|a| a.fused_id)
+                .expect("associated")
+        };
+        let mut on = center(false);
+        let mut off = FusionCenter::with_parts(
+            &FusionConfig {
+                management: ManagementConfig::disabled(),
+                ..FusionConfig::default()
+            },
+            Box::new(Near),
+            Box::new(Mean(false)),
+            None,
+            None,
+        )
+        .expect("center");
+        let (a, b) = (
+            on.process_scan(&scan(0, false)),
+            off.process_scan(&scan(0, false)),
+        );
+        let own = sources_of(&a.expect("scan"), (1, 7));
+        assert_eq!(sources_of(&b.expect("scan"), (1, 7)), own);
+        let out_on = on.process_scan(&scan(1, true)).expect("scan");
+        let out_off = off.process_scan(&scan(1, true)).expect("scan");
+        assert_ne!(sources_of(&out_off, (1, 7)), own, "the method moves it");
+        assert_eq!(sources_of(&out_on, (1, 7)), own, "held with its global");
     }
 
     proptest! {

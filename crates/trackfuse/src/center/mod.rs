@@ -22,6 +22,7 @@ pub mod fusion;
 pub mod fusion_center;
 pub mod hough;
 pub(crate) mod linalg;
+pub mod management;
 pub mod registry;
 pub mod t2ta;
 
@@ -31,6 +32,7 @@ pub mod testing;
 pub use fusion_center::{
     fuse_all, fuse_all_two_pass, needs_truth, FusedRun, FusionCenter, ScanOutput,
 };
+pub use management::{ManagementConfig, Publish};
 
 use crate::params::{ParamError, ParamTables};
 use crate::types::{Id, LocalTrack, Sensor, StateCov, StateVec};
@@ -416,7 +418,9 @@ pub enum Numerical {
 ///
 /// Defaults: `fdbsc-ta` association with `fuzzy` fusion (000), no bias estimation, a
 /// white-acceleration standard deviation of 1 m/s^2 for predicting global tracks, and a
-/// global track deleted after 3 scans in which no local track continued it.
+/// global track deleted after 3 scans in which no local track continued it, and global
+/// track management on ([`ManagementConfig`]: tentative until confirmed, duplicates
+/// merged, hysteresis on moves; only confirmed tracks published).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FusionConfig {
@@ -439,6 +443,11 @@ pub struct FusionConfig {
     /// Per-method parameter tables, `[fusion.params.<method or rule name>]`.
     #[serde(default)]
     pub params: ParamTables,
+    /// Global track management, `[fusion.management]` (status, merge, hysteresis; see
+    /// [`ManagementConfig`] for each key's default and why). `enabled = false` is the
+    /// papers' center.
+    #[serde(default)]
+    pub management: ManagementConfig,
 }
 
 fn default_method() -> String {
@@ -463,6 +472,7 @@ impl Default for FusionConfig {
             process_noise: default_center_q(),
             delete_after: default_center_delete(),
             params: ParamTables::new(),
+            management: ManagementConfig::default(),
         }
     }
 }
@@ -506,6 +516,7 @@ impl FusionConfig {
         if self.delete_after == 0 {
             return Err(ParamError::new("delete_after", "must be at least 1").into());
         }
+        self.management.check()?;
         let method = registry.make_method(&self.method, &self.params)?;
         let rule = registry.make_rule(&self.rule, &self.params)?;
         let bias = self

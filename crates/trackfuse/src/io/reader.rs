@@ -5,7 +5,7 @@ use crate::io::{InputError, COV_COLUMNS};
 use crate::models::wrap_angle;
 use crate::types::{
     Association, FusedTrack, Id, LocalTrack, Measurement, Sensor, SensorKind, StateCov, StateVec,
-    TruthState, Vec2,
+    TrackStatus, TruthState, Vec2,
 };
 use std::collections::{HashMap, HashSet};
 use std::fs::File;
@@ -1079,6 +1079,7 @@ struct FusedTrackRows {
     c_fid: usize,
     c_n: usize,
     c_src: Option<usize>,
+    c_status: Option<usize>,
     sc: StateCols,
     /// `fused_id`s of the current scan and their lines.
     seen: HashMap<Id, u64>,
@@ -1134,6 +1135,19 @@ impl ScanRows for FusedTrackRows {
                 }
             }
         }
+        // optional; `confirmed` when absent
+        let status = match self.c_status {
+            Some(c) => {
+                let s = row.raw(c)?;
+                TrackStatus::parse(s.trim()).ok_or_else(|| {
+                    row.err(
+                        c,
+                        format!("'{s}' is not a status (expected tentative or confirmed)"),
+                    )
+                })?
+            }
+            None => TrackStatus::Confirmed,
+        };
         Ok(FusedTrack {
             scan,
             time,
@@ -1141,6 +1155,7 @@ impl ScanRows for FusedTrackRows {
             state,
             cov,
             sources,
+            status,
         })
     }
     fn order(rows: &mut [(FusedTrack, u64)]) {
@@ -1173,6 +1188,7 @@ impl<R: Read> FusedTrackStream<R> {
             c_fid: t.col("fused_id")?,
             c_n: t.col("n_sources")?,
             c_src: t.opt("sources"),
+            c_status: t.opt("status"),
             sc: StateCols::find(&t)?,
             seen: HashMap::new(),
             last: HashMap::new(),

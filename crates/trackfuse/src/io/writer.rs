@@ -476,7 +476,8 @@ impl<W: Sink> LocalTrackWriter<W> {
     }
 }
 
-/// Streaming writer of `fused_tracks.csv` (with the optional `sources` column).
+/// Streaming writer of `fused_tracks.csv` (with the optional `sources` and `status`
+/// columns: `status` is always written).
 pub struct FusedTrackWriter<W: Write>(CsvRowWriter<W>);
 
 impl FusedTrackWriter<AtomicFile> {
@@ -488,7 +489,7 @@ impl FusedTrackWriter<AtomicFile> {
 
 impl<W: Sink> FusedTrackWriter<W> {
     pub fn header() -> String {
-        header_with_cov("scan,time,fused_id,x,vx,y,vy", ",n_sources,sources")
+        header_with_cov("scan,time,fused_id,x,vx,y,vy", ",n_sources,sources,status")
     }
     pub fn new(out: W) -> io::Result<Self> {
         Ok(FusedTrackWriter(CsvRowWriter::new(out, &Self::header())?))
@@ -506,6 +507,7 @@ impl<W: Sink> FusedTrackWriter<W> {
             s.push_str(&format!("{sensor}:{track}"));
         }
         w.text(&s);
+        w.text(t.status.as_str());
         w.end_row()
     }
     pub fn finish(self) -> io::Result<W::Done> {

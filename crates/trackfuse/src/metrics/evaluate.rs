@@ -642,6 +642,7 @@ mod tests {
             state: StateVec::new(x, 0.0, 0.0, 0.0),
             cov: StateCov::identity(),
             sources: vec![],
+            status: crate::types::TrackStatus::Confirmed,
         };
         let fused = vec![f(0, 3.0), f(1, 6.0)];
         let m = evaluate_run(
@@ -674,6 +675,7 @@ mod tests {
             state: StateVec::new(x, 0.0, 0.0, 0.0),
             cov: StateCov::identity() * var,
             sources: vec![(1, 1)],
+            status: crate::types::TrackStatus::Confirmed,
         };
         let fused = vec![f(0, 1.0, 0.0), f(1, 12.0, 4.0)];
         let mut singular = local(1, 1, 1, 10.0, 0.0);

@@ -481,6 +481,8 @@ fn two_pass_fusion_corrects_from_the_first_scan() {
     let (sensors, biases, targets) = scenario_two();
     let cfg = FusionConfig {
         bias: Some(NAME.into()),
+        // the papers' center: every global track published from scan 0
+        management: crate::center::ManagementConfig::disabled(),
         ..FusionConfig::default()
     };
     let mut tracks = Vec::new();
