@@ -199,6 +199,8 @@ pub struct TrackPairLs {
     /// Residual-gate scale of the last solve (>= 1).
     scale: f64,
     observations: Vec<Observation>,
+    /// Per observation, what its evaluation computes once ([`solve::ObservationCache`]).
+    obs_cache: Vec<solve::ObservationCache>,
     groups: VecDeque<StoredGroup>,
     /// Pairs accepted at the last scan, `((sensor, track), (sensor, track))`, sorted.
     memory: Vec<(PairKey, u32)>,
@@ -238,6 +240,14 @@ pub struct TrackPairLs {
     /// history validated them: `(pair, streak, last scan accepted)` (revocation).
     ended: Vec<(PairKey, u32, u64)>,
     component: Vec<(u32, u32)>,
+    /// Components of the candidate graph of one sensor pair (the settled check).
+    candidate_sets: crate::union_find::UnionFind,
+    /// Per scan track: candidates the current estimate explains with it (saturating).
+    explained: Vec<u8>,
+    /// Per scan track (a component root): its component is not settled; per scan track
+    /// after the split: the track was paired in a settled component.
+    unsettled: Vec<bool>,
+    settled_track: Vec<bool>,
 }
 
 impl TrackPairLs {
@@ -256,6 +266,7 @@ impl TrackPairLs {
             scans: 0,
             scale: 1.0,
             observations: Vec::new(),
+            obs_cache: Vec::new(),
             groups: VecDeque::new(),
             memory: Vec::new(),
             lookup: Vec::new(),
@@ -291,6 +302,10 @@ impl TrackPairLs {
             by_second: Vec::new(),
             ended: Vec::new(),
             component: Vec::new(),
+            candidate_sets: crate::union_find::UnionFind::default(),
+            explained: Vec::new(),
+            unsettled: Vec::new(),
+            settled_track: Vec::new(),
         })
     }
 
