@@ -485,6 +485,10 @@ impl TrackPairLs {
                     // consensus below sees only the other tracks
                     self.assign(&ctx, &zero);
                     split = true;
+                    #[cfg(test)]
+                    {
+                        self.split_pairings += 1;
+                    }
                 }
             }
         }
