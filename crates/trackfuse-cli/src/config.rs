@@ -5,6 +5,7 @@
 use anyhow::{anyhow, Result};
 use clap::Args;
 use trackfuse::center::registry as center_registry;
+use trackfuse::center::bias;
 use trackfuse::center::{CenterError, FusionConfig, Publish};
 use trackfuse::local::registry as local_registry;
 use trackfuse::local::{InitiationMethod, TrackerConfig};
@@ -124,7 +125,8 @@ pub struct FusionFlags {
     /// Fusion rule (see `trackfuse methods`). Default: the scenario's, else fuzzy.
     #[arg(long)]
     pub rule: Option<String>,
-    /// Sensor-bias estimator (see `trackfuse methods`), or `none`. Needs sensors.csv.
+    /// Sensor-bias estimator (see `trackfuse methods`), `none`, or `auto` (the default:
+    /// track-pair-ls when sensors.csv lists two or more range-bearing radars, else off).
     #[arg(long)]
     pub bias: Option<String>,
     /// Association-method parameter key=value (repeatable).
@@ -183,10 +185,12 @@ impl FusionFlags {
         set_params(&mut c.params, "--method-param", &m, &self.method_params)?;
         set_params(&mut c.params, "--rule-param", &r, &self.rule_params)?;
         if !self.bias_params.is_empty() {
-            let b = c
-                .bias
-                .clone()
-                .ok_or_else(|| anyhow!("--bias-param needs --bias NAME"))?;
+            // `auto` takes the parameters of the estimator it resolves to
+            let b = match c.bias.as_deref() {
+                None | Some(bias::OFF) => return Err(anyhow!("--bias-param needs --bias NAME")),
+                Some(bias::AUTO) => bias::AUTO_ESTIMATOR.to_string(),
+                Some(b) => b.to_string(),
+            };
             set_params(&mut c.params, "--bias-param", &b, &self.bias_params)?;
         }
         if let Some(q) = self.center_process_noise {
@@ -264,7 +268,13 @@ pub fn methods_text() -> String {
     for r in center_registry::RULES {
         s.push_str(&format!("  {:<14} {}\n", r.name, r.summary));
     }
-    s.push_str("\nBias estimators (--bias):\n");
+    s.push_str(&format!(
+        "\nBias estimators (--bias; default {}: {} when sensors.csv lists two or more \
+         range-bearing radars, else off; {} turns it off):\n",
+        bias::AUTO,
+        bias::AUTO_ESTIMATOR,
+        bias::OFF
+    ));
     for b in center_registry::BIAS_ESTIMATORS {
         s.push_str(&format!("  {:<14} {}\n", b.name, b.summary));
     }

@@ -160,6 +160,12 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     };
     let cfg = args.fusion.apply(&base)?;
     let sensors = args.sensors.as_deref().map(read_sensors).transpose()?;
+    // the default `auto` that resolves to no estimator says why, once
+    if cfg.bias.as_deref() == Some(trackfuse::center::bias::AUTO) {
+        if let trackfuse::center::bias::BiasChoice::Off(why) = cfg.bias_choice(sensors.as_deref()) {
+            eprintln!("note: {why}");
+        }
+    }
     // the labels of the scan being fused, replaced scan by scan
     let labels = Arc::new(ScanLabels::default());
     let mut center = new_center(args, &cfg, sensors.as_deref(), &labels)?;

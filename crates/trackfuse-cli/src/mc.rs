@@ -90,11 +90,7 @@ pub fn run(args: &McArgs) -> Result<()> {
         tracker.filter,
         fusion.method,
         fusion.rule,
-        fusion
-            .bias
-            .as_ref()
-            .map(|b| format!(" + bias {b}"))
-            .unwrap_or_default()
+        crate::run::bias_label(&fusion, &sc.scenario.sensor_table())
     );
     print!("{}", render_summary(&summary));
     eprintln!(

@@ -87,11 +87,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
         tracker.filter,
         fusion.method,
         fusion.rule,
-        fusion
-            .bias
-            .as_ref()
-            .map(|b| format!(" + bias {b}"))
-            .unwrap_or_default()
+        bias_label(&fusion, &out.sim.sensors)
     );
     println!(
         "{} measurements, {} local-track rows, {} fused rows\n",
@@ -124,4 +120,13 @@ pub fn run(args: &RunArgs) -> Result<()> {
         dir.display()
     );
     Ok(())
+}
+
+/// ` + bias NAME` for the estimator the fusion config resolves to with these sensors
+/// (`auto` resolved by the library), empty when bias estimation is off.
+pub fn bias_label(fusion: &trackfuse::center::FusionConfig, sensors: &[trackfuse::types::Sensor]) -> String {
+    match fusion.bias_choice(Some(sensors)) {
+        trackfuse::center::bias::BiasChoice::Estimator(b) => format!(" + bias {b}"),
+        trackfuse::center::bias::BiasChoice::Off(_) => String::new(),
+    }
 }

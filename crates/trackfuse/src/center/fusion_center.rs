@@ -176,7 +176,7 @@ impl FusionCenter {
         truth: Option<Box<dyn TruthSource>>,
         registry: &CenterRegistry,
     ) -> Result<Self, CenterError> {
-        let (configured, rule, bias) = cfg.build_with(registry)?;
+        let (configured, rule, bias) = cfg.build_with(registry, sensors)?;
         let wants_truth = cfg.method == truth::NAME || rule.needs_true_association();
         let (method, truth_missing): (Box<dyn TrackAssociator>, bool) = if wants_truth {
             let method = TruthAssociator::with_source(truth);

@@ -10,13 +10,109 @@
 //!   local tracks of two sensors, joint least squares of every sensor's range and
 //!   bearing biases, polar correction. The polar bias map itself is
 //!   [`crate::models::polar`].
+//!
+//! # The default: `auto`
+//! `[fusion] bias` defaults to [`AUTO`], resolved by [`resolve`] (the one place that
+//! decides it; the CLI and [`crate::center::FusionCenter`] both ask it): `track-pair-ls`
+//! ([`AUTO_ESTIMATOR`]) when the center knows the sensors (sensors.csv, or a scenario's
+//! sensors) and at least two of them are range-bearing radars; otherwise no estimation,
+//! with the reason ([`BiasOff`]): without the sensor positions no polar correction can be
+//! made, and a radar's range and bearing biases are observable only against another
+//! sensor's tracks of the same targets, and the estimator's correction is a polar one
+//! (position sensors have no bearing to be biased), so one radar among position sensors
+//! is left alone. `bias = "none"` (`--bias none`) turns it off.
+//!
+//! Why on by default: on real radars it is what makes fusion work at all (the
+//! `swiss-b` files, radars with registration biases: fused GOSPA 4639 without it,
+//! about half with it, BENCHMARKS.md), while on unbiased radars (`swiss-a`) it costs at
+//! most about 1 % GOSPA with every fusion rule measured, because it corrects only what
+//! the pairs of tracks show (a zero-mean prior keeps unobserved biases at zero).
 
 pub mod track_pair_ls;
 
 pub use track_pair_ls::{Pairing, TrackPairLs, TrackPairLsParams};
 
 use super::TrackGroup;
-use crate::types::{Id, LocalTrack, Sensor, StateCov, StateVec};
+use crate::types::{Id, LocalTrack, Sensor, SensorKind, StateCov, StateVec};
+
+/// The default `[fusion] bias` value: the estimator is chosen from the sensors
+/// ([`resolve`]).
+pub const AUTO: &str = "auto";
+
+/// The `[fusion] bias` value (and `--bias` flag value) that turns bias estimation off.
+pub const OFF: &str = "none";
+
+/// The estimator [`AUTO`] resolves to when the sensors allow it.
+pub const AUTO_ESTIMATOR: &str = track_pair_ls::NAME;
+
+/// What a `[fusion] bias` value resolves to, given the sensors the center knows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BiasChoice<'a> {
+    /// Run the estimator of this registry name.
+    Estimator(&'a str),
+    /// No bias estimation, and why.
+    Off(BiasOff),
+}
+
+/// Why bias estimation is off.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BiasOff {
+    /// `bias = "none"` (or `--bias none`).
+    Requested,
+    /// `auto` without the sensors: no sensor positions, no polar correction.
+    NoSensors,
+    /// `auto` with fewer than two range-bearing radars among the sensors (`radars` of
+    /// them).
+    TooFewRadars { radars: usize },
+}
+
+impl std::fmt::Display for BiasOff {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            BiasOff::Requested => write!(f, "bias estimation is off (bias = \"none\")"),
+            BiasOff::NoSensors => write!(
+                f,
+                "bias estimation is off: the sensors (sensors.csv) are not given, so their \
+                 positions are unknown"
+            ),
+            BiasOff::TooFewRadars { radars } => write!(
+                f,
+                "bias estimation is off: {radars} range-bearing radar(s) among the sensors, \
+                 at least 2 are needed"
+            ),
+        }
+    }
+}
+
+/// Resolve a `[fusion] bias` value (`None` = off, as [`OFF`]) against the sensors the
+/// center knows (module doc, "The default"): an explicit estimator name is kept as given
+/// (the registry checks it), [`OFF`] is off, and [`AUTO`] is [`AUTO_ESTIMATOR`] with at
+/// least two range-bearing radars (distinct ids) among `sensors`, else off.
+pub fn resolve<'a>(name: Option<&'a str>, sensors: Option<&[Sensor]>) -> BiasChoice<'a> {
+    match name {
+        None | Some(OFF) => BiasChoice::Off(BiasOff::Requested),
+        Some(AUTO) => {
+            let Some(sensors) = sensors else {
+                return BiasChoice::Off(BiasOff::NoSensors);
+            };
+            let mut radars: Vec<Id> = sensors
+                .iter()
+                .filter(|s| s.kind == SensorKind::RangeBearing)
+                .map(|s| s.id)
+                .collect();
+            radars.sort_unstable();
+            radars.dedup();
+            if radars.len() >= 2 {
+                BiasChoice::Estimator(AUTO_ESTIMATOR)
+            } else {
+                BiasChoice::Off(BiasOff::TooFewRadars {
+                    radars: radars.len(),
+                })
+            }
+        }
+        Some(other) => BiasChoice::Estimator(other),
+    }
+}
 
 /// One sensor's current bias estimate.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -54,4 +150,125 @@ pub trait BiasEstimator: Send {
     );
     /// The current estimates, sorted by sensor id.
     fn estimates(&self) -> Vec<BiasEstimate>;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::center::{FusionCenter, FusionConfig};
+
+    fn sensor(id: Id, kind: SensorKind) -> Sensor {
+        Sensor {
+            id,
+            kind,
+            x: 1000.0 * id as f64,
+            y: 0.0,
+            sigma_a: 10.0,
+            sigma_b: if kind == SensorKind::RangeBearing {
+                0.001
+            } else {
+                10.0
+            },
+            pd: 0.9,
+            bias_r: 0.0,
+            bias_theta: 0.0,
+            max_range: 0.0,
+            clutter_density: None,
+        }
+    }
+
+    /// The estimator a default config's center runs with `sensors`.
+    fn default_center_estimator(sensors: Option<&[Sensor]>) -> bool {
+        FusionCenter::new(&FusionConfig::default(), sensors)
+            .expect("center")
+            .has_bias_estimator()
+    }
+
+    #[test]
+    fn default_is_auto_and_resolves_from_the_sensors() {
+        let cfg = FusionConfig::default();
+        assert_eq!(cfg.bias.as_deref(), Some(AUTO));
+        let radars = [
+            sensor(0, SensorKind::RangeBearing),
+            sensor(1, SensorKind::RangeBearing),
+        ];
+        let positions = [sensor(0, SensorKind::Position), sensor(1, SensorKind::Position)];
+        let mixed = [
+            sensor(0, SensorKind::RangeBearing),
+            sensor(1, SensorKind::Position),
+        ];
+        // two radars: the estimator, and the center runs it
+        assert_eq!(
+            cfg.bias_choice(Some(&radars)),
+            BiasChoice::Estimator(track_pair_ls::NAME)
+        );
+        assert!(default_center_estimator(Some(&radars)));
+        // position sensors, one radar, no sensors: off, saying why
+        assert_eq!(
+            cfg.bias_choice(Some(&positions)),
+            BiasChoice::Off(BiasOff::TooFewRadars { radars: 0 })
+        );
+        assert!(!default_center_estimator(Some(&positions)));
+        assert_eq!(
+            cfg.bias_choice(Some(&mixed)),
+            BiasChoice::Off(BiasOff::TooFewRadars { radars: 1 })
+        );
+        assert!(!default_center_estimator(Some(&mixed)));
+        // one radar listed twice is one radar
+        let twice = [radars[0].clone(), radars[0].clone()];
+        assert_eq!(
+            cfg.bias_choice(Some(&twice)),
+            BiasChoice::Off(BiasOff::TooFewRadars { radars: 1 })
+        );
+        assert_eq!(cfg.bias_choice(None), BiasChoice::Off(BiasOff::NoSensors));
+        assert!(!default_center_estimator(None));
+        assert!(BiasOff::NoSensors.to_string().contains("sensors.csv"));
+    }
+
+    #[test]
+    fn explicit_none_turns_it_off_and_a_name_is_kept() {
+        let radars = [
+            sensor(3, SensorKind::RangeBearing),
+            sensor(5, SensorKind::RangeBearing),
+        ];
+        for off in [None, Some(OFF.to_string())] {
+            let cfg = FusionConfig {
+                bias: off,
+                ..FusionConfig::default()
+            };
+            assert_eq!(
+                cfg.bias_choice(Some(&radars)),
+                BiasChoice::Off(BiasOff::Requested)
+            );
+            assert!(!FusionCenter::new(&cfg, Some(&radars))
+                .expect("center")
+                .has_bias_estimator());
+        }
+        // a scenario's `bias = "none"`
+        let cfg: FusionConfig = toml::from_str("bias = \"none\"").expect("parses");
+        assert_eq!(cfg.bias_choice(Some(&radars)), BiasChoice::Off(BiasOff::Requested));
+        // an explicit estimator is kept, and still needs the sensors
+        let cfg = FusionConfig {
+            bias: Some(track_pair_ls::DEPRECATED_NAME.into()),
+            ..FusionConfig::default()
+        };
+        assert_eq!(
+            cfg.bias_choice(None),
+            BiasChoice::Estimator(track_pair_ls::DEPRECATED_NAME)
+        );
+        assert!(FusionCenter::new(&cfg, None).is_err());
+    }
+
+    #[test]
+    fn auto_checks_the_parameters_of_the_estimator_it_resolves_to() {
+        let mut cfg: FusionConfig =
+            toml::from_str("[params.track-pair-ls]\nprior_range_sigma = -1.0\n").expect("parses");
+        assert_eq!(cfg.bias.as_deref(), Some(AUTO));
+        assert!(cfg.check().is_err());
+        cfg.bias = Some(track_pair_ls::NAME.into());
+        assert!(cfg.check().is_err());
+        cfg.params.clear();
+        cfg.bias = Some(AUTO.into());
+        assert!(cfg.check().is_ok());
+    }
 }

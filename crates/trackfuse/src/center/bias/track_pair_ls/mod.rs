@@ -61,9 +61,14 @@
 //!    displacement covariance the residual bias error can cause (`A_j C_bb A_j^T + A_i
 //!    C_aa A_i^T` minus the cross terms, `A_s = [e_s, rho_s e_s^perp]`) plus both
 //!    position covariances plus `pair_tolerance^2`; at most the 8 nearest per track.
-//! 2. **Tracking.** When every track has a single candidate and the current estimate
-//!    explains them all, they are the pairs.
-//! 3. **Acquisition** otherwise: a consensus (RANSAC) over hypotheses of the residual
+//! 2. **Tracking.** The candidates form components (the graph of candidates over
+//!    tracks). A component is settled when the current estimate explains its candidates
+//!    over their histories without taking a track twice and every candidate it does not
+//!    explain shares a track with one it does; the settled components' explained
+//!    candidates are the pairs. (When every track has a single candidate and all are
+//!    explained, every component is settled.)
+//! 3. **Acquisition** over the tracks of the components left unsettled, or all tracks
+//!    when none is settled: a consensus (RANSAC) over hypotheses of the residual
 //!    biases `theta = (delta b_a, delta b_b)`, candidates gathered under the prior's
 //!    covariance. A hypothesis explains a candidate when the two tracks' common history
 //!    (up to 8 scans), with the biases removed exactly
@@ -113,13 +118,15 @@
 //! under the deprecated name): `prior_range_sigma = 1000` m, `prior_bearing_sigma =
 //! 0.1` rad, `forgetting = 1`, `reference_sensors = []`, `pairing = "consensus"`,
 //! `pair_gate_probability = 0.9999`, `pair_tolerance = 10` m, `gate_probability =
-//! 0.999`, `model_sigma = 1` m, `max_groups = 2000`, `iterations = 3`, `confirm_scans =
+//! 0.999`, `model_sigma = 1` m, `max_groups = 500`, `iterations = 3`, `confirm_scans =
 //! 2`, `inflate_covariance = true`; each is documented on the struct.
 //!
 //! # Cost
 //! Per scan: grid queries over each sensor pair's tracks (`O(m log m)` at bounded
-//! density) and, in the steady state, one pass over the candidates' histories; in
-//! acquisition at most `1 + 40 + 40^2 / 2` hypotheses; the re-solve is `iterations`
+//! density) and, in the steady state, one pass over the candidates' histories; the
+//! consensus only over unsettled components (at most `1 + 40 + 40^2 / 2` hypotheses),
+//! so a dense scene's split tracks and close targets do not make every scan an
+//! acquisition over all its tracks; the re-solve is `iterations`
 //! passes (up to 4 more) over at most `max_groups` groups plus a Cholesky factorisation
 //! of the `2 n x 2 n` normal matrix of `n` sensors. All buffers are reused.
 //!
@@ -199,6 +206,8 @@ pub struct TrackPairLs {
     /// Residual-gate scale of the last solve (>= 1).
     scale: f64,
     observations: Vec<Observation>,
+    /// Per observation, what its evaluation computes once ([`solve::ObservationCache`]).
+    obs_cache: Vec<solve::ObservationCache>,
     groups: VecDeque<StoredGroup>,
     /// Pairs accepted at the last scan, `((sensor, track), (sensor, track))`, sorted.
     memory: Vec<(PairKey, u32)>,
@@ -238,6 +247,17 @@ pub struct TrackPairLs {
     /// history validated them: `(pair, streak, last scan accepted)` (revocation).
     ended: Vec<(PairKey, u32, u64)>,
     component: Vec<(u32, u32)>,
+    /// Components of the candidate graph of one sensor pair (the settled check).
+    candidate_sets: crate::union_find::UnionFind,
+    /// Per scan track: candidates the current estimate explains with it (saturating).
+    explained: Vec<u8>,
+    /// Per scan track (a component root): its component is not settled; per scan track
+    /// after the split: the track was paired in a settled component.
+    unsettled: Vec<bool>,
+    settled_track: Vec<bool>,
+    /// Sensor pairs paired partly by settled components, partly by a consensus (tests).
+    #[cfg(test)]
+    split_pairings: u32,
 }
 
 impl TrackPairLs {
@@ -256,6 +276,7 @@ impl TrackPairLs {
             scans: 0,
             scale: 1.0,
             observations: Vec::new(),
+            obs_cache: Vec::new(),
             groups: VecDeque::new(),
             memory: Vec::new(),
             lookup: Vec::new(),
@@ -291,6 +312,12 @@ impl TrackPairLs {
             by_second: Vec::new(),
             ended: Vec::new(),
             component: Vec::new(),
+            candidate_sets: crate::union_find::UnionFind::default(),
+            explained: Vec::new(),
+            unsettled: Vec::new(),
+            settled_track: Vec::new(),
+            #[cfg(test)]
+            split_pairings: 0,
         })
     }
 

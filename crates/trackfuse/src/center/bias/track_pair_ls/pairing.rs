@@ -89,6 +89,18 @@ pub(super) struct PairContext {
 
 pub(super) const NONE: u32 = u32::MAX;
 
+/// What the current estimate settles of a sensor pair's candidates
+/// ([`TrackPairLs::settle`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Settled {
+    /// Every component: the current estimate pairs them all.
+    All,
+    /// Some components (the candidates kept are theirs).
+    Some,
+    /// None: the consensus runs over all tracks.
+    None,
+}
+
 /// One history point of a scan track in [`ShiftCache`].
 #[derive(Debug, Clone, Copy)]
 pub(super) struct ShiftPoint {
@@ -459,19 +471,31 @@ impl TrackPairLs {
         // 1-2. tracking: the gate of the current estimate's covariance, and the zero
         // hypothesis (the current estimate is right), taken when the gate leaves every
         // track a single candidate and it explains them all
-        self.gather(&ctx, false);
+        self.gather(&ctx, false, false);
+        let mut split = false;
         if !self.candidates.is_empty() {
-            let possible = self.possible();
-            let (zero_score, _) = self.score(&ctx, &zero, None);
-            if self.candidates.len() == possible && zero_score >= possible {
-                self.assign(&ctx, &zero);
-                return;
+            match self.settle(&ctx) {
+                Settled::All => {
+                    self.assign(&ctx, &zero);
+                    return;
+                }
+                Settled::None => {}
+                Settled::Some => {
+                    // the settled components are paired by the current estimate; the
+                    // consensus below sees only the other tracks
+                    self.assign(&ctx, &zero);
+                    split = true;
+                    #[cfg(test)]
+                    {
+                        self.split_pairings += 1;
+                    }
+                }
             }
         }
         // 2. acquisition: the prior's gate and a RANSAC over hypotheses fitted under the
         // prior (not the current covariance, which a wrong start would have made too
         // narrow to ever see the right pairing)
-        self.gather(&ctx, true);
+        self.gather(&ctx, true, split);
         if self.candidates.is_empty() {
             return;
         }
@@ -563,8 +587,9 @@ impl TrackPairLs {
     }
 
     /// The candidate pairs of two sensors' tracks (module doc, "Pairing", step 1), under
-    /// the current estimate's covariance or (`wide`) the prior's.
-    pub(super) fn gather(&mut self, ctx: &PairContext, wide: bool) {
+    /// the current estimate's covariance or (`wide`) the prior's; with `skip_settled`,
+    /// none of the tracks `settled_track` marks (paired by [`Self::settle`]).
+    pub(super) fn gather(&mut self, ctx: &PairContext, wide: bool, skip_settled: bool) {
         let (ra, rb) = (ctx.ra, ctx.rb);
         let prior_block = Mat2::new(
             self.params.prior_range_sigma.powi(2),
@@ -608,13 +633,20 @@ impl TrackPairLs {
         self.grid
             .rebuild(radius, self.scan_tracks[rb.0..rb.1].iter().map(|t| t.c));
         for i in ra.0..ra.1 {
+            if skip_settled && self.settled_track[i] {
+                continue;
+            }
             let ti = self.scan_tracks[i];
             let first = self.candidates.len();
             let tracks = &self.scan_tracks;
             let cands = &mut self.candidates;
             let history = &self.history;
+            let settled = &self.settled_track;
             self.grid.for_each_within(&ti.c, |jj, _| {
                 let j = rb.0 + jj;
+                if skip_settled && settled[j] {
+                    return;
+                }
                 let tj = &tracks[j];
                 let d = tj.c - ti.c;
                 let xc = tj.a * cross * ti.a.transpose();
@@ -668,22 +700,76 @@ impl TrackPairLs {
             .set_candidates(&self.candidates, &self.pair_gates);
     }
 
-    /// The number of distinct tracks (the smaller side) among the candidates.
-    pub(super) fn possible(&mut self) -> usize {
-        self.epoch += 1;
-        let e = self.epoch;
-        let (mut ni, mut nj) = (0, 0);
-        for c in &self.candidates {
-            if self.stamp_i[c.i as usize] != e {
-                self.stamp_i[c.i as usize] = e;
-                ni += 1;
-            }
-            if self.stamp_j[c.j as usize] != e {
-                self.stamp_j[c.j as usize] = e;
-                nj += 1;
+    /// Which components of the candidates gathered under the current estimate's own
+    /// covariance that estimate settles (module doc, "Pairing", step 2). A component (of
+    /// the graph of candidates over tracks) is settled when the candidates the zero
+    /// hypothesis explains over their common histories take none of its tracks twice (no
+    /// choice is left to a consensus) and every candidate it does not explain shares a
+    /// track with one it does (that track's partner is found; the other candidate is a
+    /// neighbour, a false track or a track whose partner is not confirmed yet). A
+    /// candidate unexplained at both ends is a pair the estimate does not account for.
+    ///
+    /// With [`Settled::Some`], `candidates` keeps only the settled components' and
+    /// `settled_track` marks their tracks. When every track has a single candidate and
+    /// all are explained (the earlier, stricter condition for skipping the consensus)
+    /// the result is [`Settled::All`], so a sparse scene in its steady state takes the
+    /// same path as before, while a dense one (hundreds of targets, some tracks with a
+    /// neighbour in the gate or a split track) runs the consensus only over the tracks
+    /// of the components left unsettled, not over all of them every scan.
+    pub(super) fn settle(&mut self, ctx: &PairContext) -> Settled {
+        let n = self.scan_tracks.len();
+        self.shift.hypothesis(ctx, &Vector4::zeros());
+        let mut marks = vec_false(&mut self.scratch_marks, self.candidates.len());
+        self.explained.clear();
+        self.explained.resize(n, 0);
+        self.candidate_sets.reset(n);
+        for (k, c) in self.candidates.iter().enumerate() {
+            self.candidate_sets.union(c.i, c.j);
+            if self.shift.distance(k, c, &self.pair_gates).is_some() {
+                marks[k] = true;
+                for t in [c.i, c.j] {
+                    let e = &mut self.explained[t as usize];
+                    *e = e.saturating_add(1);
+                }
             }
         }
-        ni.min(nj)
+        self.unsettled.clear();
+        self.unsettled.resize(n, false);
+        let mut any_unsettled = false;
+        for (c, &m) in self.candidates.iter().zip(&marks) {
+            let (ei, ej) = (self.explained[c.i as usize], self.explained[c.j as usize]);
+            let bad = if m { ei > 1 || ej > 1 } else { ei == 0 && ej == 0 };
+            if bad {
+                let r = self.candidate_sets.find(c.i);
+                self.unsettled[r as usize] = true;
+                any_unsettled = true;
+            }
+        }
+        self.scratch_marks = marks;
+        if !any_unsettled {
+            return Settled::All;
+        }
+        self.settled_track.clear();
+        self.settled_track.resize(n, false);
+        let (sets, unsettled, settled) = (
+            &mut self.candidate_sets,
+            &self.unsettled,
+            &mut self.settled_track,
+        );
+        self.candidates.retain(|c| {
+            let keep = !unsettled[sets.find(c.i) as usize];
+            if keep {
+                settled[c.i as usize] = true;
+                settled[c.j as usize] = true;
+            }
+            keep
+        });
+        if self.candidates.is_empty() {
+            return Settled::None;
+        }
+        self.shift
+            .set_candidates(&self.candidates, &self.pair_gates);
+        Settled::Some
     }
 
     /// Step 4: the candidates `theta` explains, one-to-one, pairs accepted at the

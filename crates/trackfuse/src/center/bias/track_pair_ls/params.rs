@@ -45,8 +45,16 @@ pub enum Pairing {
 ///   information is kept; not 0, because the estimate's covariance treats scans as
 ///   independent while a local track's errors are correlated over scans (figures in
 ///   `docs/bias-estimator.md`).
-/// - `max_groups = 2000`: groups kept as raw observations (relinearised each scan);
-///   older ones are folded into fixed information.
+/// - `max_groups = 500`: groups kept as raw observations (relinearised each scan);
+///   older ones are folded into fixed information at the estimate of the time. Every
+///   scan re-solves over all of them (three or more passes), so this bounds the
+///   estimator's cost per scan. 500 is more than a sparse scene stores in a run (000
+///   scenario II: at most 3 groups per scan, 300 in 100 scans), so there nothing is
+///   folded; in a dense one (`bias-bench`, about 400 groups per scan) the estimate has
+///   settled within the first scans, and folding after one or two scans instead of
+///   five leaves it unchanged to 0.01 m and 1e-7 rad while the solve costs a quarter
+///   (BENCHMARKS.md, "Bias estimation"). It was 2000; the `bias-radars` scenario (8
+///   targets over 200 scans) keeps that value.
 /// - `iterations = 3`: Gauss-Newton passes per scan: the first without the residual
 ///   gate (followed by up to 4 more while the linearisation settles, module doc), the
 ///   other two with it; 1 = one pass without the gate.
@@ -105,7 +113,7 @@ impl Default for TrackPairLsParams {
             pair_tolerance: 10.0,
             gate_probability: 0.999,
             model_sigma: 1.0,
-            max_groups: 2000,
+            max_groups: 500,
             iterations: 3,
             confirm_scans: 2,
             inflate_covariance: true,

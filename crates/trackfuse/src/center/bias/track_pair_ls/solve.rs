@@ -52,6 +52,39 @@ pub(super) struct Observation {
     pub(super) p: Mat2,
 }
 
+/// What [`TrackPairLs::evaluate`] computes of one observation that does not depend on
+/// the estimate: the weight of its corrected position in the reference mean, and for a
+/// radar member its polar position, range and residual weight. Computed on the
+/// observation's first evaluation and kept (the same expressions, so the same values,
+/// as computing them in every pass), for the sensor position `sensor` it was computed
+/// at.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct ObservationCache {
+    pub(super) valid: bool,
+    pub(super) sensor: Vec2,
+    /// `(p + (model_sigma^2 + floor) I)^-1`, symmetrised first (the reference mean).
+    pub(super) w_ref: Option<Mat2>,
+    /// The same without the symmetrisation (a position sensor's residual weight).
+    pub(super) w_pos: Option<Mat2>,
+    /// Range and bearing of the raw position from the sensor, and its range.
+    pub(super) z: Vec2,
+    pub(super) rho: f64,
+    /// Inverse of the residual's polar covariance (a radar member).
+    pub(super) w_polar: Option<Mat2>,
+}
+
+impl ObservationCache {
+    pub(super) const EMPTY: ObservationCache = ObservationCache {
+        valid: false,
+        sensor: Vec2::new(0.0, 0.0),
+        w_ref: None,
+        w_pos: None,
+        z: Vec2::new(0.0, 0.0),
+        rho: 0.0,
+        w_polar: None,
+    };
+}
+
 /// A stored group: `len` observations from `start` in the observation buffer, made at
 /// scan `stamp` (for forgetting).
 #[derive(Debug, Clone, Copy)]
@@ -94,22 +127,65 @@ impl TrackPairLs {
 
     /// Evaluate stored group `g` at the biases `b`: push its residuals into `scratch`
     /// and return its evaluation, or none when it carries no information.
+    /// The estimate-independent part of observation `idx`'s evaluation, for the sensor
+    /// at `sp` ([`ObservationCache`]).
+    #[inline]
+    fn observation_cache(&mut self, idx: usize, sp: Vec2, kind: SensorKind) -> ObservationCache {
+        if self.obs_cache.len() < self.observations.len() {
+            self.obs_cache
+                .resize(self.observations.len(), ObservationCache::EMPTY);
+        }
+        let cached = self.obs_cache[idx];
+        if cached.valid && cached.sensor == sp {
+            return cached;
+        }
+        let f2 = self.params.model_sigma * self.params.model_sigma;
+        let o = self.observations[idx];
+        let iso = Mat2::identity() * (f2 + RANGE_VAR_FLOOR);
+        let mut c = ObservationCache {
+            valid: true,
+            sensor: sp,
+            w_ref: symmetrize(&(o.p + iso)).try_inverse(),
+            w_pos: (o.p + iso).try_inverse(),
+            ..ObservationCache::EMPTY
+        };
+        if kind == SensorKind::RangeBearing {
+            let rho = (o.q - sp).norm();
+            c.rho = rho;
+            if rho >= MIN_RANGE {
+                c.z = polar(&o.q, &sp);
+                let jq = polar_jacobian(&o.q, &sp);
+                let r = jq * o.p * jq.transpose()
+                    + Mat2::new(
+                        f2 + RANGE_VAR_FLOOR,
+                        0.0,
+                        0.0,
+                        f2 / (rho * rho) + BEARING_VAR_FLOOR,
+                    );
+                c.w_polar = symmetrize(&r).try_inverse();
+            }
+        }
+        self.obs_cache[idx] = c;
+        c
+    }
+
     pub(super) fn evaluate(
         &mut self,
         g: StoredGroup,
         b: &DVector<f64>,
         weight: f64,
     ) -> Option<Evaluation> {
-        let f2 = self.params.model_sigma * self.params.model_sigma;
         // the reference position: information-weighted mean of the corrected members
         let mut info = Mat2::zeros();
         let mut vector = Vec2::zeros();
         let mut any_biased = false;
-        for o in &self.observations[g.start..g.start + g.len] {
+        for idx in g.start..g.start + g.len {
+            let o = self.observations[idx];
             let Some(k) = self.sensor_index(o.sensor_id) else {
                 continue;
             };
             let s = self.lookup[k];
+            let cache = self.observation_cache(idx, s.position, s.kind);
             let c = match s.bias {
                 Some(bi) => {
                     any_biased = true;
@@ -118,7 +194,7 @@ impl TrackPairLs {
                 }
                 None => o.q,
             };
-            let w = symmetrize(&(o.p + Mat2::identity() * (f2 + RANGE_VAR_FLOOR))).try_inverse()?;
+            let w = cache.w_ref?;
             info += w;
             vector += w * c;
         }
@@ -136,10 +212,10 @@ impl TrackPairLs {
                 continue;
             };
             let s = self.lookup[k];
+            let cache = self.observation_cache(idx, s.position, s.kind);
             match s.kind {
                 SensorKind::Position => {
-                    let Some(w) = (o.p + Mat2::identity() * (f2 + RANGE_VAR_FLOOR)).try_inverse()
-                    else {
+                    let Some(w) = cache.w_pos else {
                         continue;
                     };
                     self.scratch.push(Residual {
@@ -151,21 +227,12 @@ impl TrackPairLs {
                 }
                 SensorKind::RangeBearing => {
                     let sp = s.position;
-                    let rho = (o.q - sp).norm();
-                    if rho < MIN_RANGE || (p_hat - sp).norm() < MIN_RANGE {
+                    if cache.rho < MIN_RANGE || (p_hat - sp).norm() < MIN_RANGE {
                         continue;
                     }
-                    let z = polar(&o.q, &sp);
+                    let z = cache.z;
                     let h = polar(&p_hat, &sp);
-                    let jq = polar_jacobian(&o.q, &sp);
-                    let r = jq * o.p * jq.transpose()
-                        + Mat2::new(
-                            f2 + RANGE_VAR_FLOOR,
-                            0.0,
-                            0.0,
-                            f2 / (rho * rho) + BEARING_VAR_FLOOR,
-                        );
-                    let Some(w) = symmetrize(&r).try_inverse() else {
+                    let Some(w) = cache.w_polar else {
                         continue;
                     };
                     self.scratch.push(Residual {
@@ -388,6 +455,8 @@ impl TrackPairLs {
             .map_or(self.observations.len(), |g| g.start);
         if front > 1024 && front * 2 > self.observations.len() {
             self.observations.drain(..front);
+            let cached = front.min(self.obs_cache.len());
+            self.obs_cache.drain(..cached);
             for g in self.groups.iter_mut() {
                 g.start -= front;
             }
