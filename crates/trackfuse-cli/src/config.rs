@@ -35,9 +35,17 @@ pub struct TrackerFlags {
     /// Filter parameter key=value (repeatable).
     #[arg(long = "filter-param", value_name = "KEY=VALUE")]
     pub filter_params: Vec<String>,
-    /// Track initiation: m-of-n (automatic) or known (the scenario's initial states).
+    /// Track initiation: score (automatic, sequential track score; the default), m-of-n
+    /// (automatic, M hits in N scans) or known (the scenario's initial states).
     #[arg(long)]
     pub init: Option<String>,
+    /// Track score (--init score): probability that clutter confirms a track (default 1e-4).
+    #[arg(long)]
+    pub false_confirm: Option<f64>,
+    /// Track score (--init score): probability that a target's tentative track is dropped
+    /// (default 0.1).
+    #[arg(long)]
+    pub false_delete: Option<f64>,
     /// Filter process noise, white-acceleration standard deviation (m/s^2), both axes.
     #[arg(long)]
     pub process_noise: Option<f64>,
@@ -48,10 +56,11 @@ pub struct TrackerFlags {
     /// gives none.
     #[arg(long)]
     pub clutter_density: Option<f64>,
-    /// M of M-of-N confirmation.
+    /// M of M-of-N confirmation (--init m-of-n).
     #[arg(long)]
     pub confirm_m: Option<u32>,
-    /// N of M-of-N confirmation.
+    /// N of M-of-N confirmation (--init m-of-n); with --init score, the scans after which
+    /// an undecided tentative track is dropped.
     #[arg(long)]
     pub confirm_n: Option<u32>,
     /// Largest target speed (m/s) for two-point initiation.
@@ -82,11 +91,14 @@ impl TrackerFlags {
             set_params(&mut c.params, "--filter-param", &f, &self.filter_params)?;
         }
         if let Some(i) = &self.init {
-            c.initiation.method = match i.as_str() {
-                "m-of-n" | "mofn" => InitiationMethod::MOfN,
-                "known" => InitiationMethod::Known,
-                other => return Err(anyhow!("--init {other}: expected m-of-n or known")),
-            };
+            c.initiation.method = InitiationMethod::from_name(i)
+                .ok_or_else(|| anyhow!("--init {i}: expected score, m-of-n or known"))?;
+        }
+        if let Some(a) = self.false_confirm {
+            c.initiation.false_confirm = a;
+        }
+        if let Some(b) = self.false_delete {
+            c.initiation.false_delete = b;
         }
         if let Some(q) = self.process_noise {
             c.process_noise = Some([q, q]);
