@@ -226,6 +226,23 @@ pub fn methods_text() -> String {
     for a in local_registry::ASSOCIATORS {
         s.push_str(&format!("  {:<14} {}\n", a.name, a.summary));
     }
+    s.push_str("\nLocal track initiation (--init):\n");
+    for (name, summary) in [
+        (
+            "score",
+            "sequential track score (SPRT on the target / clutter likelihood ratio; default)",
+        ),
+        (
+            "m-of-n",
+            "M hits in the first N scans (--confirm-m, --confirm-n)",
+        ),
+        (
+            "known",
+            "one track per known target, at its initial state (scenarios)",
+        ),
+    ] {
+        s.push_str(&format!("  {name:<14} {summary}\n"));
+    }
     s.push_str("\nTrack-to-track association methods (--method):\n");
     for m in center_registry::METHODS {
         s.push_str(&format!("  {:<14} {}\n", m.name, m.summary));

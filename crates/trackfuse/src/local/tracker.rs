@@ -358,7 +358,12 @@ impl SensorTracker {
             candidates: Vec::new(),
             seen_measurements: 0,
             seen_scans: 0,
-            seen_box: [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY],
+            seen_box: [
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+            ],
         })
     }
 
@@ -656,7 +661,9 @@ impl SensorTracker {
             if self.updated[ti] || self.used[m] {
                 continue;
             }
-            let Some(p) = self.filter.predict_measurement(&self.tracks[ti].state, &self.sensor)
+            let Some(p) = self
+                .filter
+                .predict_measurement(&self.tracks[ti].state, &self.sensor)
             else {
                 continue;
             };
@@ -1077,10 +1084,17 @@ pd = 0.95
     }
 
     #[test]
-    fn m_of_n_finds_the_targets_in_clutter() {
+    fn automatic_initiation_finds_the_targets_in_clutter() {
+        for method in [InitiationMethod::MOfN, InitiationMethod::Score] {
+            finds_the_targets_in_clutter(method);
+        }
+    }
+
+    fn finds_the_targets_in_clutter(method: InitiationMethod) {
         let sc = Scenario::from_toml(TWO_TARGETS, "t").expect("scenario");
         let sim = simulate(&sc, 0);
-        let cfg = TrackerConfig::default();
+        let mut cfg = TrackerConfig::default();
+        cfg.initiation.method = method;
         let local = track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0)
             .expect("tracking");
         let labels = crate::metrics::label_local_tracks(&sim.truth, &local, 200.0);
@@ -1096,12 +1110,15 @@ pd = 0.95
                     .count();
                 assert!(
                     followed * 10 >= scans * 7,
-                    "sensor {sensor} target {target}: {followed} of {scans} scans"
+                    "{method:?} sensor {sensor} target {target}: {followed} of {scans} scans"
                 );
             }
             // and few tracks beyond the two targets (clutter seldom confirms)
             let n = tracks_of(&local, sensor).len();
-            assert!((2..=5).contains(&n), "sensor {sensor}: {n} tracks");
+            assert!(
+                (2..=5).contains(&n),
+                "{method:?} sensor {sensor}: {n} tracks"
+            );
         }
         // ids stable: a track id is one contiguous life
         for sensor in [0, 1] {
@@ -1118,6 +1135,131 @@ pd = 0.95
                 );
             }
         }
+    }
+
+    /// A radar like those of the real-aircraft files (50 m, 2 mrad, 0.002 false alarms
+    /// per km^2).
+    fn aircraft_radar(pd: f64, clutter_density: Option<f64>) -> Sensor {
+        Sensor {
+            id: 0,
+            kind: SensorKind::RangeBearing,
+            x: 0.0,
+            y: 0.0,
+            sigma_a: 50.0,
+            sigma_b: 0.002,
+            pd,
+            bias_r: 0.0,
+            bias_theta: 0.0,
+            max_range: 60_000.0,
+            clutter_density,
+        }
+    }
+
+    /// The scan after which a lone target (200 m/s, 5 s scans, detected at the scans in
+    /// `seen`) is first reported, and how many tracks were ever reported.
+    fn first_report(cfg: &TrackerConfig, pd: f64, seen: &[bool]) -> (Option<u32>, usize) {
+        let sensor = aircraft_radar(pd, Some(0.002));
+        let mut tracker = SensorTracker::new(&sensor, cfg, None, &[], 1, 0, 0).expect("tracker");
+        let mut out = Vec::new();
+        let mut first = None;
+        let mut ids = BTreeSet::new();
+        for (k, &hit) in seen.iter().enumerate() {
+            let t = 5.0 * k as f64;
+            let truth = StateVec::new(30_000.0 + 200.0 * t, 200.0, 10_000.0, 0.0);
+            let z = crate::models::range_bearing(&truth, &sensor.position());
+            let zs: &[Vec2] = if hit { &[z] } else { &[] };
+            out.clear();
+            tracker
+                .process_scan(k as u32, t, zs, &mut out)
+                .expect("scan");
+            if !out.is_empty() && first.is_none() {
+                first = Some(k as u32);
+            }
+            ids.extend(out.iter().map(|l| l.track_id));
+        }
+        (first, ids.len())
+    }
+
+    #[test]
+    fn the_track_score_confirms_a_target_at_its_third_measurement() {
+        let score = TrackerConfig::default();
+        assert_eq!(score.initiation.method, InitiationMethod::Score);
+        let mofn = TrackerConfig {
+            initiation: crate::local::InitiationConfig {
+                method: InitiationMethod::MOfN,
+                ..Default::default()
+            },
+            ..TrackerConfig::default()
+        };
+        let all = [true; 8];
+        // the pair and one hit: confirmed at the third scan (4 of 5 needs the fourth)
+        assert_eq!(first_report(&score, 0.9, &all), (Some(2), 1));
+        assert_eq!(first_report(&mofn, 0.9, &all), (Some(3), 1));
+        // one miss after the pair (-2.3) is made up by the next hit
+        let gap = [true, true, false, true, true, true, true, true];
+        assert_eq!(first_report(&score, 0.9, &gap), (Some(3), 1));
+        // three misses in a row after the pair drop it (below ln(0.1 / (1 - 1e-4))): the
+        // track is started again from the next two points
+        let lost = [true, true, false, false, false, true, true, true, true];
+        assert_eq!(first_report(&score, 0.9, &lost), (Some(7), 1));
+        // the thresholds: ln((1 - beta) / alpha) and ln(beta / (1 - alpha))
+        let (up, down) = score.initiation.score_thresholds();
+        assert!((up - (0.9f64 / 1e-4).ln()).abs() < 1e-12, "{up}");
+        assert!(
+            (down - (0.1f64 / (1.0 - 1e-4)).ln()).abs() < 1e-12,
+            "{down}"
+        );
+    }
+
+    /// Clutter alone, at the real-aircraft files' density (about 23 false alarms per scan
+    /// over a 60 km radar's disc), for 300 scans: the score at its default thresholds
+    /// confirms no track, with the density known and with it estimated from the data;
+    /// lax thresholds (and M-of-N 3 of 4) confirm some on the same measurements.
+    #[test]
+    fn clutter_alone_does_not_confirm_at_the_default_thresholds() {
+        const CLUTTER_ONLY: &str = r#"
+seed = 11
+dt = 5.0
+scans = 300
+[[targets]]
+initial = [500000.0, 0.0, 500000.0, 0.0]
+[clutter]
+density = 0.002
+[[sensors]]
+position = [0.0, 0.0]
+sigma_r = 50.0
+sigma_theta = 0.002
+pd = 0.9
+max_range = 60000.0
+"#;
+        let sc = Scenario::from_toml(CLUTTER_ONLY, "t").expect("scenario");
+        let sim = simulate(&sc, 0);
+        let clutter = sim.measurements.len() as f64 / 300.0;
+        assert!(
+            (15.0..35.0).contains(&clutter),
+            "{clutter} false alarms per scan"
+        );
+        assert!(sim.measurements.iter().all(|m| m.target_id < 0));
+        let confirmed = |cfg: &TrackerConfig, known_density: bool| {
+            let mut sensors = sim.sensors.clone();
+            if !known_density {
+                sensors[0].clutter_density = None;
+            }
+            let local =
+                track_sensors(&sensors, &sim.measurements, cfg, None, &[], 1, 0).expect("tracking");
+            tracks_of(&local, sensors[0].id).len()
+        };
+        let default = TrackerConfig::default();
+        assert_eq!(confirmed(&default, true), 0);
+        assert_eq!(confirmed(&default, false), 0);
+        let mut lax = TrackerConfig::default();
+        lax.initiation.false_confirm = 0.3;
+        assert!(confirmed(&lax, true) > 10, "{}", confirmed(&lax, true));
+        let mut m3of4 = TrackerConfig::default();
+        m3of4.initiation.method = InitiationMethod::MOfN;
+        m3of4.initiation.m = 3;
+        m3of4.initiation.n = 4;
+        assert!(confirmed(&m3of4, true) > 0);
     }
 
     #[test]
