@@ -36,9 +36,17 @@ pub struct TrackerFlags {
     /// Filter parameter key=value (repeatable).
     #[arg(long = "filter-param", value_name = "KEY=VALUE")]
     pub filter_params: Vec<String>,
-    /// Track initiation: m-of-n (automatic) or known (the scenario's initial states).
+    /// Track initiation: score (automatic, sequential track score; the default), m-of-n
+    /// (automatic, M hits in N scans) or known (the scenario's initial states).
     #[arg(long)]
     pub init: Option<String>,
+    /// Track score (--init score): probability that clutter confirms a track (default 1e-4).
+    #[arg(long)]
+    pub false_confirm: Option<f64>,
+    /// Track score (--init score): probability that a target's tentative track is dropped
+    /// (default 0.1).
+    #[arg(long)]
+    pub false_delete: Option<f64>,
     /// Filter process noise, white-acceleration standard deviation (m/s^2), both axes.
     #[arg(long)]
     pub process_noise: Option<f64>,
@@ -49,10 +57,11 @@ pub struct TrackerFlags {
     /// gives none.
     #[arg(long)]
     pub clutter_density: Option<f64>,
-    /// M of M-of-N confirmation.
+    /// M of M-of-N confirmation (--init m-of-n).
     #[arg(long)]
     pub confirm_m: Option<u32>,
-    /// N of M-of-N confirmation.
+    /// N of M-of-N confirmation (--init m-of-n); with --init score, the scans after which
+    /// an undecided tentative track is dropped.
     #[arg(long)]
     pub confirm_n: Option<u32>,
     /// Largest target speed (m/s) for two-point initiation.
@@ -83,11 +92,14 @@ impl TrackerFlags {
             set_params(&mut c.params, "--filter-param", &f, &self.filter_params)?;
         }
         if let Some(i) = &self.init {
-            c.initiation.method = match i.as_str() {
-                "m-of-n" | "mofn" => InitiationMethod::MOfN,
-                "known" => InitiationMethod::Known,
-                other => return Err(anyhow!("--init {other}: expected m-of-n or known")),
-            };
+            c.initiation.method = InitiationMethod::from_name(i)
+                .ok_or_else(|| anyhow!("--init {i}: expected score, m-of-n or known"))?;
+        }
+        if let Some(a) = self.false_confirm {
+            c.initiation.false_confirm = a;
+        }
+        if let Some(b) = self.false_delete {
+            c.initiation.false_delete = b;
         }
         if let Some(q) = self.process_noise {
             c.process_noise = Some([q, q]);
@@ -259,6 +271,23 @@ pub fn methods_text() -> String {
     s.push_str("\nLocal data associators (--associator):\n");
     for a in local_registry::ASSOCIATORS {
         s.push_str(&format!("  {:<14} {}\n", a.name, a.summary));
+    }
+    s.push_str("\nLocal track initiation (--init):\n");
+    for (name, summary) in [
+        (
+            "score",
+            "sequential track score (SPRT on the target / clutter likelihood ratio; default)",
+        ),
+        (
+            "m-of-n",
+            "M hits in the first N scans (--confirm-m, --confirm-n)",
+        ),
+        (
+            "known",
+            "one track per known target, at its initial state (scenarios)",
+        ),
+    ] {
+        s.push_str(&format!("  {name:<14} {summary}\n"));
     }
     s.push_str("\nTrack-to-track association methods (--method):\n");
     for m in center_registry::METHODS {

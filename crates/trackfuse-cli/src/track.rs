@@ -96,11 +96,12 @@ pub fn run(args: &TrackArgs) -> Result<()> {
     w.finish().with_context(ctx)?;
     outs.finish();
     eprintln!(
-        "tracked {} measurements of {} sensors ({} + {}): {} local tracks, {} rows in {:.3} s -> {}",
+        "tracked {} measurements of {} sensors ({} + {}, {} initiation): {} local tracks, {} rows in {:.3} s -> {}",
         stats.measurements,
         sensors.len(),
         cfg.associator,
         cfg.filter,
+        cfg.initiation.method.as_str(),
         stats.tracks.len(),
         stats.rows,
         stats.elapsed.as_secs_f64(),

@@ -147,10 +147,18 @@ fn evaluate_prints_table_and_writes_summary() {
 fn bad_flags_and_parameters_are_named_once() {
     let dir = tempfile::tempdir().expect("tmp");
     let out = dir.path().join("o");
-    let cases: [(&[&str], &str); 6] = [
+    let cases: [(&[&str], &str); 8] = [
         (
             &["run", "--process-noise", "-1"],
             "tracker: process_noise[0]: -1 must be a finite number >= 0\n",
+        ),
+        (
+            &["run", "--init", "sprt"],
+            "--init sprt: expected score, m-of-n or known\n",
+        ),
+        (
+            &["run", "--false-confirm", "0.7"],
+            "tracker: initiation.false_confirm: 0.7 must be in (0, 0.5)\n",
         ),
         (
             &["run", "--filter", "kf"],

@@ -727,9 +727,13 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     let mut no_cross = s1_free.clone();
     no_cross.scenario.name = "001-s1-no-clutter-targets-1-3".into();
     no_cross.scenario.targets.remove(1);
+    // paper setting: M-of-N 4 of 5 (the library's former default initiation, now `score`)
     no_cross.tracker.initiation.method = InitiationMethod::MOfN;
+    no_cross.tracker.initiation.m = 4;
+    no_cross.tracker.initiation.n = 5;
     // real track management: a track started badly (two-point velocity noise of 212 m/s)
-    // and lost is deleted, not kept for the paper's "never delete"
+    // and lost is deleted (after 5 misses, the default), not kept for the paper's "never
+    // delete"
     no_cross.tracker.initiation.delete_after = InitiationConfig::default().delete_after;
     let mut nees_rows = Vec::new();
     for (label, f, fp) in [

@@ -25,6 +25,7 @@
 //! biases of the sensor (they are zeroed before the sensor reaches the filter).
 
 use super::association::{AssociationProblem, AssociationWeights, DataAssociator};
+use super::filter::common::log_likelihood;
 use super::filter::{Filter, FilterState, PredictedMeasurement};
 use super::gating::{gate_threshold, Gates};
 use super::registry::{AssociatorContext, AssociatorSettings, FilterSettings, LocalRegistry};
@@ -102,6 +103,11 @@ pub enum TrackerError {
     },
 }
 
+/// Smallest clutter density (per m^2, 1e-6 per km^2) the track score assumes when it
+/// estimates the density from the data, so that a sensor with almost no measurements
+/// does not confirm a pair of them outright.
+pub const MIN_SCORE_CLUTTER: f64 = 1e-12;
+
 /// A target whose initial state is known in advance (for [`InitiationMethod::Known`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct KnownTarget {
@@ -120,6 +126,9 @@ struct Track {
     hits: u32,
     misses: u32,
     last_time: f64,
+    /// Track score (log-likelihood ratio target / clutter) of a tentative track of
+    /// [`InitiationMethod::Score`]; 0 otherwise.
+    score: f64,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -191,6 +200,12 @@ pub struct SensorTracker {
     /// Whether each track was updated this scan.
     updated: Vec<bool>,
     candidates: Vec<(f64, u32, u32)>,
+    /// Measurements and scans seen so far, and the bounding box of the Cartesian
+    /// positions (a sensor without `max_range`): the clutter density of the track score
+    /// when neither sensors.csv nor the config gives one.
+    seen_measurements: u64,
+    seen_scans: u64,
+    seen_box: [f64; 4],
 }
 
 /// The filter a config names for a sensor (`auto`: `kf` for position sensors, `ekf` for
@@ -341,6 +356,14 @@ impl SensorTracker {
             weights: AssociationWeights::default(),
             updated: Vec::new(),
             candidates: Vec::new(),
+            seen_measurements: 0,
+            seen_scans: 0,
+            seen_box: [
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+            ],
         })
     }
 
@@ -368,12 +391,12 @@ impl SensorTracker {
         self.gate();
         self.associate()?;
         self.update_confirmed();
-        let m_of_n = self.cfg.initiation.method == InitiationMethod::MOfN;
-        if m_of_n {
+        let automatic = self.cfg.initiation.method.is_automatic();
+        if automatic {
             self.update_tentative();
         }
         self.delete_tracks();
-        if m_of_n {
+        if automatic {
             self.initiate(time);
         }
         self.report(scan, time, out);
@@ -414,6 +437,43 @@ impl SensorTracker {
         self.used.clear();
         self.used.resize(measurements.len(), false);
         self.index.build(self.converted.iter().map(|z| z[0]));
+        if self.cfg.initiation.method == InitiationMethod::Score && self.clutter_per_m2 <= 0.0 {
+            self.seen_scans += 1;
+            self.seen_measurements += measurements.len() as u64;
+            if self.sensor.max_range <= 0.0 {
+                for z in measurements {
+                    let p = self.to_cartesian(z).0;
+                    let b = &mut self.seen_box;
+                    b[0] = b[0].min(p[0]);
+                    b[1] = b[1].max(p[0]);
+                    b[2] = b[2].min(p[1]);
+                    b[3] = b[3].max(p[1]);
+                }
+            }
+        }
+    }
+
+    /// Clutter density (per m^2) the track score uses: the sensor's or the config's, else
+    /// the sensor's mean measurements per scan over its coverage (`pi max_range^2`, or
+    /// the bounding box of its measurements so far when it has no range limit), at least
+    /// [`MIN_SCORE_CLUTTER`].
+    fn score_clutter_per_m2(&self) -> f64 {
+        if self.clutter_per_m2 > 0.0 {
+            return self.clutter_per_m2;
+        }
+        let area = if self.sensor.max_range > 0.0 {
+            std::f64::consts::PI * self.sensor.max_range * self.sensor.max_range
+        } else {
+            let b = &self.seen_box;
+            (b[1] - b[0]).max(0.0) * (b[3] - b[2]).max(0.0)
+        };
+        let per_scan = self.seen_measurements as f64 / self.seen_scans.max(1) as f64;
+        let lambda = per_scan / area;
+        if lambda.is_finite() {
+            lambda.max(MIN_SCORE_CLUTTER)
+        } else {
+            MIN_SCORE_CLUTTER
+        }
     }
 
     /// Step 2: the predicted measurement of every confirmed track (and known track not
@@ -504,9 +564,13 @@ impl SensorTracker {
     fn delete_tracks(&mut self) {
         let cfg = &self.cfg.initiation;
         let known_mode = cfg.method == InitiationMethod::Known;
+        let drop_at = cfg.score_thresholds().1;
         self.tracks.retain(|t| {
             if t.id.is_some() || known_mode {
                 t.misses < cfg.delete_after
+            } else if cfg.method == InitiationMethod::Score {
+                // tentative: dropped below the SPRT's lower threshold, or undecided for n scans
+                t.score > drop_at && t.age < cfg.n
             } else {
                 // tentative: can it still reach m hits within n scans?
                 t.hits + (cfg.n.saturating_sub(t.age)) >= cfg.m
@@ -552,6 +616,7 @@ impl SensorTracker {
                     hits: 0,
                     misses: 0,
                     last_time: time,
+                    score: 0.0,
                 });
             }
         }
@@ -582,16 +647,39 @@ impl SensorTracker {
         }
         self.candidates
             .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        let scored = self.cfg.initiation.method == InitiationMethod::Score;
+        let (confirm_at, _) = self.cfg.initiation.score_thresholds();
+        let lambda = if scored {
+            self.score_clutter_per_m2()
+        } else {
+            0.0
+        };
+        let pd = self.sensor.pd;
         for c in 0..self.candidates.len() {
             let (_, ti, m) = self.candidates[c];
             let (ti, m) = (ti as usize, m as usize);
             if self.updated[ti] || self.used[m] {
                 continue;
             }
-            let track = &mut self.tracks[ti];
-            let Some(p) = self.filter.predict_measurement(&track.state, &self.sensor) else {
+            let Some(p) = self
+                .filter
+                .predict_measurement(&self.tracks[ti].state, &self.sensor)
+            else {
                 continue;
             };
+            // the hit's score: ln(P_D N(nu; 0, S) / lambda), lambda in the measurement space
+            let gain = if scored {
+                let nu = p.innovation(&self.converted[m]);
+                let lambda_z = if p.angular {
+                    lambda * p.z[0].abs()
+                } else {
+                    lambda
+                };
+                pd.ln() + log_likelihood(&p, &nu) - lambda_z.ln()
+            } else {
+                0.0
+            };
+            let track = &mut self.tracks[ti];
             if self.filter.update(
                 &mut track.state,
                 &p,
@@ -602,16 +690,27 @@ impl SensorTracker {
                 self.updated[ti] = true;
                 self.used[m] = true;
                 track.hits += 1;
-                if track.hits >= self.cfg.initiation.m && track.age < self.cfg.initiation.n {
+                track.score += gain;
+                let confirmed = if scored {
+                    track.score >= confirm_at
+                } else {
+                    track.hits >= self.cfg.initiation.m && track.age < self.cfg.initiation.n
+                };
+                if confirmed {
                     track.id = Some(self.next_id);
                     self.next_id += 1;
                     track.misses = 0;
                 }
             }
         }
+        // a miss scores ln(1 - P_D P_G)
+        let miss = (1.0 - pd * self.pg).max(f64::MIN_POSITIVE).ln();
         for (ti, t) in self.tracks.iter_mut().enumerate() {
             if t.id.is_none() && !self.updated[ti] {
                 t.misses += 1;
+                if scored {
+                    t.score += miss;
+                }
             }
         }
     }
@@ -678,6 +777,12 @@ impl SensorTracker {
         }
         pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
         let mut meas_paired = vec![false; self.used.len()];
+        let scored = self.cfg.initiation.method == InitiationMethod::Score;
+        let lambda = if scored {
+            self.score_clutter_per_m2()
+        } else {
+            0.0
+        };
         for &(_, m, si) in &pairs {
             let (m, si) = (m as usize, si as usize);
             if meas_paired[m] || seed_used[si] {
@@ -704,6 +809,15 @@ impl SensorTracker {
             if !mean.iter().all(|v| v.is_finite()) {
                 continue;
             }
+            // the pair's score: ln(P_D / (lambda A)), A the disc the speed gate let the
+            // second point fall in (uniform under "target", lambda A under "clutter")
+            let score = if scored {
+                let reach = max_speed * dt + 3.0 * (spread(&pc) + spread(&s.cov));
+                let area = std::f64::consts::PI * reach * reach;
+                self.sensor.pd.ln() - (lambda * area).ln()
+            } else {
+                0.0
+            };
             self.tracks.push(Track {
                 state: self.filter.init(mean, cov),
                 id: None,
@@ -711,6 +825,7 @@ impl SensorTracker {
                 hits: 2,
                 misses: 0,
                 last_time: time,
+                score,
             });
         }
         for m in 0..self.used.len() {
@@ -969,10 +1084,17 @@ pd = 0.95
     }
 
     #[test]
-    fn m_of_n_finds_the_targets_in_clutter() {
+    fn automatic_initiation_finds_the_targets_in_clutter() {
+        for method in [InitiationMethod::MOfN, InitiationMethod::Score] {
+            finds_the_targets_in_clutter(method);
+        }
+    }
+
+    fn finds_the_targets_in_clutter(method: InitiationMethod) {
         let sc = Scenario::from_toml(TWO_TARGETS, "t").expect("scenario");
         let sim = simulate(&sc, 0);
-        let cfg = TrackerConfig::default();
+        let mut cfg = TrackerConfig::default();
+        cfg.initiation.method = method;
         let local = track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0)
             .expect("tracking");
         let labels = crate::metrics::label_local_tracks(&sim.truth, &local, 200.0);
@@ -988,12 +1110,15 @@ pd = 0.95
                     .count();
                 assert!(
                     followed * 10 >= scans * 7,
-                    "sensor {sensor} target {target}: {followed} of {scans} scans"
+                    "{method:?} sensor {sensor} target {target}: {followed} of {scans} scans"
                 );
             }
             // and few tracks beyond the two targets (clutter seldom confirms)
             let n = tracks_of(&local, sensor).len();
-            assert!((2..=5).contains(&n), "sensor {sensor}: {n} tracks");
+            assert!(
+                (2..=5).contains(&n),
+                "{method:?} sensor {sensor}: {n} tracks"
+            );
         }
         // ids stable: a track id is one contiguous life
         for sensor in [0, 1] {
@@ -1010,6 +1135,131 @@ pd = 0.95
                 );
             }
         }
+    }
+
+    /// A radar like those of the real-aircraft files (50 m, 2 mrad, 0.002 false alarms
+    /// per km^2).
+    fn aircraft_radar(pd: f64, clutter_density: Option<f64>) -> Sensor {
+        Sensor {
+            id: 0,
+            kind: SensorKind::RangeBearing,
+            x: 0.0,
+            y: 0.0,
+            sigma_a: 50.0,
+            sigma_b: 0.002,
+            pd,
+            bias_r: 0.0,
+            bias_theta: 0.0,
+            max_range: 60_000.0,
+            clutter_density,
+        }
+    }
+
+    /// The scan after which a lone target (200 m/s, 5 s scans, detected at the scans in
+    /// `seen`) is first reported, and how many tracks were ever reported.
+    fn first_report(cfg: &TrackerConfig, pd: f64, seen: &[bool]) -> (Option<u32>, usize) {
+        let sensor = aircraft_radar(pd, Some(0.002));
+        let mut tracker = SensorTracker::new(&sensor, cfg, None, &[], 1, 0, 0).expect("tracker");
+        let mut out = Vec::new();
+        let mut first = None;
+        let mut ids = BTreeSet::new();
+        for (k, &hit) in seen.iter().enumerate() {
+            let t = 5.0 * k as f64;
+            let truth = StateVec::new(30_000.0 + 200.0 * t, 200.0, 10_000.0, 0.0);
+            let z = crate::models::range_bearing(&truth, &sensor.position());
+            let zs: &[Vec2] = if hit { &[z] } else { &[] };
+            out.clear();
+            tracker
+                .process_scan(k as u32, t, zs, &mut out)
+                .expect("scan");
+            if !out.is_empty() && first.is_none() {
+                first = Some(k as u32);
+            }
+            ids.extend(out.iter().map(|l| l.track_id));
+        }
+        (first, ids.len())
+    }
+
+    #[test]
+    fn the_track_score_confirms_a_target_at_its_third_measurement() {
+        let score = TrackerConfig::default();
+        assert_eq!(score.initiation.method, InitiationMethod::Score);
+        let mofn = TrackerConfig {
+            initiation: crate::local::InitiationConfig {
+                method: InitiationMethod::MOfN,
+                ..Default::default()
+            },
+            ..TrackerConfig::default()
+        };
+        let all = [true; 8];
+        // the pair and one hit: confirmed at the third scan (4 of 5 needs the fourth)
+        assert_eq!(first_report(&score, 0.9, &all), (Some(2), 1));
+        assert_eq!(first_report(&mofn, 0.9, &all), (Some(3), 1));
+        // one miss after the pair (-2.3) is made up by the next hit
+        let gap = [true, true, false, true, true, true, true, true];
+        assert_eq!(first_report(&score, 0.9, &gap), (Some(3), 1));
+        // three misses in a row after the pair drop it (below ln(0.1 / (1 - 1e-4))): the
+        // track is started again from the next two points
+        let lost = [true, true, false, false, false, true, true, true, true];
+        assert_eq!(first_report(&score, 0.9, &lost), (Some(7), 1));
+        // the thresholds: ln((1 - beta) / alpha) and ln(beta / (1 - alpha))
+        let (up, down) = score.initiation.score_thresholds();
+        assert!((up - (0.9f64 / 1e-4).ln()).abs() < 1e-12, "{up}");
+        assert!(
+            (down - (0.1f64 / (1.0 - 1e-4)).ln()).abs() < 1e-12,
+            "{down}"
+        );
+    }
+
+    /// Clutter alone, at the real-aircraft files' density (about 23 false alarms per scan
+    /// over a 60 km radar's disc), for 300 scans: the score at its default thresholds
+    /// confirms no track, with the density known and with it estimated from the data;
+    /// lax thresholds (and M-of-N 3 of 4) confirm some on the same measurements.
+    #[test]
+    fn clutter_alone_does_not_confirm_at_the_default_thresholds() {
+        const CLUTTER_ONLY: &str = r#"
+seed = 11
+dt = 5.0
+scans = 300
+[[targets]]
+initial = [500000.0, 0.0, 500000.0, 0.0]
+[clutter]
+density = 0.002
+[[sensors]]
+position = [0.0, 0.0]
+sigma_r = 50.0
+sigma_theta = 0.002
+pd = 0.9
+max_range = 60000.0
+"#;
+        let sc = Scenario::from_toml(CLUTTER_ONLY, "t").expect("scenario");
+        let sim = simulate(&sc, 0);
+        let clutter = sim.measurements.len() as f64 / 300.0;
+        assert!(
+            (15.0..35.0).contains(&clutter),
+            "{clutter} false alarms per scan"
+        );
+        assert!(sim.measurements.iter().all(|m| m.target_id < 0));
+        let confirmed = |cfg: &TrackerConfig, known_density: bool| {
+            let mut sensors = sim.sensors.clone();
+            if !known_density {
+                sensors[0].clutter_density = None;
+            }
+            let local =
+                track_sensors(&sensors, &sim.measurements, cfg, None, &[], 1, 0).expect("tracking");
+            tracks_of(&local, sensors[0].id).len()
+        };
+        let default = TrackerConfig::default();
+        assert_eq!(confirmed(&default, true), 0);
+        assert_eq!(confirmed(&default, false), 0);
+        let mut lax = TrackerConfig::default();
+        lax.initiation.false_confirm = 0.3;
+        assert!(confirmed(&lax, true) > 10, "{}", confirmed(&lax, true));
+        let mut m3of4 = TrackerConfig::default();
+        m3of4.initiation.method = InitiationMethod::MOfN;
+        m3of4.initiation.m = 3;
+        m3of4.initiation.n = 4;
+        assert!(confirmed(&m3of4, true) > 0);
     }
 
     #[test]
