@@ -142,6 +142,12 @@ pub struct FusionFlags {
     /// Delete a global track after this many scans without a local track.
     #[arg(long)]
     pub global_delete_after: Option<u32>,
+    /// The center's update period in seconds (`fuse` on files; [fusion] period). Default:
+    /// the shortest of the sensors' median report intervals in local_tracks.csv, so the
+    /// center updates as often as its fastest sensor reports (synchronous sensors: their
+    /// common scan interval, fused scan by scan).
+    #[arg(long, value_name = "SECONDS")]
+    pub period: Option<f64>,
 }
 
 impl FusionFlags {
@@ -172,6 +178,9 @@ impl FusionFlags {
         }
         if let Some(d) = self.global_delete_after {
             c.delete_after = d;
+        }
+        if let Some(p) = self.period {
+            c.period = Some(p);
         }
         c.check().map_err(|e| self.with_flag_hint(e))?;
         Ok(c)

@@ -21,6 +21,7 @@ pub mod bias;
 pub mod fusion;
 pub mod fusion_center;
 pub mod hough;
+pub mod instants;
 pub(crate) mod linalg;
 pub mod registry;
 pub mod t2ta;
@@ -435,6 +436,12 @@ pub struct FusionConfig {
     /// Per-method parameter tables, `[fusion.params.<method or rule name>]`.
     #[serde(default)]
     pub params: ParamTables,
+    /// The center's update period (s) on files (`trackfuse fuse`), `--period`. Default:
+    /// taken from the data, the shortest of the sensors' median report intervals, so the
+    /// center updates as often as its fastest sensor reports and synchronous sensors are
+    /// fused scan by scan as they report ([`instants`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub period: Option<f64>,
 }
 
 fn default_method() -> String {
@@ -459,6 +466,7 @@ impl Default for FusionConfig {
             process_noise: default_center_q(),
             delete_after: default_center_delete(),
             params: ParamTables::new(),
+            period: None,
         }
     }
 }
@@ -492,6 +500,13 @@ impl FusionConfig {
         &self,
         registry: &registry::CenterRegistry,
     ) -> Result<ConfiguredParts, CenterError> {
+        if let Some(p) = self.period.filter(|p| !(p.is_finite() && *p > 0.0)) {
+            return Err(ParamError::new(
+                "period",
+                format!("{p} must be a positive number of seconds"),
+            )
+            .into());
+        }
         if !(self.process_noise.is_finite() && self.process_noise >= 0.0) {
             return Err(ParamError::new(
                 "process_noise",
