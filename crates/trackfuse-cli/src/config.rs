@@ -178,6 +178,12 @@ pub struct FusionFlags {
     /// Chi-square gate probability of the merge and hysteresis tests (default 0.99).
     #[arg(long, value_name = "P")]
     pub management_gate: Option<f64>,
+    /// The center's update period in seconds (`fuse` on files; [fusion] period). Default:
+    /// the shortest of the sensors' median report intervals in local_tracks.csv, so the
+    /// center updates as often as its fastest sensor reports (synchronous sensors: their
+    /// common scan interval, fused scan by scan).
+    #[arg(long, value_name = "SECONDS")]
+    pub period: Option<f64>,
 }
 
 impl FusionFlags {
@@ -230,6 +236,9 @@ impl FusionFlags {
         }
         if let Some(p) = self.management_gate {
             m.gate_probability = p;
+        }
+        if let Some(p) = self.period {
+            c.period = Some(p);
         }
         c.check().map_err(|e| self.with_flag_hint(e))?;
         Ok(c)

@@ -6,7 +6,7 @@ use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
 use trackfuse::io::{read_associations, read_fused_tracks, read_local_tracks, read_truth};
-use trackfuse::metrics::{evaluate_run, EvalInput, EvaluationConfig};
+use trackfuse::metrics::{evaluate_run_with, EvalInput, EvaluationConfig};
 
 #[derive(Args, Debug)]
 pub struct EvaluateArgs {
@@ -31,6 +31,14 @@ pub struct EvaluateArgs {
     /// Gate (m) for labelling local tracks with the target they follow
     #[arg(long, default_value_t = 2000.0)]
     pub label_gate: f64,
+    /// Fused rows are paired with the truth by time. When the fused times are not the
+    /// truth's times (a center with its own update instants), the truth is interpolated
+    /// linearly between a target's rows, over gaps of at most this many seconds (a
+    /// target between rows farther apart is absent there). Default: twice the truth's
+    /// median row interval (one missing truth row is bridged, a target that leaves and
+    /// comes back is not). The summary states the gap used (truth_interpolation_max_gap).
+    #[arg(long, value_name = "SECONDS")]
+    pub truth_gap: Option<f64>,
     /// Output directory: summary.json is written there (never next to the inputs unless
     /// this says so).
     #[arg(long, default_value = "out/evaluate")]
@@ -74,7 +82,10 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
         .as_deref()
         .map(read_local_tracks)
         .transpose()?;
-    let m = evaluate_run(
+    if let Some(g) = args.truth_gap.filter(|g| !(g.is_finite() && *g >= 0.0)) {
+        anyhow::bail!("--truth-gap: {g} must be a number of seconds >= 0");
+    }
+    let m = evaluate_run_with(
         &EvalInput {
             truth: &truth,
             fused: &fused,
@@ -82,9 +93,15 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
             local: local.as_deref(),
         },
         &cfg,
+        args.truth_gap,
     );
     let s = m.summary(&cfg);
     print!("{}", render_summary(&s));
+    if let Some(g) = s.truth_interpolation_max_gap {
+        println!(
+            "fused rows paired with the truth by time, interpolated over truth gaps up to {g} s"
+        );
+    }
     let json = serde_json::to_string_pretty(&s)? + "\n";
     let path = match &args.summary {
         Some(file) => outs.write_file(file, json.as_bytes())?,

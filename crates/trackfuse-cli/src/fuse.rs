@@ -15,14 +15,16 @@ use crate::config::FusionFlags;
 use crate::output::{Outputs, FUSE_OUTPUTS};
 use anyhow::{Context, Result};
 use clap::Args;
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use trackfuse::center::bias::BiasEstimate;
+use trackfuse::center::instants::{default_period, InstantBatcher};
 use trackfuse::center::t2ta::truth::{self, TruthSource};
 use trackfuse::center::{
     registry, CenterError, FusedRun, FusionCenter, FusionConfig, Missing, ScanOutput,
 };
+use trackfuse::clock::{ReportClock, ReportTimes};
 use trackfuse::io::{
     no_truth_rows, read_sensors, AssociationWriter, FusedTrackWriter, InputError, LocalTrackStream,
     TruthStream,
@@ -177,6 +179,14 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     }
     // the headers are read and checked before the output folder is touched
     let mut first = StreamFusion::open(args, &labels, sensors.as_deref())?;
+    // pass over the file for each sensor's report clock: its interval is the staleness
+    // limit of its reports, and the shortest is the default update period
+    let clocks = report_clocks(&args.local_tracks)?;
+    let period = cfg
+        .period
+        .or_else(|| default_period(&clocks))
+        .unwrap_or(1.0);
+    first.schedule = (period, clocks.clone());
     let scenario_path = scenario_input(args.scenario.as_deref());
     let mut inputs = vec![args.local_tracks.as_path()];
     inputs.extend(args.sensors.as_deref());
@@ -209,11 +219,9 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             ..cfg.clone()
         };
         let mut second = new_center(args, &second_cfg, sensors.as_deref(), &labels)?;
-        let mut stats = StreamFusion::open(args, &labels, sensors.as_deref())?.run(
-            &mut second,
-            Some(&center),
-            &mut write,
-        )?;
+        let mut again = StreamFusion::open(args, &labels, sensors.as_deref())?;
+        again.schedule = (period, clocks);
+        let mut stats = again.run(&mut second, Some(&center), &mut write)?;
         stats.elapsed += first_stats.elapsed;
         (stats, center.bias_estimates())
     } else {
@@ -239,6 +247,19 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     );
     print_bias(&bias);
     Ok(())
+}
+
+/// Each sensor's report clock, from the distinct times of its rows in local_tracks.csv.
+fn report_clocks(path: &Path) -> Result<BTreeMap<Id, ReportClock>> {
+    let mut times = ReportTimes::default();
+    let mut stream = LocalTrackStream::open(path)?;
+    let mut buf = Vec::new();
+    while stream.next_scan(&mut buf)?.is_some() {
+        for t in &buf {
+            times.add(t.sensor_id, t.time);
+        }
+    }
+    Ok(times.clocks())
 }
 
 /// The center of `cfg`, fed the per-scan `labels` when `--truth` is given; a config that
@@ -356,6 +377,8 @@ struct StreamFusion<'a> {
     label_gate: f64,
     /// The sensors and their file, to check every local track's sensor is known.
     sensors: Option<(BTreeSet<Id>, &'a Path)>,
+    /// The center's update period and the sensors' report clocks.
+    schedule: (f64, BTreeMap<Id, ReportClock>),
 }
 
 impl<'a> StreamFusion<'a> {
@@ -373,13 +396,16 @@ impl<'a> StreamFusion<'a> {
             sensors: sensors
                 .zip(args.sensors.as_deref())
                 .map(|(s, p)| (s.iter().map(|s| s.id).collect(), p)),
+            schedule: (1.0, BTreeMap::new()),
         })
     }
 
-    /// Fuse the whole file with `center`, scan by scan, handing each scan's output to
-    /// `write`. With `corrector` (pass 2 of `--two-pass`), each scan's local tracks are
-    /// first corrected with that center's bias estimates; the truth labels are those of
-    /// the rows as read, as in `fuse_all_two_pass`.
+    /// Fuse the whole file with `center` at the center's update instants
+    /// ([`InstantBatcher`]: batch after batch of rows sharing one time, each instant's
+    /// fresh latest reports predicted to it), handing each instant's output to `write`.
+    /// With `corrector` (pass 2 of `--two-pass`), each batch's local tracks are first
+    /// corrected with that center's bias estimates; the truth labels are those of the
+    /// rows as read, as in `fuse_all_two_pass`.
     fn run(
         &mut self,
         center: &mut FusionCenter,
@@ -389,36 +415,76 @@ impl<'a> StreamFusion<'a> {
         let mut stats = FuseStats::default();
         let mut rows = Vec::new();
         let mut out = ScanOutput::default();
+        let mut batcher = InstantBatcher::new(self.schedule.0, &self.schedule.1);
+        // the file line and the truth label of each local track's latest report
+        let mut lines_of: HashMap<(Id, Id), u64> = HashMap::new();
+        let mut labels_of: HashMap<(Id, Id), Id> = HashMap::new();
+        let path = self.local.path().to_path_buf();
         while let Some(scan) = self.local.next_scan(&mut rows)? {
             if let Some((known, path)) = &self.sensors {
                 check_sensors_cover(&rows, self.local.lines(), &self.local, known, path)?;
             }
             if let Some(truth) = self.truth.as_mut() {
                 let labels = label_local_tracks(truth.rows_of(scan)?, &rows, self.label_gate);
-                *self.labels.0.lock().unwrap_or_else(|e| e.into_inner()) = labels;
+                for r in &rows {
+                    let key = (r.sensor_id, r.track_id);
+                    match labels.get(&(scan, key.0, key.1)) {
+                        Some(&l) => labels_of.insert(key, l),
+                        None => labels_of.remove(&key),
+                    };
+                }
             }
             if let Some(c) = corrector {
                 c.correct_with_bias(&mut rows);
             }
-            let t0 = std::time::Instant::now();
-            center
-                .process_scan_into(&rows, &mut out)
-                .map_err(|e| self.located(scan, &rows, e))?;
-            stats.elapsed += t0.elapsed();
+            for (r, &l) in rows.iter().zip(self.local.lines()) {
+                lines_of.insert((r.sensor_id, r.track_id), l);
+            }
             stats.local_rows += rows.len();
-            stats.fused_rows += out.fused.len();
-            stats.ids.extend(out.fused.iter().map(|f| f.fused_id));
-            write(&out)?;
+            let time = rows
+                .iter()
+                .map(|r| r.time)
+                .fold(f64::NEG_INFINITY, f64::max);
+            let has_truth = self.truth.is_some();
+            let scan_labels = self.labels;
+            batcher.push(scan, time, &rows, |s, t, tracks| {
+                if has_truth {
+                    let map = tracks
+                        .iter()
+                        .filter_map(|r| {
+                            let key = (r.sensor_id, r.track_id);
+                            labels_of.get(&key).map(|&l| ((s, key.0, key.1), l))
+                        })
+                        .collect();
+                    *scan_labels.0.lock().unwrap_or_else(|e| e.into_inner()) = map;
+                }
+                let t0 = std::time::Instant::now();
+                center
+                    .process_at_into(s, t, tracks, &mut out)
+                    .map_err(|e| located(&path, &lines_of, s, tracks, e))?;
+                stats.elapsed += t0.elapsed();
+                stats.fused_rows += out.fused.len();
+                stats.ids.extend(out.fused.iter().map(|f| f.fused_id));
+                write(&out)
+            })?;
         }
         if let Some(truth) = self.truth.as_mut() {
             truth.finish()?;
         }
         Ok(stats)
     }
+}
 
-    /// A center error in `scan`, at the line of the local track it names, else at the
-    /// scan's first line.
-    fn located(&self, scan: u32, rows: &[LocalTrack], e: CenterError) -> anyhow::Error {
+/// A center error at instant `scan`, at the line of the local track it names (its
+/// latest report's line, in `lines`), else at the line of the instant's first track.
+fn located(
+    path: &Path,
+    lines: &HashMap<(Id, Id), u64>,
+    scan: u32,
+    tracks: &[LocalTrack],
+    e: CenterError,
+) -> anyhow::Error {
+    {
         let members: Vec<(Id, Id)> = match &e {
             CenterError::UnknownSensor {
                 sensor_id,
@@ -444,17 +510,16 @@ impl<'a> StreamFusion<'a> {
             | CenterError::NumericalFailure { tracks, .. } => tracks.clone(),
             _ => Vec::new(),
         };
-        let lines = self.local.lines();
         let member_lines: Vec<u64> = members
             .iter()
-            .filter_map(|m| {
-                rows.iter()
-                    .position(|t| (t.sensor_id, t.track_id) == *m)
-                    .map(|i| lines[i])
-            })
+            .filter(|m| tracks.iter().any(|t| (t.sensor_id, t.track_id) == **m))
+            .filter_map(|m| lines.get(m).copied())
             .collect();
-        let line = member_lines.first().or(lines.first()).copied().unwrap_or(0);
-        let path = self.local.path().display().to_string();
+        let first = tracks
+            .first()
+            .and_then(|t| lines.get(&(t.sensor_id, t.track_id)).copied());
+        let line = member_lines.first().copied().or(first).unwrap_or(0);
+        let path = path.display().to_string();
         let others = if member_lines.len() > 1 {
             let l: Vec<String> = member_lines.iter().map(|l| l.to_string()).collect();
             format!(" (the local tracks on lines {})", l.join(", "))

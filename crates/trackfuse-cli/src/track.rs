@@ -14,6 +14,7 @@ use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use std::collections::BTreeSet;
 use std::path::PathBuf;
+use trackfuse::clock::ReportTimes;
 use trackfuse::io::Sink;
 use trackfuse::io::{read_sensors, LocalTrackWriter, MeasurementStream};
 use trackfuse::local::{MultiSensorTracker, TrackerConfig};
@@ -83,6 +84,19 @@ pub fn run(args: &TrackArgs) -> Result<()> {
         seed,
         0,
     )?;
+    // pass 1: each sensor's report clock from its measurement times (the file is read
+    // and checked once before anything is written), so that a sensor is scanned at its
+    // own times only (MultiSensorTracker::set_clocks)
+    let mut times = ReportTimes::default();
+    let mut pre = MeasurementStream::open(&meas_path, Some(&sensors))?;
+    let mut buf = Vec::new();
+    while pre.next_scan(&mut buf)?.is_some() {
+        for m in &buf {
+            times.add(m.sensor_id, m.time);
+        }
+    }
+    drop(pre);
+    tracker.set_clocks(&times.clocks());
     let scenario_path = scenario_input(args.scenario.as_deref());
     let mut inputs = vec![sensors_path.as_path(), meas_path.as_path()];
     inputs.extend(scenario_path.as_deref());

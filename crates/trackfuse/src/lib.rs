@@ -12,6 +12,7 @@
 #![deny(clippy::print_stdout, clippy::print_stderr, clippy::dbg_macro)]
 
 pub mod center;
+pub mod clock;
 pub mod config;
 pub mod covariance;
 pub mod io;

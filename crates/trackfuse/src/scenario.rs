@@ -140,6 +140,30 @@ pub struct SensorSpec {
     /// Clutter density for this sensor (per km^2 per scan); default `clutter.density`.
     #[serde(default)]
     pub clutter_density: Option<f64>,
+    /// Report period (s): the sensor scans at `phase + k * period`. Default: the
+    /// scenario's `dt` (every scan, all sensors together: what every paper assumes).
+    /// A positive multiple of `dt`, since the simulator's truth moves in steps of `dt`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub period: Option<f64>,
+    /// Time of the sensor's first scan (s), in `[0, period)`, a multiple of `dt`
+    /// (default 0: every sensor starts at time 0).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub phase: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+impl SensorSpec {
+    /// The sensor's report clock in scans of `dt`: `(every, offset)`, so that it scans at
+    /// the scans `offset + k * every` (`(1, 0)` by default). The values must have passed
+    /// [`Scenario::validate`] (whole multiples of `dt`).
+    pub fn scan_clock(&self, dt: f64) -> (u64, u64) {
+        let every = self.period.map_or(1, |p| (p / dt).round().max(1.0) as u64);
+        let offset = (self.phase / dt).round().max(0.0) as u64;
+        (every, offset)
+    }
 }
 
 fn one() -> f64 {
@@ -581,6 +605,38 @@ impl Scenario {
             at_most(key("bias_theta"), s.bias_theta, MAX_ANGLE, "rad")?;
             finite_nonneg(key("max_range"), s.max_range)?;
             at_most(key("max_range"), s.max_range, MAX_POSITION, "m")?;
+            // a whole number of scans of dt (within 1e-9 of one)
+            let steps = |v: f64| {
+                let n = v / self.dt;
+                (n.round() - n).abs() <= 1e-9 * n.abs().max(1.0)
+            };
+            let period = s.period.unwrap_or(self.dt);
+            if let Some(p) = s.period {
+                finite_pos(&key("period"), p)?;
+                at_most(key("period"), p, MAX_DT * f64::from(MAX_SCANS), "s")?;
+                if !steps(p) || p < self.dt * (1.0 - 1e-9) {
+                    return Err(bad(
+                        key("period"),
+                        format!(
+                            "{} s must be a whole multiple of dt = {} s (the truth moves in steps of dt)",
+                            show(p),
+                            show(self.dt)
+                        ),
+                    ));
+                }
+            }
+            finite_nonneg(key("phase"), s.phase)?;
+            if !steps(s.phase) || s.phase >= period * (1.0 - 1e-9) {
+                return Err(bad(
+                    key("phase"),
+                    format!(
+                        "{} s must be a whole multiple of dt = {} s below the period ({} s)",
+                        show(s.phase),
+                        show(self.dt),
+                        show(period)
+                    ),
+                ));
+            }
             if let Some(d) = s.clutter_density {
                 finite_nonneg(key("clutter_density"), d)?;
             }

@@ -307,6 +307,26 @@ impl FusionCenter {
         result
     }
 
+    /// Fuse local tracks at the center's own instant `time`, as scan `scan` (the entry
+    /// point of [`super::instants::InstantBatcher`]): each track reported before `time`
+    /// is first predicted to it (CV, the center's process noise), then they are fused as
+    /// [`FusionCenter::process_scan_into`] fuses a scan. Tracks at `time` are untouched,
+    /// so a synchronous scan fuses exactly as through `process_scan_into`.
+    pub fn process_at_into(
+        &mut self,
+        scan: u32,
+        time: f64,
+        tracks: &mut [LocalTrack],
+        out: &mut ScanOutput,
+    ) -> Result<(), CenterError> {
+        let q = self.cfg.process_noise;
+        for t in tracks.iter_mut() {
+            t.scan = scan;
+            super::instants::predict_to(t, time, q);
+        }
+        self.process_scan_into(tracks, out)
+    }
+
     /// One scan: an empty one only ages the global tracks; the others go through
     /// [`FusionCenter::scan_steps`] with the center's reused buffers.
     fn scan_into(

@@ -21,6 +21,7 @@ pub mod bias;
 pub mod fusion;
 pub mod fusion_center;
 pub mod hough;
+pub mod instants;
 pub(crate) mod linalg;
 pub mod management;
 pub mod registry;
@@ -455,6 +456,12 @@ pub struct FusionConfig {
     /// papers' center.
     #[serde(default)]
     pub management: ManagementConfig,
+    /// The center's update period (s) on files (`trackfuse fuse`), `--period`. Default:
+    /// taken from the data, the shortest of the sensors' median report intervals, so the
+    /// center updates as often as its fastest sensor reports and synchronous sensors are
+    /// fused scan by scan as they report ([`instants`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub period: Option<f64>,
 }
 
 fn default_method() -> String {
@@ -483,6 +490,7 @@ impl Default for FusionConfig {
             delete_after: default_center_delete(),
             params: ParamTables::new(),
             management: ManagementConfig::default(),
+            period: None,
         }
     }
 }
@@ -529,6 +537,13 @@ impl FusionConfig {
         registry: &registry::CenterRegistry,
         sensors: Option<&[crate::types::Sensor]>,
     ) -> Result<ConfiguredParts, CenterError> {
+        if let Some(p) = self.period.filter(|p| !(p.is_finite() && *p > 0.0)) {
+            return Err(ParamError::new(
+                "period",
+                format!("{p} must be a positive number of seconds"),
+            )
+            .into());
+        }
         if !(self.process_noise.is_finite() && self.process_noise >= 0.0) {
             return Err(ParamError::new(
                 "process_noise",

@@ -44,6 +44,11 @@ const FORMATS_COLUMNS: &[&str] = &[
 const SORT_HINT: &str = "rows must be in non-decreasing scan order (any order within a scan); \
      sort the data rows by the scan column, keeping the header first";
 
+/// The hint of the ordering error of a file without a scan column.
+const TIME_SORT_HINT: &str = "a file without a scan column must have its rows in \
+     non-decreasing time order (any order within one time); sort the data rows by the time \
+     column, keeping the header first";
+
 /// File name and header of a table, for error reports.
 struct Meta {
     path: PathBuf,
@@ -374,8 +379,11 @@ fn check_time<K: std::hash::Hash + Eq + std::fmt::Debug>(
 /// How one file kind's rows are parsed, checked and ordered within a scan.
 trait ScanRows {
     type Item;
-    /// Index of the `scan` column.
-    fn scan_col(&self) -> usize;
+    /// Index of the `scan` column; `None` for a file without one (local_tracks.csv and
+    /// measurements.csv may omit it), whose rows are batched by time.
+    fn scan_col(&self) -> Option<usize>;
+    /// Index of the `time` column (read for the ordering rule of a file without scans).
+    fn time_col(&self) -> usize;
     /// A new scan starts: forget what only one scan needs (duplicate sets, per-scan
     /// maps), so memory does not grow with the number of scans.
     fn start_scan(&mut self);
@@ -394,6 +402,9 @@ struct ScanReader<P: ScanRows, R: Read> {
     pending: Option<(u64, u32)>,
     /// Scan and line of the last row read (the ordering rule).
     prev: Option<(u32, u64)>,
+    /// A file without a scan column: the time, scan (batch count) and line of the last
+    /// row read.
+    prev_time: Option<(f64, u32, u64)>,
     /// The first error: the stream returns it again rather than going on past it.
     failed: Option<InputError>,
     scratch: Vec<(P::Item, u64)>,
@@ -408,6 +419,7 @@ impl<P: ScanRows, R: Read> ScanReader<P, R> {
             rows,
             pending: None,
             prev: None,
+            prev_time: None,
             failed: None,
             scratch: Vec::new(),
             lines: Vec::new(),
@@ -450,21 +462,47 @@ impl<P: ScanRows, R: Read> ScanReader<P, R> {
                         break;
                     };
                     let row = self.table.row(line);
-                    let c = self.rows.scan_col();
-                    let scan = row.scan(c)?;
-                    if let Some((prev_scan, prev_line)) = self.prev {
-                        if scan < prev_scan {
-                            return Err(row.err(
-                                c,
-                                format!(
-                                    "scan {scan} comes after scan {prev_scan} (line \
+                    if self.rows.scan_col().is_none() {
+                        // no scan column: one batch per distinct time, numbered from 0
+                        let c = self.rows.time_col();
+                        let time = row.f64(c)?;
+                        let scan = match self.prev_time {
+                            None => 0,
+                            Some((t, s, _)) if t == time => s,
+                            Some((t, s, l)) => {
+                                if time < t {
+                                    return Err(row.err(
+                                        c,
+                                        format!(
+                                            "time {time} comes after time {t} (line {l}): \
+                                             {TIME_SORT_HINT}"
+                                        ),
+                                    ));
+                                }
+                                s.checked_add(1).ok_or_else(|| {
+                                    row.err(c, "more than 4294967296 distinct times")
+                                })?
+                            }
+                        };
+                        self.prev_time = Some((time, scan, line));
+                        (line, scan)
+                    } else {
+                        let c = self.rows.scan_col().unwrap_or(0);
+                        let scan = row.scan(c)?;
+                        if let Some((prev_scan, prev_line)) = self.prev {
+                            if scan < prev_scan {
+                                return Err(row.err(
+                                    c,
+                                    format!(
+                                        "scan {scan} comes after scan {prev_scan} (line \
                                      {prev_line}): {SORT_HINT}"
-                                ),
-                            ));
+                                    ),
+                                ));
+                            }
                         }
+                        self.prev = Some((scan, line));
+                        (line, scan)
                     }
-                    self.prev = Some((scan, line));
-                    (line, scan)
                 }
             };
             match current {
@@ -662,7 +700,7 @@ pub fn read_sensors_from<R: Read>(
 // ---------------------------------------------------------------- truth.csv
 
 struct TruthRows {
-    c_scan: usize,
+    c_scan: Option<usize>,
     c_time: usize,
     c_tid: usize,
     cs: [usize; 4],
@@ -673,8 +711,11 @@ struct TruthRows {
 
 impl ScanRows for TruthRows {
     type Item = TruthState;
-    fn scan_col(&self) -> usize {
+    fn scan_col(&self) -> Option<usize> {
         self.c_scan
+    }
+    fn time_col(&self) -> usize {
+        self.c_time
     }
     fn start_scan(&mut self) {
         self.seen.clear();
@@ -724,7 +765,7 @@ impl<R: Read> TruthStream<R> {
     pub fn from_reader(reader: R, path: impl AsRef<Path>) -> Result<Self, InputError> {
         let t = Table::new(reader, path.as_ref())?;
         let rows = TruthRows {
-            c_scan: t.col("scan")?,
+            c_scan: Some(t.col("scan")?),
             c_time: t.col("time")?,
             c_tid: t.col("target_id")?,
             cs: [t.col("x")?, t.col("vx")?, t.col("y")?, t.col("vy")?],
@@ -761,7 +802,7 @@ pub fn read_truth_from<R: Read>(
 // ---------------------------------------------------------------- measurements.csv
 
 struct MeasurementRows {
-    c_scan: usize,
+    c_scan: Option<usize>,
     c_time: usize,
     c_sid: usize,
     rb_cols: Option<(usize, usize)>,
@@ -778,8 +819,11 @@ struct MeasurementRows {
 
 impl ScanRows for MeasurementRows {
     type Item = Measurement;
-    fn scan_col(&self) -> usize {
+    fn scan_col(&self) -> Option<usize> {
         self.c_scan
+    }
+    fn time_col(&self) -> usize {
+        self.c_time
     }
     fn start_scan(&mut self) {
         self.seen.clear();
@@ -923,7 +967,7 @@ impl<R: Read> MeasurementStream<R> {
     ) -> Result<Self, InputError> {
         let path = path.as_ref();
         let t = Table::new(reader, path)?;
-        let c_scan = t.col("scan")?;
+        let c_scan = t.opt("scan");
         let c_time = t.col("time")?;
         let c_sid = t.col("sensor_id")?;
         let rb_cols = t.opt("range").zip(t.opt("bearing"));
@@ -974,7 +1018,7 @@ pub fn read_measurements_from<R: Read>(
 // ---------------------------------------------------------------- local_tracks.csv
 
 struct LocalTrackRows {
-    c_scan: usize,
+    c_scan: Option<usize>,
     c_time: usize,
     c_sid: usize,
     c_tid: usize,
@@ -986,8 +1030,11 @@ struct LocalTrackRows {
 
 impl ScanRows for LocalTrackRows {
     type Item = LocalTrack;
-    fn scan_col(&self) -> usize {
+    fn scan_col(&self) -> Option<usize> {
         self.c_scan
+    }
+    fn time_col(&self) -> usize {
+        self.c_time
     }
     fn start_scan(&mut self) {
         self.seen.clear();
@@ -1045,7 +1092,7 @@ impl<R: Read> LocalTrackStream<R> {
     pub fn from_reader(reader: R, path: impl AsRef<Path>) -> Result<Self, InputError> {
         let t = Table::new(reader, path.as_ref())?;
         let rows = LocalTrackRows {
-            c_scan: t.col("scan")?,
+            c_scan: t.opt("scan"),
             c_time: t.col("time")?,
             c_sid: t.col("sensor_id")?,
             c_tid: t.col("track_id")?,
@@ -1074,7 +1121,7 @@ pub fn read_local_tracks_from<R: Read>(
 // ---------------------------------------------------------------- fused_tracks.csv
 
 struct FusedTrackRows {
-    c_scan: usize,
+    c_scan: Option<usize>,
     c_time: usize,
     c_fid: usize,
     c_n: usize,
@@ -1088,8 +1135,11 @@ struct FusedTrackRows {
 
 impl ScanRows for FusedTrackRows {
     type Item = FusedTrack;
-    fn scan_col(&self) -> usize {
+    fn scan_col(&self) -> Option<usize> {
         self.c_scan
+    }
+    fn time_col(&self) -> usize {
+        self.c_time
     }
     fn start_scan(&mut self) {
         self.seen.clear();
@@ -1183,7 +1233,7 @@ impl<R: Read> FusedTrackStream<R> {
     pub fn from_reader(reader: R, path: impl AsRef<Path>) -> Result<Self, InputError> {
         let t = Table::new(reader, path.as_ref())?;
         let rows = FusedTrackRows {
-            c_scan: t.col("scan")?,
+            c_scan: Some(t.col("scan")?),
             c_time: t.col("time")?,
             c_fid: t.col("fused_id")?,
             c_n: t.col("n_sources")?,
@@ -1213,7 +1263,7 @@ pub fn read_fused_tracks_from<R: Read>(
 // ---------------------------------------------------------------- associations.csv
 
 struct AssociationRows {
-    c_scan: usize,
+    c_scan: Option<usize>,
     c_sid: usize,
     c_tid: usize,
     c_fid: usize,
@@ -1223,8 +1273,12 @@ struct AssociationRows {
 
 impl ScanRows for AssociationRows {
     type Item = Association;
-    fn scan_col(&self) -> usize {
+    fn scan_col(&self) -> Option<usize> {
         self.c_scan
+    }
+    fn time_col(&self) -> usize {
+        // the scan column is required: never read for the time rule
+        self.c_sid
     }
     fn start_scan(&mut self) {
         self.seen.clear();
@@ -1272,7 +1326,7 @@ impl<R: Read> AssociationStream<R> {
     pub fn from_reader(reader: R, path: impl AsRef<Path>) -> Result<Self, InputError> {
         let t = Table::new(reader, path.as_ref())?;
         let rows = AssociationRows {
-            c_scan: t.col("scan")?,
+            c_scan: Some(t.col("scan")?),
             c_sid: t.col("sensor_id")?,
             c_tid: t.col("track_id")?,
             c_fid: t.col("fused_id")?,

@@ -30,6 +30,7 @@ use super::filter::{Filter, FilterState, PredictedMeasurement};
 use super::gating::{gate_threshold, Gates};
 use super::registry::{AssociatorContext, AssociatorSettings, FilterSettings, LocalRegistry};
 use super::{InitiationMethod, TrackerConfig, DEFAULT_PROCESS_NOISE};
+use crate::clock::{ReportClock, ReportTimes};
 use crate::models::range_bearing_to_position;
 use crate::params::ParamError;
 use crate::spatial::SweepIndex;
@@ -864,12 +865,16 @@ pub struct MultiSensorTracker {
     /// Each tracker's output of the current scan.
     outs: Vec<Vec<LocalTrack>>,
     last_scan: Option<u32>,
+    /// Whether report clocks were set ([`MultiSensorTracker::set_clocks`]).
+    clocked: bool,
 }
 
 struct SensorSlot {
     kind: SensorKind,
     time: Option<f64>,
     values: Vec<Vec2>,
+    /// The sensor's report clock, when known.
+    clock: Option<ReportClock>,
 }
 
 impl MultiSensorTracker {
@@ -911,6 +916,7 @@ impl MultiSensorTracker {
                     kind: s.kind,
                     time: None,
                     values: Vec::new(),
+                    clock: None,
                 });
                 slots.len() - 1
             });
@@ -923,7 +929,22 @@ impl MultiSensorTracker {
             slot_of,
             tracker_slot,
             last_scan: None,
+            clocked: false,
         })
+    }
+
+    /// Track asynchronous sensors: each sensor's report clock (as
+    /// [`ReportClock::from_times`] learns it from the measurement times; a sensor absent
+    /// from `clocks` has none). From then on a sensor without measurements in a scan is
+    /// scanned (its tracks coast and count a miss) only when the scan's time is on its
+    /// clock: a time at which only other sensors report is not one of its scans. A sensor
+    /// without a clock is scanned only at the times it has measurements. Synchronous
+    /// sensors (every sensor on every scan's time) are tracked exactly as without clocks.
+    pub fn set_clocks(&mut self, clocks: &BTreeMap<Id, ReportClock>) {
+        for (&id, &slot) in &self.slot_of {
+            self.slots[slot].clock = clocks.get(&id).copied();
+        }
+        self.clocked = true;
     }
 
     /// Process scan `scan`: `measurements` are all of its measurements, of any sensor,
@@ -973,6 +994,7 @@ impl MultiSensorTracker {
                 .sort_unstable_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
         }
         let slots = &self.slots;
+        let clocked = self.clocked;
         let results: Vec<Result<(), TrackerError>> = self
             .trackers
             .par_iter_mut()
@@ -981,6 +1003,11 @@ impl MultiSensorTracker {
             .map(|((tracker, o), &si)| {
                 o.clear();
                 let slot = &slots[si];
+                let scanned =
+                    !clocked || slot.time.is_some() || slot.clock.is_some_and(|c| c.due(scan_time));
+                if !scanned {
+                    return Ok(());
+                }
                 tracker.process_scan(scan, slot.time.unwrap_or(scan_time), &slot.values, o)
             })
             .collect();
@@ -1002,7 +1029,11 @@ impl MultiSensorTracker {
 /// on the order of the rows. Every scan index that appears in `measurements` is processed by every sensor; a
 /// sensor with no measurement in a scan takes that scan's earliest time among the
 /// sensors that have one (its tracks coast). Scan indices absent from the whole file
-/// carry no time and are skipped. Sensors are tracked in parallel (rayon); the result
+/// carry no time and are skipped. Each sensor's report clock is learned from its
+/// measurement times ([`MultiSensorTracker::set_clocks`]): a sensor with no measurement
+/// in a scan is scanned only when the scan's time is on its clock, so asynchronous
+/// sensors are each tracked at their own report times (synchronous ones exactly as
+/// every scan by every sensor). Sensors are tracked in parallel (rayon); the result
 /// does not depend on the thread count. It is [`MultiSensorTracker`] fed scan after
 /// scan; a measurement of an unknown sensor or of the wrong kind is an error before any
 /// tracking.
@@ -1035,6 +1066,13 @@ pub fn track_sensors(
     }
     let mut tracker =
         MultiSensorTracker::new(sensors, cfg, scenario_process_noise, known, seed, run)?;
+    let mut times = ReportTimes::default();
+    for ms in by_scan.values() {
+        for m in ms {
+            times.add(m.sensor_id, m.time);
+        }
+    }
+    tracker.set_clocks(&times.clocks());
     let mut all = Vec::new();
     for (&scan, ms) in &by_scan {
         tracker.process_scan(scan, ms, &mut all)?;

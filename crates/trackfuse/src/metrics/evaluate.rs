@@ -93,6 +93,9 @@ pub struct RunMetrics {
     /// Truth points (target, scan) and how many had an assigned fused estimate.
     pub truth_points: u64,
     pub covered_points: u64,
+    /// The longest truth gap (s) interpolated over, when fused rows were paired with
+    /// truth interpolated between rows (`None`: every fused time is a truth time).
+    pub truth_max_gap: Option<f64>,
 }
 
 fn merge_map<K: Ord + Copy>(a: &mut BTreeMap<K, SumCount>, b: &BTreeMap<K, SumCount>) {
@@ -135,6 +138,10 @@ impl RunMetrics {
         self.nees_local_skipped += o.nees_local_skipped;
         self.truth_points += o.truth_points;
         self.covered_points += o.covered_points;
+        self.truth_max_gap = match (self.truth_max_gap, o.truth_max_gap) {
+            (Some(a), Some(b)) => Some(a.max(b)),
+            (a, b) => a.or(b),
+        };
     }
 }
 
@@ -161,25 +168,188 @@ fn group_by_scan<T, F: Fn(&T) -> u32>(items: &[T], scan: F) -> BTreeMap<u32, Vec
     m
 }
 
-/// Evaluate one run.
+/// A time as an ordered map key (times are finite).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct TimeKey(f64);
+impl Eq for TimeKey {}
+impl PartialOrd for TimeKey {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for TimeKey {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&o.0)
+    }
+}
+
+fn group_by_time<T, F: Fn(&T) -> (u32, f64)>(
+    items: &[T],
+    key: F,
+) -> BTreeMap<TimeKey, (u32, Vec<&T>)> {
+    let mut m: BTreeMap<TimeKey, (u32, Vec<&T>)> = BTreeMap::new();
+    for it in items {
+        let (scan, time) = key(it);
+        m.entry(TimeKey(time))
+            .or_insert_with(|| (scan, Vec::new()))
+            .1
+            .push(it);
+    }
+    m
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_unstable_by(f64::total_cmp);
+    Some(v[(v.len() - 1) / 2])
+}
+
+/// The default longest truth gap interpolated over: twice the median interval between a
+/// target's consecutive truth rows (a target missing one row is still interpolated; one
+/// that leaves and comes back is not).
+pub fn default_truth_gap(truth: &[TruthState]) -> Option<f64> {
+    let mut last: HashMap<Id, f64> = HashMap::new();
+    let mut d = Vec::new();
+    for t in truth {
+        if let Some(prev) = last.insert(t.target_id, t.time) {
+            if t.time > prev {
+                d.push(t.time - prev);
+            }
+        }
+    }
+    median(d).map(|m| 2.0 * m)
+}
+
+/// The truth of every target at `time`, linearly interpolated (state `[x, vx, y, vy]`)
+/// between its rows before and after `time` when they are at most `max_gap` apart.
+fn truth_at(
+    per_target: &BTreeMap<Id, Vec<&TruthState>>,
+    time: f64,
+    max_gap: f64,
+) -> Vec<TruthState> {
+    let mut out = Vec::new();
+    for rows in per_target.values() {
+        let i = rows.partition_point(|t| t.time < time);
+        if i < rows.len() && rows[i].time == time {
+            out.push(*rows[i]);
+            continue;
+        }
+        if i == 0 || i == rows.len() {
+            continue;
+        }
+        let (a, b) = (rows[i - 1], rows[i]);
+        let gap = b.time - a.time;
+        if gap > max_gap {
+            continue;
+        }
+        let w = (time - a.time) / gap;
+        out.push(TruthState {
+            scan: a.scan,
+            time,
+            target_id: a.target_id,
+            state: a.state + (b.state - a.state) * w,
+        });
+    }
+    out
+}
+
+/// Evaluate one run (the truth gap of [`evaluate_run_with`] by default).
 pub fn evaluate_run(input: &EvalInput<'_>, cfg: &EvaluationConfig) -> RunMetrics {
+    evaluate_run_with(input, cfg, None)
+}
+
+/// Evaluate one run, pairing fused rows with the truth **by time**.
+///
+/// When every fused time is a truth time and the fused rows come at the truth's rate
+/// (synchronous output: the center fused at the truth's scan times; median intervals
+/// between distinct times compared), the evaluation times are every truth time and every fused time,
+/// and a fused row is scored against the truth rows of its time: exactly a scan-by-scan
+/// evaluation. Otherwise (a center with its own update instants) the evaluation times
+/// are the fused times, plus the truth times more than half the fused period (the
+/// median interval between fused times) from every fused time, at most one per fused
+/// period (so a time without any fused track, before the first or in a gap, still
+/// counts its targets as missed); at a time between a target's truth rows the truth is
+/// interpolated linearly between them, if they are at most `truth_gap` seconds apart
+/// (default [`default_truth_gap`]: twice the truth's median row interval), else the
+/// target is absent at that time. `truth_max_gap` in the metrics states the gap used.
+pub fn evaluate_run_with(
+    input: &EvalInput<'_>,
+    cfg: &EvaluationConfig,
+    truth_gap: Option<f64>,
+) -> RunMetrics {
     let mut m = RunMetrics {
         runs: 1,
         ..Default::default()
     };
     let truth = group_by_scan(input.truth, |t| t.scan);
-    let fused = group_by_scan(input.fused, |f| f.scan);
+    let truth_t = group_by_time(input.truth, |t| (t.scan, t.time));
+    let fused_t = group_by_time(input.fused, |f| (f.scan, f.time));
     let (c, p) = (cfg.gospa_c, cfg.gospa_p);
-    let mut scans: Vec<u32> = truth.keys().chain(fused.keys()).copied().collect();
-    scans.sort_unstable();
-    scans.dedup();
-    let empty_t: Vec<&TruthState> = Vec::new();
+    // synchronous: the fused rows are at truth times, at the truth's rate
+    let interval = |keys: Vec<f64>| median(keys.windows(2).map(|w| w[1] - w[0]).collect());
+    let fused_interval = interval(fused_t.keys().map(|k| k.0).collect());
+    let truth_interval = interval(truth_t.keys().map(|k| k.0).collect());
+    let synchronous = fused_t.keys().all(|k| truth_t.contains_key(k))
+        && match (fused_interval, truth_interval) {
+            (Some(f), Some(t)) => f <= t * (1.0 + 1e-6),
+            _ => true,
+        };
+    // evaluation times: (time, scan key)
+    let mut times: Vec<(f64, u32)> = Vec::new();
+    let mut per_target: BTreeMap<Id, Vec<&TruthState>> = BTreeMap::new();
+    let mut max_gap = 0.0;
+    if synchronous {
+        let mut all: BTreeMap<TimeKey, u32> = fused_t.iter().map(|(k, v)| (*k, v.0)).collect();
+        all.extend(truth_t.iter().map(|(k, v)| (*k, v.0)));
+        times.extend(all.iter().map(|(k, &s)| (k.0, s)));
+    } else {
+        for t in input.truth {
+            per_target.entry(t.target_id).or_default().push(t);
+        }
+        for rows in per_target.values_mut() {
+            rows.sort_by(|a, b| a.time.total_cmp(&b.time));
+        }
+        max_gap = truth_gap
+            .or_else(|| default_truth_gap(input.truth))
+            .unwrap_or(0.0);
+        m.truth_max_gap = Some(max_gap);
+        let ft: Vec<f64> = fused_t.keys().map(|k| k.0).collect();
+        let period = median(ft.windows(2).map(|w| w[1] - w[0]).collect()).unwrap_or(0.0);
+        let mut all: BTreeMap<TimeKey, u32> = fused_t.iter().map(|(k, v)| (*k, v.0)).collect();
+        let mut last_extra = f64::NEG_INFINITY;
+        for (k, v) in &truth_t {
+            let t = k.0;
+            let i = ft.partition_point(|&f| f < t);
+            let near = [i.checked_sub(1), Some(i)]
+                .into_iter()
+                .flatten()
+                .filter_map(|j| ft.get(j))
+                .any(|&f| (f - t).abs() <= period * (0.5 + 1e-6));
+            if !near && t - last_extra >= period * (1.0 - 1e-6) {
+                all.insert(*k, v.0);
+                last_extra = t;
+            }
+        }
+        times.extend(all.iter().map(|(k, &s)| (k.0, s)));
+    }
     let empty_f: Vec<&FusedTrack> = Vec::new();
     let mut tpos: Vec<Vec2> = Vec::new();
     let mut fpos: Vec<Vec2> = Vec::new();
-    for &scan in &scans {
-        let ts = truth.get(&scan).unwrap_or(&empty_t);
-        let fs = fused.get(&scan).unwrap_or(&empty_f);
+    let mut cur: Vec<TruthState> = Vec::new();
+    for &(time, scan) in &times {
+        let key = TimeKey(time);
+        let fs = fused_t.get(&key).map_or(&empty_f, |v| &v.1);
+        if synchronous {
+            cur.clear();
+            if let Some(v) = truth_t.get(&key) {
+                cur.extend(v.1.iter().map(|t| **t));
+            }
+        } else {
+            cur = truth_at(&per_target, time, max_gap);
+        }
+        let ts = &cur;
         tpos.clear();
         tpos.extend(ts.iter().map(|t| position_of(&t.state)));
         fpos.clear();
@@ -463,6 +633,11 @@ pub struct Summary {
     pub probability_correct_association: Option<f64>,
     pub association_rates: Option<RatesSummary>,
     pub fused_rmse_per_scan: Vec<(u32, f64)>,
+    /// Present when the fused rows were paired with the truth interpolated in time (the
+    /// center's instants are not the truth's times): the longest truth gap (s)
+    /// interpolated over; a target between rows farther apart is absent there.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truth_interpolation_max_gap: Option<f64>,
 }
 
 impl RunMetrics {
@@ -530,6 +705,7 @@ impl RunMetrics {
                 .iter()
                 .filter_map(|(k, v)| Some((*k, v.rms()?)))
                 .collect(),
+            truth_interpolation_max_gap: self.truth_max_gap,
         }
     }
 }

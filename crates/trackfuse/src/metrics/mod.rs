@@ -6,7 +6,8 @@ pub mod gospa;
 
 pub use assignment::gated_assignment;
 pub use evaluate::{
-    evaluate_run, label_local_tracks, probability_correct, EvalInput, RunMetrics, Summary,
+    default_truth_gap, evaluate_run, evaluate_run_with, label_local_tracks, probability_correct,
+    EvalInput, RunMetrics, Summary,
 };
 pub use gospa::{gospa, ospa, Gospa};
 

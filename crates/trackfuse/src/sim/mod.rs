@@ -14,6 +14,11 @@
 //! sensor's `max_range` and (if the sensor lists them) among its `visible_targets`.
 //! Clutter: Poisson count with mean `density * area_km2`, uniform over `clutter.region`
 //! if given, else over the sensor's coverage disc of radius `max_range`.
+//!
+//! Sensor clocks: a sensor scans (detects, draws clutter) only at its own times
+//! `phase + k * period` (scenario keys `period`, `phase`; default every scan from 0), so
+//! radars with their own rates and phases report at different times; a scan's
+//! measurements carry the scan's time, and rows come in time order.
 
 pub mod synthetic;
 pub use synthetic::synthetic_local_tracks;
@@ -74,6 +79,10 @@ struct SimSensor {
     clutter_rng: StreamRng,
     clutter_mean: f64,
     clutter_region: ClutterRegion,
+    /// The sensor scans at the scans `offset + k * every` (its `period` and `phase` in
+    /// scans of `dt`).
+    every: u64,
+    offset: u64,
 }
 
 #[derive(Clone, Copy)]
@@ -167,6 +176,8 @@ impl Simulation {
                     clutter_rng: stream(seed, run, "clutter", i as u64),
                     clutter_mean: density * region.area_km2(),
                     clutter_region: region,
+                    every: spec.scan_clock(sc.dt).0,
+                    offset: spec.scan_clock(sc.dt).1,
                     sensor,
                 }
             })
@@ -220,6 +231,11 @@ impl Simulation {
             }
         }
         for s in &mut self.sensors {
+            let step = u64::from(scan);
+            if step < s.offset || (step - s.offset) % s.every != 0 {
+                // not one of this sensor's scan times: it draws nothing
+                continue;
+            }
             let sensor = &s.sensor;
             let pos = sensor.position();
             let (sa, sb) = (sensor.sigma_a, sensor.sigma_b);
