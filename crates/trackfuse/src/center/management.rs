@@ -520,3 +520,88 @@ impl Manager {
         std::mem::swap(&mut self.links, &mut self.next_links);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::{read_fused_tracks_from, FusedTrackWriter};
+    use crate::types::{FusedTrack, TrackStatus};
+
+    fn row(fused_id: Id, status: TrackStatus) -> FusedTrack {
+        FusedTrack {
+            scan: 2,
+            time: 10.0,
+            fused_id,
+            state: StateVec::new(1.0, 2.0, 3.0, 4.0),
+            cov: StateCov::identity(),
+            sources: vec![(0, fused_id)],
+            status,
+        }
+    }
+
+    #[test]
+    fn status_round_trips_through_the_writer_and_reader() {
+        let rows = vec![
+            row(1, TrackStatus::Tentative),
+            row(2, TrackStatus::Confirmed),
+        ];
+        let mut w = FusedTrackWriter::new(Vec::new()).expect("writer");
+        for r in &rows {
+            w.write(r).expect("write");
+        }
+        let bytes = w.finish().expect("finish");
+        let text = String::from_utf8(bytes.clone()).expect("utf-8");
+        assert!(text.lines().next().expect("header").ends_with(",status"));
+        assert!(text.contains(",tentative\n") && text.contains(",confirmed\n"));
+        let back = read_fused_tracks_from(&bytes[..], "fused_tracks.csv").expect("read");
+        assert_eq!(back, rows);
+        // without the column: confirmed
+        let without: String = text
+            .lines()
+            .map(|l| l.rsplit_once(',').expect("a column").0.to_string() + "\n")
+            .collect();
+        let back = read_fused_tracks_from(without.as_bytes(), "fused_tracks.csv").expect("read");
+        assert!(back.iter().all(|r| r.status == TrackStatus::Confirmed));
+        // a bad status names its line and column
+        let bad = text.replace(",tentative\n", ",maybe\n");
+        let e = read_fused_tracks_from(bad.as_bytes(), "fused_tracks.csv").unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("fused_tracks.csv:2:"), "{msg}");
+        assert!(msg.contains("'maybe' is not a status"), "{msg}");
+    }
+
+    #[test]
+    fn config_errors_name_the_key() {
+        let bad = |m: ManagementConfig| m.check().unwrap_err().key;
+        let d = ManagementConfig::default;
+        assert_eq!(
+            bad(ManagementConfig {
+                confirm_scans: 0,
+                ..d()
+            }),
+            "management.confirm_scans"
+        );
+        assert_eq!(
+            bad(ManagementConfig {
+                switch_scans: 0,
+                ..d()
+            }),
+            "management.switch_scans"
+        );
+        assert_eq!(
+            bad(ManagementConfig {
+                gate_probability: 1.0,
+                ..d()
+            }),
+            "management.gate_probability"
+        );
+        let cfg: crate::center::FusionConfig =
+            toml::from_str("[management]\nenabled = false\npublish = \"all\"\n").expect("toml");
+        assert!(!cfg.management.enabled);
+        assert_eq!(cfg.management.publish, Publish::All);
+        assert_eq!(cfg.management.confirm_scans, d().confirm_scans);
+        let e = toml::from_str::<crate::center::FusionConfig>("[management]\nconfirm = 2\n")
+            .unwrap_err();
+        assert!(e.to_string().contains("unknown field `confirm`"), "{e}");
+    }
+}
