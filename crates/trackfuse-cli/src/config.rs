@@ -4,9 +4,9 @@
 
 use anyhow::{anyhow, Result};
 use clap::Args;
+use trackfuse::center::bias;
 use trackfuse::center::registry as center_registry;
 use trackfuse::center::{CenterError, FusionConfig};
-use trackfuse::center::bias;
 use trackfuse::local::registry as local_registry;
 use trackfuse::local::{InitiationMethod, TrackerConfig};
 use trackfuse::params::{parse_cli_param, ParamTables};

@@ -934,8 +934,7 @@ fn a_dense_scene_is_paired_by_settled_components() {
         s.bias_r = 0.0;
         s.bias_theta = 0.0;
     }
-    let params: TrackPairLsParams =
-        crate::params::parse_params(&sc.fusion.params, NAME).unwrap();
+    let params: TrackPairLsParams = crate::params::parse_params(&sc.fusion.params, NAME).unwrap();
     let mut est = TrackPairLs::new(params).unwrap();
     let mut scans: std::collections::BTreeMap<u32, Vec<LocalTrack>> =
         std::collections::BTreeMap::new();
