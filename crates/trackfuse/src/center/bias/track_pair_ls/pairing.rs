@@ -735,14 +735,24 @@ impl TrackPairLs {
         }
         self.unsettled.clear();
         self.unsettled.resize(n, false);
+        // every candidate explained, one to one: the earlier condition, as before
+        let strict = marks.iter().all(|&m| m)
+            && self
+                .candidates
+                .iter()
+                .all(|c| self.explained[c.i as usize] == 1 && self.explained[c.j as usize] == 1);
         let mut any_unsettled = false;
         for (c, &m) in self.candidates.iter().zip(&marks) {
             let (ei, ej) = (self.explained[c.i as usize], self.explained[c.j as usize]);
-            let bad = if m {
-                ei > 1 || ej > 1
-            } else {
-                ei == 0 && ej == 0
-            };
+            // otherwise a component settles only on pairs tested over a full history
+            // (early pairings of equally spaced targets can be shifted by one spacing,
+            // which only the relative motion over the history shows)
+            let bad = !strict
+                && if m {
+                    ei > 1 || ej > 1 || c.n < HISTORY
+                } else {
+                    ei == 0 && ej == 0
+                };
             if bad {
                 let r = self.candidate_sets.find(c.i);
                 self.unsettled[r as usize] = true;

@@ -519,7 +519,10 @@ fn two_pass_fusion_corrects_from_the_first_scan() {
     assert!(two.fused.iter().filter(|f| f.scan == 0).count() == 3);
     assert!(two.fused.iter().all(|f| f.sources.len() == 3));
     // without an estimator there is nothing to re-fuse with: an error, not one pass
-    let plain = FusionConfig::default();
+    let plain = FusionConfig {
+        bias: Some(crate::center::bias::OFF.into()),
+        ..FusionConfig::default()
+    };
     assert!(matches!(
         crate::center::fuse_all_two_pass(&tracks, &plain, Some(&sensors), None),
         Err(crate::center::CenterError::Needs { .. })
