@@ -286,5 +286,6 @@ fn as_fused(t: &LocalTrack) -> FusedTrack {
         state: t.state,
         cov: t.cov,
         sources: vec![(t.sensor_id, t.track_id)],
+        status: trackfuse::types::TrackStatus::Confirmed,
     }
 }

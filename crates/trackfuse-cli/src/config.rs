@@ -4,8 +4,8 @@
 
 use anyhow::{anyhow, Result};
 use clap::Args;
-use trackfuse::center::registry as center_registry;
 use trackfuse::center::bias;
+use trackfuse::center::registry as center_registry;
 use trackfuse::center::{CenterError, FusionConfig, Publish};
 use trackfuse::local::registry as local_registry;
 use trackfuse::local::{InitiationMethod, TrackerConfig};

@@ -124,7 +124,10 @@ pub fn run(args: &RunArgs) -> Result<()> {
 
 /// ` + bias NAME` for the estimator the fusion config resolves to with these sensors
 /// (`auto` resolved by the library), empty when bias estimation is off.
-pub fn bias_label(fusion: &trackfuse::center::FusionConfig, sensors: &[trackfuse::types::Sensor]) -> String {
+pub fn bias_label(
+    fusion: &trackfuse::center::FusionConfig,
+    sensors: &[trackfuse::types::Sensor],
+) -> String {
     match fusion.bias_choice(Some(sensors)) {
         trackfuse::center::bias::BiasChoice::Estimator(b) => format!(" + bias {b}"),
         trackfuse::center::bias::BiasChoice::Off(_) => String::new(),

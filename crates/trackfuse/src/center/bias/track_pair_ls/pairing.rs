@@ -96,9 +96,9 @@ pub(super) enum Settled {
     /// Every component: the current estimate pairs them all.
     All,
     /// Some components (the candidates kept are theirs).
-    Some,
+    Partly,
     /// None: the consensus runs over all tracks.
-    None,
+    Nothing,
 }
 
 /// One history point of a scan track in [`ShiftCache`].
@@ -479,8 +479,8 @@ impl TrackPairLs {
                     self.assign(&ctx, &zero);
                     return;
                 }
-                Settled::None => {}
-                Settled::Some => {
+                Settled::Nothing => {}
+                Settled::Partly => {
                     // the settled components are paired by the current estimate; the
                     // consensus below sees only the other tracks
                     self.assign(&ctx, &zero);
@@ -709,7 +709,7 @@ impl TrackPairLs {
     /// neighbour, a false track or a track whose partner is not confirmed yet). A
     /// candidate unexplained at both ends is a pair the estimate does not account for.
     ///
-    /// With [`Settled::Some`], `candidates` keeps only the settled components' and
+    /// With [`Settled::Partly`], `candidates` keeps only the settled components' and
     /// `settled_track` marks their tracks. When every track has a single candidate and
     /// all are explained (the earlier, stricter condition for skipping the consensus)
     /// the result is [`Settled::All`], so a sparse scene in its steady state takes the
@@ -735,10 +735,24 @@ impl TrackPairLs {
         }
         self.unsettled.clear();
         self.unsettled.resize(n, false);
+        // every candidate explained, one to one: the earlier condition, as before
+        let strict = marks.iter().all(|&m| m)
+            && self
+                .candidates
+                .iter()
+                .all(|c| self.explained[c.i as usize] == 1 && self.explained[c.j as usize] == 1);
         let mut any_unsettled = false;
         for (c, &m) in self.candidates.iter().zip(&marks) {
             let (ei, ej) = (self.explained[c.i as usize], self.explained[c.j as usize]);
-            let bad = if m { ei > 1 || ej > 1 } else { ei == 0 && ej == 0 };
+            // otherwise a component settles only on pairs tested over a full history
+            // (early pairings of equally spaced targets can be shifted by one spacing,
+            // which only the relative motion over the history shows)
+            let bad = !strict
+                && if m {
+                    ei > 1 || ej > 1 || c.n < HISTORY
+                } else {
+                    ei == 0 && ej == 0
+                };
             if bad {
                 let r = self.candidate_sets.find(c.i);
                 self.unsettled[r as usize] = true;
@@ -765,11 +779,11 @@ impl TrackPairLs {
             keep
         });
         if self.candidates.is_empty() {
-            return Settled::None;
+            return Settled::Nothing;
         }
         self.shift
             .set_candidates(&self.candidates, &self.pair_gates);
-        Settled::Some
+        Settled::Partly
     }
 
     /// Step 4: the candidates `theta` explains, one-to-one, pairs accepted at the

@@ -521,7 +521,10 @@ fn two_pass_fusion_corrects_from_the_first_scan() {
     assert!(two.fused.iter().filter(|f| f.scan == 0).count() == 3);
     assert!(two.fused.iter().all(|f| f.sources.len() == 3));
     // without an estimator there is nothing to re-fuse with: an error, not one pass
-    let plain = FusionConfig::default();
+    let plain = FusionConfig {
+        bias: Some(crate::center::bias::OFF.into()),
+        ..FusionConfig::default()
+    };
     assert!(matches!(
         crate::center::fuse_all_two_pass(&tracks, &plain, Some(&sensors), None),
         Err(crate::center::CenterError::Needs { .. })
@@ -936,8 +939,7 @@ fn a_dense_scene_is_paired_by_settled_components() {
         s.bias_r = 0.0;
         s.bias_theta = 0.0;
     }
-    let params: TrackPairLsParams =
-        crate::params::parse_params(&sc.fusion.params, NAME).unwrap();
+    let params: TrackPairLsParams = crate::params::parse_params(&sc.fusion.params, NAME).unwrap();
     let mut est = TrackPairLs::new(params).unwrap();
     let mut scans: std::collections::BTreeMap<u32, Vec<LocalTrack>> =
         std::collections::BTreeMap::new();
