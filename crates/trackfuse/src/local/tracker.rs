@@ -10,11 +10,15 @@
 //! 3. the associator weighs them ([`super::association::DataAssociator`]) and each
 //!    confirmed track is updated with its weights, or coasts on its prediction;
 //! 4. tentative tracks take the measurements no confirmed track used (nearest first, one
-//!    measurement per tentative track), and are confirmed by M hits within their first N
-//!    scans or dropped when M can no longer be reached;
+//!    measurement per tentative track), and are confirmed or dropped by the initiation
+//!    method: `score` (default) adds each hit's `ln(P_D N(nu; 0, S) / lambda)` or a miss's
+//!    `ln(1 - P_D P_G)` to the track score and tests it against the SPRT thresholds;
+//!    `m-of-n` confirms at M hits within the first N scans and drops a track when M can
+//!    no longer be reached;
 //! 5. the measurements still unused pair with the previous scan's unused measurements
 //!    (two-point initiation: the implied speed must be below `max_speed`) into new
-//!    tentative tracks, and the rest are kept as single points for the next scan;
+//!    tentative tracks (scored `ln(P_D / (lambda A))`, `A` the speed gate's disc), and the
+//!    rest are kept as single points for the next scan;
 //! 6. confirmed tracks missed `delete_after` scans in a row are deleted.
 //!
 //! Only confirmed tracks are reported; a track gets its `track_id` when it is confirmed
@@ -163,7 +167,7 @@ struct Seed {
 ///     max_range: 100_000.0,
 ///     clutter_density: None,
 /// };
-/// // default track management: two-point initiation, confirmed by 4 hits in 5 scans
+/// // default track management: two-point initiation, confirmed by the track score
 /// let mut tracker = SensorTracker::new(&sensor, &TrackerConfig::default(), None, &[], 1, 0, 0)?;
 /// let mut out = Vec::new();
 /// for scan in 0..5u32 {
@@ -456,8 +460,8 @@ impl SensorTracker {
 
     /// Clutter density (per m^2) the track score uses: the sensor's or the config's, else
     /// the sensor's mean measurements per scan over its coverage (`pi max_range^2`, or
-    /// the bounding box of its measurements so far when it has no range limit), at least
-    /// [`MIN_SCORE_CLUTTER`].
+    /// the bounding box of its measurements so far, each side at least 1 km, when it has
+    /// no range limit), at least [`MIN_SCORE_CLUTTER`].
     fn score_clutter_per_m2(&self) -> f64 {
         if self.clutter_per_m2 > 0.0 {
             return self.clutter_per_m2;
@@ -465,8 +469,9 @@ impl SensorTracker {
         let area = if self.sensor.max_range > 0.0 {
             std::f64::consts::PI * self.sensor.max_range * self.sensor.max_range
         } else {
+            // each side at least 1 km: a few targets' measurements alone span a thin box
             let b = &self.seen_box;
-            (b[1] - b[0]).max(0.0) * (b[3] - b[2]).max(0.0)
+            (b[1] - b[0]).max(1000.0) * (b[3] - b[2]).max(1000.0)
         };
         let per_scan = self.seen_measurements as f64 / self.seen_scans.max(1) as f64;
         let lambda = per_scan / area;
@@ -1219,7 +1224,7 @@ pd = 0.95
     }
 
     #[test]
-    fn the_track_score_confirms_a_target_at_its_third_measurement() {
+    fn the_track_score_confirms_a_target_within_the_expected_scans() {
         let score = TrackerConfig::default();
         assert_eq!(score.initiation.method, InitiationMethod::Score);
         let mofn = TrackerConfig {
@@ -1229,22 +1234,28 @@ pd = 0.95
             },
             ..TrackerConfig::default()
         };
+        let mut fast = TrackerConfig::default();
+        fast.initiation.false_confirm = 1e-4;
         let all = [true; 8];
-        // the pair and one hit: confirmed at the third scan (4 of 5 needs the fourth)
-        assert_eq!(first_report(&score, 0.9, &all), (Some(2), 1));
+        // 30 km out: the pair scores about +3 and each hit +8 to +9, so the default
+        // threshold ln(0.9 / 1e-5) = 11.4 is crossed at the fourth measurement, as 4 of 5
+        // is, and ln(0.9 / 1e-4) = 9.1 at the third
+        assert_eq!(first_report(&score, 0.9, &all), (Some(3), 1));
+        assert_eq!(first_report(&fast, 0.9, &all), (Some(2), 1));
         assert_eq!(first_report(&mofn, 0.9, &all), (Some(3), 1));
-        // one miss after the pair (-2.3) is made up by the next hit
+        // one miss after the pair (-2.3): one more hit
         let gap = [true, true, false, true, true, true, true, true];
-        assert_eq!(first_report(&score, 0.9, &gap), (Some(3), 1));
-        // three misses in a row after the pair drop it (below ln(0.1 / (1 - 1e-4))): the
+        assert_eq!(first_report(&score, 0.9, &gap), (Some(4), 1));
+        // three misses in a row after the pair drop it (below ln(0.1 / (1 - 1e-5))): the
         // track is started again from the next two points
         let lost = [true, true, false, false, false, true, true, true, true];
-        assert_eq!(first_report(&score, 0.9, &lost), (Some(7), 1));
+        assert_eq!(first_report(&score, 0.9, &lost), (Some(8), 1));
+        assert_eq!(first_report(&fast, 0.9, &lost), (Some(7), 1));
         // the thresholds: ln((1 - beta) / alpha) and ln(beta / (1 - alpha))
         let (up, down) = score.initiation.score_thresholds();
-        assert!((up - (0.9f64 / 1e-4).ln()).abs() < 1e-12, "{up}");
+        assert!((up - (0.9f64 / 1e-5).ln()).abs() < 1e-12, "{up}");
         assert!(
-            (down - (0.1f64 / (1.0 - 1e-4)).ln()).abs() < 1e-12,
+            (down - (0.1f64 / (1.0 - 1e-5)).ln()).abs() < 1e-12,
             "{down}"
         );
     }
@@ -1252,7 +1263,7 @@ pd = 0.95
     /// Clutter alone, at the real-aircraft files' density (about 23 false alarms per scan
     /// over a 60 km radar's disc), for 300 scans: the score at its default thresholds
     /// confirms no track, with the density known and with it estimated from the data;
-    /// lax thresholds (and M-of-N 3 of 4) confirm some on the same measurements.
+    /// `false_confirm` 1e-3 (and M-of-N 3 of 4) confirm some on the same measurements.
     #[test]
     fn clutter_alone_does_not_confirm_at_the_default_thresholds() {
         const CLUTTER_ONLY: &str = r#"
@@ -1291,8 +1302,9 @@ max_range = 60000.0
         assert_eq!(confirmed(&default, true), 0);
         assert_eq!(confirmed(&default, false), 0);
         let mut lax = TrackerConfig::default();
-        lax.initiation.false_confirm = 0.3;
-        assert!(confirmed(&lax, true) > 10, "{}", confirmed(&lax, true));
+        lax.initiation.false_confirm = 1e-3;
+        assert!(confirmed(&lax, true) > 0);
+        assert!(confirmed(&lax, false) > 0);
         let mut m3of4 = TrackerConfig::default();
         m3of4.initiation.method = InitiationMethod::MOfN;
         m3of4.initiation.m = 3;
