@@ -1,9 +1,13 @@
 //! `trackfuse fuse`: the fusion center over local_tracks.csv (from this project or any
 //! other tool) -> fused_tracks.csv + associations.csv.
 //!
-//! It streams: local_tracks.csv (and truth.csv, with `--truth`) is read one scan at a
-//! time, fused, and that scan's fused tracks and associations written before the next
-//! scan is read, so memory does not grow with the number of scans. `--two-pass` streams
+//! It streams: local_tracks.csv (and truth.csv, with `--truth`) is read one scan (or,
+//! without a scan column, one time) at a time, and the center fuses at its own update
+//! instants (`--period`, default the shortest of the sensors' median report intervals,
+//! learned in one pass over the file first; `trackfuse::center::instants`), each
+//! instant's fused tracks and associations written before the next batch is read, so
+//! memory does not grow with the number of scans. Synchronous sensors are fused batch
+//! by batch exactly as scan by scan. `--two-pass` streams
 //! twice: pass 1 estimates the biases, pass 2 reads the files again and fuses every scan
 //! corrected with pass 1's final estimates. Errors found while
 //! streaming name the file and line of the row (a local track whose sensor is not in

@@ -26,9 +26,10 @@
 //! waits more than one of that sensor's intervals, and on synchronous data it is the
 //! common scan interval.
 
-use crate::clock::{ReportClock, CLOCK_TOLERANCE};
+use super::{CenterError, FusedRun, FusionCenter, FusionConfig, ScanOutput};
+use crate::clock::{ReportClock, ReportTimes, CLOCK_TOLERANCE};
 use crate::models::{cv_transition, process_noise};
-use crate::types::{symmetrize, Id, LocalTrack};
+use crate::types::{symmetrize, Id, LocalTrack, Sensor};
 use std::collections::{BTreeMap, HashMap};
 
 /// The default update period of the center: the shortest median report interval of the
@@ -149,6 +150,57 @@ impl InstantBatcher {
         self.last_scan = Some(scan);
         fuse(scan, time, &mut self.out)
     }
+}
+
+/// [`super::fuse_all`] at the center's own instants: a whole run's local tracks (any
+/// order), batched by scan, fed through an [`InstantBatcher`] with the period of `cfg`
+/// (default [`default_period`] of the tracks' report clocks) and fused with
+/// [`FusionCenter::process_at_into`]. On synchronous tracks (every sensor at each scan's
+/// time) it is `fuse_all`, bit for bit; the in-memory pipeline (`trackfuse run`) uses it
+/// so that asynchronous sensors are fused as `trackfuse fuse` fuses their files.
+pub fn fuse_all_at_instants(
+    tracks: &[LocalTrack],
+    cfg: &FusionConfig,
+    sensors: Option<&[Sensor]>,
+    labels: Option<&HashMap<(u32, Id, Id), Id>>,
+) -> Result<FusedRun, CenterError> {
+    let mut center = match labels {
+        Some(l) => FusionCenter::with_truth(cfg, sensors, l.clone())?,
+        None => FusionCenter::new(cfg, sensors)?,
+    };
+    if center.lacks_truth() {
+        // the error fuse_all names
+        return super::fuse_all(tracks, cfg, sensors, labels);
+    }
+    let mut by_scan: BTreeMap<u32, Vec<LocalTrack>> = BTreeMap::new();
+    let mut times = ReportTimes::default();
+    for t in tracks {
+        by_scan.entry(t.scan).or_default().push(*t);
+    }
+    for ts in by_scan.values() {
+        for t in ts {
+            times.add(t.sensor_id, t.time);
+        }
+    }
+    let clocks = times.clocks();
+    let period = cfg
+        .period
+        .or_else(|| default_period(&clocks))
+        .unwrap_or(1.0);
+    let mut batcher = InstantBatcher::new(period, &clocks);
+    let mut run = FusedRun::default();
+    let mut out = ScanOutput::default();
+    for (&scan, ts) in &by_scan {
+        let time = ts.iter().map(|t| t.time).fold(f64::NEG_INFINITY, f64::max);
+        batcher.push(scan, time, ts, |s, t, tr| {
+            center.process_at_into(s, t, tr, &mut out)?;
+            run.fused.extend_from_slice(&out.fused);
+            run.associations.extend_from_slice(&out.associations);
+            Ok::<(), CenterError>(())
+        })?;
+    }
+    run.bias = center.bias_estimates();
+    Ok(run)
 }
 
 #[cfg(test)]
