@@ -482,51 +482,49 @@ fn located(
     tracks: &[LocalTrack],
     e: CenterError,
 ) -> anyhow::Error {
-    {
-        let members: Vec<(Id, Id)> = match &e {
-            CenterError::UnknownSensor {
-                sensor_id,
-                track_id,
-                ..
-            }
-            | CenterError::DuplicateTrack {
-                sensor_id,
-                track_id,
-                ..
-            }
-            | CenterError::NonFiniteTrack {
-                sensor_id,
-                track_id,
-                ..
-            }
-            | CenterError::InvalidCovariance {
-                sensor_id,
-                track_id,
-                ..
-            } => vec![(*sensor_id, *track_id)],
-            CenterError::NonFiniteFusion { tracks, .. }
-            | CenterError::NumericalFailure { tracks, .. } => tracks.clone(),
-            _ => Vec::new(),
-        };
-        let member_lines: Vec<u64> = members
-            .iter()
-            .filter(|m| tracks.iter().any(|t| (t.sensor_id, t.track_id) == **m))
-            .filter_map(|m| lines.get(m).copied())
-            .collect();
-        let first = tracks
-            .first()
-            .and_then(|t| lines.get(&(t.sensor_id, t.track_id)).copied());
-        let line = member_lines.first().copied().or(first).unwrap_or(0);
-        let path = path.display().to_string();
-        let others = if member_lines.len() > 1 {
-            let l: Vec<String> = member_lines.iter().map(|l| l.to_string()).collect();
-            format!(" (the local tracks on lines {})", l.join(", "))
-        } else {
-            String::new()
-        };
-        anyhow::anyhow!(
-            "{path}:{line}: scan {scan}{others}: {:#}",
-            with_flag_hint(e)
-        )
-    }
+    let members: Vec<(Id, Id)> = match &e {
+        CenterError::UnknownSensor {
+            sensor_id,
+            track_id,
+            ..
+        }
+        | CenterError::DuplicateTrack {
+            sensor_id,
+            track_id,
+            ..
+        }
+        | CenterError::NonFiniteTrack {
+            sensor_id,
+            track_id,
+            ..
+        }
+        | CenterError::InvalidCovariance {
+            sensor_id,
+            track_id,
+            ..
+        } => vec![(*sensor_id, *track_id)],
+        CenterError::NonFiniteFusion { tracks, .. }
+        | CenterError::NumericalFailure { tracks, .. } => tracks.clone(),
+        _ => Vec::new(),
+    };
+    let member_lines: Vec<u64> = members
+        .iter()
+        .filter(|m| tracks.iter().any(|t| (t.sensor_id, t.track_id) == **m))
+        .filter_map(|m| lines.get(m).copied())
+        .collect();
+    let first = tracks
+        .first()
+        .and_then(|t| lines.get(&(t.sensor_id, t.track_id)).copied());
+    let line = member_lines.first().copied().or(first).unwrap_or(0);
+    let path = path.display().to_string();
+    let others = if member_lines.len() > 1 {
+        let l: Vec<String> = member_lines.iter().map(|l| l.to_string()).collect();
+        format!(" (the local tracks on lines {})", l.join(", "))
+    } else {
+        String::new()
+    };
+    anyhow::anyhow!(
+        "{path}:{line}: scan {scan}{others}: {:#}",
+        with_flag_hint(e)
+    )
 }

@@ -65,6 +65,8 @@ pub struct InstantBatcher {
     next: Option<f64>,
     /// The scan index of the last instant fused.
     last_scan: Option<u32>,
+    /// The time of the last batch.
+    last_time: Option<f64>,
     /// The tracks of the instant being handed over.
     out: Vec<LocalTrack>,
 }
@@ -80,6 +82,7 @@ impl InstantBatcher {
             sensor_last: HashMap::new(),
             next: None,
             last_scan: None,
+            last_time: None,
             out: Vec::new(),
         }
     }
@@ -93,7 +96,9 @@ impl InstantBatcher {
     /// `scan`; rows of later batches must not be earlier). Every instant up to and
     /// including `time` is handed to `fuse(scan, instant_time, tracks)`, in order;
     /// `tracks` holds the fresh latest reports, sorted by `(sensor_id, track_id)`, not
-    /// yet predicted to the instant. The scan indices handed over increase.
+    /// yet predicted to the instant. The scan indices handed over increase. A batch
+    /// earlier than the one before is handed over at once as an instant at its own time
+    /// (the center refuses it: time goes back), never dropped.
     pub fn push<E>(
         &mut self,
         scan: u32,
@@ -102,6 +107,15 @@ impl InstantBatcher {
         mut fuse: impl FnMut(u32, f64, &mut Vec<LocalTrack>) -> Result<(), E>,
     ) -> Result<(), E> {
         let tol = CLOCK_TOLERANCE * self.period;
+        let backwards = self.last_time.is_some_and(|t| time < t);
+        self.last_time = Some(self.last_time.map_or(time, |t| t.max(time)));
+        if backwards {
+            for r in rows {
+                self.sensor_last.insert(r.sensor_id, r.time);
+                self.latest.insert((r.sensor_id, r.track_id), *r);
+            }
+            return self.emit(Some(scan), time, &mut fuse);
+        }
         let mut next = self.next.unwrap_or(time);
         // instants before this batch, from the reports so far
         while next < time - tol {
