@@ -239,11 +239,11 @@ mod tests {
             .collect()
     }
 
-    /// Every instant handed over: (scan, time, [(sensor, track, report time)]).
-    fn run(
-        b: &mut InstantBatcher,
-        batches: &[(u32, f64, Vec<LocalTrack>)],
-    ) -> Vec<(u32, f64, Vec<(Id, Id, f64)>)> {
+    /// One instant handed over: (scan, time, [(sensor, track, report time)]).
+    type Instant = (u32, f64, Vec<(Id, Id, f64)>);
+
+    /// Every instant handed over.
+    fn run(b: &mut InstantBatcher, batches: &[(u32, f64, Vec<LocalTrack>)]) -> Vec<Instant> {
         let mut got = Vec::new();
         for (scan, time, rows) in batches {
             b.push(*scan, *time, rows, |s, t, tr: &mut Vec<LocalTrack>| {
