@@ -1,9 +1,13 @@
 //! `trackfuse fuse`: the fusion center over local_tracks.csv (from this project or any
 //! other tool) -> fused_tracks.csv + associations.csv.
 //!
-//! It streams: local_tracks.csv (and truth.csv, with `--truth`) is read one scan at a
-//! time, fused, and that scan's fused tracks and associations written before the next
-//! scan is read, so memory does not grow with the number of scans. `--two-pass` streams
+//! It streams: local_tracks.csv (and truth.csv, with `--truth`) is read one scan (or,
+//! without a scan column, one time) at a time, and the center fuses at its own update
+//! instants (`--period`, default the shortest of the sensors' median report intervals,
+//! learned in one pass over the file first; `trackfuse::center::instants`), each
+//! instant's fused tracks and associations written before the next batch is read, so
+//! memory does not grow with the number of scans. Synchronous sensors are fused batch
+//! by batch exactly as scan by scan. `--two-pass` streams
 //! twice: pass 1 estimates the biases, pass 2 reads the files again and fuses every scan
 //! corrected with pass 1's final estimates. Errors found while
 //! streaming name the file and line of the row (a local track whose sensor is not in
@@ -484,51 +488,49 @@ fn located(
     tracks: &[LocalTrack],
     e: CenterError,
 ) -> anyhow::Error {
-    {
-        let members: Vec<(Id, Id)> = match &e {
-            CenterError::UnknownSensor {
-                sensor_id,
-                track_id,
-                ..
-            }
-            | CenterError::DuplicateTrack {
-                sensor_id,
-                track_id,
-                ..
-            }
-            | CenterError::NonFiniteTrack {
-                sensor_id,
-                track_id,
-                ..
-            }
-            | CenterError::InvalidCovariance {
-                sensor_id,
-                track_id,
-                ..
-            } => vec![(*sensor_id, *track_id)],
-            CenterError::NonFiniteFusion { tracks, .. }
-            | CenterError::NumericalFailure { tracks, .. } => tracks.clone(),
-            _ => Vec::new(),
-        };
-        let member_lines: Vec<u64> = members
-            .iter()
-            .filter(|m| tracks.iter().any(|t| (t.sensor_id, t.track_id) == **m))
-            .filter_map(|m| lines.get(m).copied())
-            .collect();
-        let first = tracks
-            .first()
-            .and_then(|t| lines.get(&(t.sensor_id, t.track_id)).copied());
-        let line = member_lines.first().copied().or(first).unwrap_or(0);
-        let path = path.display().to_string();
-        let others = if member_lines.len() > 1 {
-            let l: Vec<String> = member_lines.iter().map(|l| l.to_string()).collect();
-            format!(" (the local tracks on lines {})", l.join(", "))
-        } else {
-            String::new()
-        };
-        anyhow::anyhow!(
-            "{path}:{line}: scan {scan}{others}: {:#}",
-            with_flag_hint(e)
-        )
-    }
+    let members: Vec<(Id, Id)> = match &e {
+        CenterError::UnknownSensor {
+            sensor_id,
+            track_id,
+            ..
+        }
+        | CenterError::DuplicateTrack {
+            sensor_id,
+            track_id,
+            ..
+        }
+        | CenterError::NonFiniteTrack {
+            sensor_id,
+            track_id,
+            ..
+        }
+        | CenterError::InvalidCovariance {
+            sensor_id,
+            track_id,
+            ..
+        } => vec![(*sensor_id, *track_id)],
+        CenterError::NonFiniteFusion { tracks, .. }
+        | CenterError::NumericalFailure { tracks, .. } => tracks.clone(),
+        _ => Vec::new(),
+    };
+    let member_lines: Vec<u64> = members
+        .iter()
+        .filter(|m| tracks.iter().any(|t| (t.sensor_id, t.track_id) == **m))
+        .filter_map(|m| lines.get(m).copied())
+        .collect();
+    let first = tracks
+        .first()
+        .and_then(|t| lines.get(&(t.sensor_id, t.track_id)).copied());
+    let line = member_lines.first().copied().or(first).unwrap_or(0);
+    let path = path.display().to_string();
+    let others = if member_lines.len() > 1 {
+        let l: Vec<String> = member_lines.iter().map(|l| l.to_string()).collect();
+        format!(" (the local tracks on lines {})", l.join(", "))
+    } else {
+        String::new()
+    };
+    anyhow::anyhow!(
+        "{path}:{line}: scan {scan}{others}: {:#}",
+        with_flag_hint(e)
+    )
 }

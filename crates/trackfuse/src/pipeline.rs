@@ -3,7 +3,7 @@
 //! reproductions call this, so they share one code path with `trackfuse track` and
 //! `trackfuse fuse` (which call the same library functions on files).
 
-use crate::center::{fuse_all, CenterError, FusedRun, FusionConfig};
+use crate::center::{CenterError, FusedRun, FusionConfig};
 use crate::config::RunConfig;
 use crate::local::{track_sensors, KnownTarget, TrackerConfig, TrackerError};
 use crate::metrics::{evaluate_run, label_local_tracks, EvalInput, RunMetrics};
@@ -117,7 +117,14 @@ pub fn run_with(
     // the truth labels go to the `truth` associator only (rule `mmse`, method `truth`)
     let labels = crate::center::needs_truth(fusion)?
         .then(|| label_local_tracks(&sim.truth, &local, sc.evaluation.label_gate));
-    let fused = fuse_all(&local, fusion, Some(&sim.sensors), labels.as_ref())?;
+    // at the center's instants: asynchronous sensors as `fuse` on files, synchronous
+    // ones exactly as scan by scan
+    let fused = crate::center::instants::fuse_all_at_instants(
+        &local,
+        fusion,
+        Some(&sim.sensors),
+        labels.as_ref(),
+    )?;
     times.fuse = t0.elapsed();
     let t0 = Instant::now();
     let metrics = evaluate_run(

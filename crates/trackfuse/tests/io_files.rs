@@ -677,3 +677,68 @@ fn streams_give_one_scan_at_a_time_with_lines() {
     assert_eq!(rows[0].sensor_id, 0);
     assert_eq!(a.lines(), [3, 2]);
 }
+
+#[test]
+fn files_without_a_scan_column_are_batched_by_time() {
+    // local tracks of two sensors at their own times, no scan column
+    let h = format!("time,sensor_id,track_id,x,vx,y,vy,{COV}");
+    let row = |t: &str, s: i64, id: i64| format!("{t},{s},{id},0,0,0,0,{ID16}");
+    let text = [
+        h.clone(),
+        row("0", 0, 1),
+        row("1.5", 1, 4),
+        row("1.5", 1, 2),
+        row("4", 0, 1),
+        row("6.5", 1, 4),
+    ]
+    .join("\n");
+    let mut s = LocalTrackStream::from_reader(text.as_bytes(), "l.csv").expect("header");
+    let mut buf = Vec::new();
+    let mut got = Vec::new();
+    while let Some(scan) = s.next_scan(&mut buf).expect("ok") {
+        got.push((
+            scan,
+            buf.iter()
+                .map(|t| (t.time, t.sensor_id, t.track_id))
+                .collect::<Vec<_>>(),
+            s.lines().to_vec(),
+        ));
+    }
+    assert_eq!(
+        got,
+        vec![
+            (0, vec![(0.0, 0, 1)], vec![2]),
+            (1, vec![(1.5, 1, 2), (1.5, 1, 4)], vec![4, 3]),
+            (2, vec![(4.0, 0, 1)], vec![5]),
+            (3, vec![(6.5, 1, 4)], vec![6]),
+        ]
+    );
+    // a smaller time after a larger one names both lines and the column
+    let back = [h.clone(), row("4", 0, 1), row("1.5", 1, 4)].join("\n");
+    let e = read_local_tracks_from(back.as_bytes(), "l.csv").expect_err("unsorted");
+    assert_eq!((e.line, e.column), (Some(3), Some(1)), "{e}");
+    assert!(
+        e.reason.starts_with("time 1.5 comes after time 4 (line 2): a file without a scan column must have its rows in non-decreasing time order"),
+        "{e}"
+    );
+    // one track twice at one time is a duplicate
+    let dup = [h.clone(), row("4", 0, 1), row("4", 0, 1)].join("\n");
+    let e = read_local_tracks_from(dup.as_bytes(), "l.csv").expect_err("duplicate");
+    assert!(e.reason.contains("duplicate row"), "{e}");
+    // measurements likewise
+    let m = "time,sensor_id,x,y\n0,0,1,1\n0.5,1,2,2\n0.5,1,3,3\n1,0,4,4\n";
+    let ms = read_measurements_from(m.as_bytes(), "m.csv", None).expect("ok");
+    let got: Vec<(u32, f64, i64)> = ms.iter().map(|m| (m.scan, m.time, m.sensor_id)).collect();
+    assert_eq!(got, [(0, 0.0, 0), (1, 0.5, 1), (1, 0.5, 1), (2, 1.0, 0)]);
+    let m = "time,sensor_id,x,y\n1,0,1,1\n0.5,1,2,2\n";
+    let e = read_measurements_from(m.as_bytes(), "m.csv", None).expect_err("unsorted");
+    assert_eq!(
+        (e.line, e.column_name.as_deref()),
+        (Some(3), Some("time")),
+        "{e}"
+    );
+    // truth keeps its scan column
+    let t = "time,target_id,x,vx,y,vy\n0,1,0,0,0,0\n";
+    let e = read_truth_from(t.as_bytes(), "t.csv").expect_err("scan required");
+    assert_eq!(e.column_name.as_deref(), Some("scan"), "{e}");
+}

@@ -26,9 +26,10 @@
 //! waits more than one of that sensor's intervals, and on synchronous data it is the
 //! common scan interval.
 
-use crate::clock::{ReportClock, CLOCK_TOLERANCE};
+use super::{CenterError, FusedRun, FusionCenter, FusionConfig, ScanOutput};
+use crate::clock::{ReportClock, ReportTimes, CLOCK_TOLERANCE};
 use crate::models::{cv_transition, process_noise};
-use crate::types::{symmetrize, Id, LocalTrack};
+use crate::types::{symmetrize, Id, LocalTrack, Sensor};
 use std::collections::{BTreeMap, HashMap};
 
 /// The default update period of the center: the shortest median report interval of the
@@ -64,6 +65,8 @@ pub struct InstantBatcher {
     next: Option<f64>,
     /// The scan index of the last instant fused.
     last_scan: Option<u32>,
+    /// The time of the last batch.
+    last_time: Option<f64>,
     /// The tracks of the instant being handed over.
     out: Vec<LocalTrack>,
 }
@@ -79,6 +82,7 @@ impl InstantBatcher {
             sensor_last: HashMap::new(),
             next: None,
             last_scan: None,
+            last_time: None,
             out: Vec::new(),
         }
     }
@@ -92,7 +96,9 @@ impl InstantBatcher {
     /// `scan`; rows of later batches must not be earlier). Every instant up to and
     /// including `time` is handed to `fuse(scan, instant_time, tracks)`, in order;
     /// `tracks` holds the fresh latest reports, sorted by `(sensor_id, track_id)`, not
-    /// yet predicted to the instant. The scan indices handed over increase.
+    /// yet predicted to the instant. The scan indices handed over increase. A batch
+    /// earlier than the one before is handed over at once as an instant at its own time
+    /// (the center refuses it: time goes back), never dropped.
     pub fn push<E>(
         &mut self,
         scan: u32,
@@ -101,6 +107,15 @@ impl InstantBatcher {
         mut fuse: impl FnMut(u32, f64, &mut Vec<LocalTrack>) -> Result<(), E>,
     ) -> Result<(), E> {
         let tol = CLOCK_TOLERANCE * self.period;
+        let backwards = self.last_time.is_some_and(|t| time < t);
+        self.last_time = Some(self.last_time.map_or(time, |t| t.max(time)));
+        if backwards {
+            for r in rows {
+                self.sensor_last.insert(r.sensor_id, r.time);
+                self.latest.insert((r.sensor_id, r.track_id), *r);
+            }
+            return self.emit(Some(scan), time, &mut fuse);
+        }
         let mut next = self.next.unwrap_or(time);
         // instants before this batch, from the reports so far
         while next < time - tol {
@@ -151,6 +166,57 @@ impl InstantBatcher {
     }
 }
 
+/// [`super::fuse_all`] at the center's own instants: a whole run's local tracks (any
+/// order), batched by scan, fed through an [`InstantBatcher`] with the period of `cfg`
+/// (default [`default_period`] of the tracks' report clocks) and fused with
+/// [`FusionCenter::process_at_into`]. On synchronous tracks (every sensor at each scan's
+/// time) it is `fuse_all`, bit for bit; the in-memory pipeline (`trackfuse run`) uses it
+/// so that asynchronous sensors are fused as `trackfuse fuse` fuses their files.
+pub fn fuse_all_at_instants(
+    tracks: &[LocalTrack],
+    cfg: &FusionConfig,
+    sensors: Option<&[Sensor]>,
+    labels: Option<&HashMap<(u32, Id, Id), Id>>,
+) -> Result<FusedRun, CenterError> {
+    let mut center = match labels {
+        Some(l) => FusionCenter::with_truth(cfg, sensors, l.clone())?,
+        None => FusionCenter::new(cfg, sensors)?,
+    };
+    if center.lacks_truth() {
+        // the error fuse_all names
+        return super::fuse_all(tracks, cfg, sensors, labels);
+    }
+    let mut by_scan: BTreeMap<u32, Vec<LocalTrack>> = BTreeMap::new();
+    let mut times = ReportTimes::default();
+    for t in tracks {
+        by_scan.entry(t.scan).or_default().push(*t);
+    }
+    for ts in by_scan.values() {
+        for t in ts {
+            times.add(t.sensor_id, t.time);
+        }
+    }
+    let clocks = times.clocks();
+    let period = cfg
+        .period
+        .or_else(|| default_period(&clocks))
+        .unwrap_or(1.0);
+    let mut batcher = InstantBatcher::new(period, &clocks);
+    let mut run = FusedRun::default();
+    let mut out = ScanOutput::default();
+    for (&scan, ts) in &by_scan {
+        let time = ts.iter().map(|t| t.time).fold(f64::NEG_INFINITY, f64::max);
+        batcher.push(scan, time, ts, |s, t, tr| {
+            center.process_at_into(s, t, tr, &mut out)?;
+            run.fused.extend_from_slice(&out.fused);
+            run.associations.extend_from_slice(&out.associations);
+            Ok::<(), CenterError>(())
+        })?;
+    }
+    run.bias = center.bias_estimates();
+    Ok(run)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -173,11 +239,11 @@ mod tests {
             .collect()
     }
 
-    /// Every instant handed over: (scan, time, [(sensor, track, report time)]).
-    fn run(
-        b: &mut InstantBatcher,
-        batches: &[(u32, f64, Vec<LocalTrack>)],
-    ) -> Vec<(u32, f64, Vec<(Id, Id, f64)>)> {
+    /// One instant handed over: (scan, time, [(sensor, track, report time)]).
+    type Instant = (u32, f64, Vec<(Id, Id, f64)>);
+
+    /// Every instant handed over.
+    fn run(b: &mut InstantBatcher, batches: &[(u32, f64, Vec<LocalTrack>)]) -> Vec<Instant> {
         let mut got = Vec::new();
         for (scan, time, rows) in batches {
             b.push(*scan, *time, rows, |s, t, tr: &mut Vec<LocalTrack>| {

@@ -20,6 +20,13 @@
 //! either. Readers never sort a file into shape; within a scan they return rows in a
 //! fixed order (below), so results do not depend on the order of a scan's rows.
 //!
+//! `scan` is optional in local_tracks.csv and measurements.csv (sensors reporting at
+//! their own rates and phases): a file without it has its rows in non-decreasing `time`
+//! order, any order within one time; a smaller time after a larger one is an error
+//! naming both lines, with a hint to sort by the time column. Its rows sharing one time
+//! are one batch ("scan"), numbered 0, 1, 2, ... in time order, and `next_scan` returns
+//! one batch at a time.
+//!
 //! # Reading scan by scan
 //! Each file kind with a `scan` column has a stream that reads one scan at a time, so a
 //! caller's memory does not grow with the number of scans: [`TruthStream`],

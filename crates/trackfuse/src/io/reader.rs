@@ -946,7 +946,9 @@ scan_stream!(
     /// every `sensor_id` must be one of them and each row must carry the cells of its
     /// sensor's kind. One sensor's rows of one scan share one time, and a sensor's time
     /// must not go backwards from scan to scan. The `target_id` column is read for
-    /// evaluation; trackers must not use it.
+    /// evaluation; trackers must not use it. Without a `scan` column the rows must be in
+    /// non-decreasing time order, and each batch is the rows of one time, numbered
+    /// 0, 1, 2, ... (a sensor's rows with one time are one of its scans).
     MeasurementStream,
     MeasurementRows,
     Measurement
@@ -1075,7 +1077,9 @@ impl ScanRows for LocalTrackRows {
 scan_stream!(
     /// `local_tracks.csv`, one scan at a time, each scan's rows sorted by
     /// `(sensor_id, track_id)`. A `(sensor_id, track_id)` appears once per scan; time
-    /// must not go backwards within one `(sensor_id, track_id)`.
+    /// must not go backwards within one `(sensor_id, track_id)`. Without a `scan` column
+    /// the rows must be in non-decreasing time order, and each batch is the rows of one
+    /// time, numbered 0, 1, 2, ... (so a track's time strictly increases).
     LocalTrackStream,
     LocalTrackRows,
     LocalTrack

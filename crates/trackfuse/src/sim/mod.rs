@@ -501,6 +501,63 @@ max_range = 20000.0
     }
 
     #[test]
+    fn a_sensor_detects_at_its_own_period_and_phase_only() {
+        let two = "[[sensors]]\nposition = [500.0, 0.0]\nsigma_r = 10.0\nsigma_theta = 0.001\npd = 1.0\nperiod = 3.0\nphase = 2.0";
+        let sc = scenario(two);
+        let out = simulate(&sc, 0);
+        let times = |id: Id| -> Vec<f64> {
+            out.measurements
+                .iter()
+                .filter(|m| m.sensor_id == id)
+                .map(|m| m.time)
+                .collect()
+        };
+        // the first sensor keeps every scan (pd 0.9); the second, pd 1, one in three from 2 s
+        assert!(times(0).len() > 30);
+        let t1 = times(1);
+        assert_eq!(t1.len(), 16);
+        assert!(t1
+            .iter()
+            .enumerate()
+            .all(|(k, &t)| t == 2.0 + 3.0 * k as f64));
+        // rows in time order, the scan index the step's
+        assert!(out.measurements.windows(2).all(|w| w[0].time <= w[1].time));
+        assert!(out.measurements.iter().all(|m| m.time == f64::from(m.scan)));
+        // the first sensor's detections are those of the synchronous twin
+        let alone = simulate(&scenario(""), 0);
+        let s0: Vec<_> = out
+            .measurements
+            .iter()
+            .filter(|m| m.sensor_id == 0)
+            .copied()
+            .collect();
+        assert_eq!(alone.measurements, s0);
+    }
+
+    #[test]
+    fn period_and_phase_must_be_whole_multiples_of_dt() {
+        let bad = |extra: &str| {
+            let text = format!(
+                "dt = 1.0\nscans = 5\n[[targets]]\ninitial = [0.0, 0.0, 0.0, 0.0]\n[[sensors]]\nsigma_r = 1.0\nsigma_theta = 0.001\n{extra}\n"
+            );
+            Scenario::from_toml(&text, "t")
+                .expect_err("refused")
+                .to_string()
+        };
+        let e = bad("period = 2.5");
+        assert!(
+            e.contains("sensors[0].period") && e.contains("whole multiple"),
+            "{e}"
+        );
+        let e = bad("period = 4.0\nphase = 4.0");
+        assert!(e.contains("sensors[0].phase"), "{e}");
+        let e = bad("period = -1.0");
+        assert!(e.contains("sensors[0].period"), "{e}");
+        let e = bad("phase = 0.5");
+        assert!(e.contains("sensors[0].phase"), "{e}");
+    }
+
+    #[test]
     fn target_window_respected() {
         let mut sc = scenario("");
         sc.targets[0].start_scan = 10;
