@@ -197,7 +197,7 @@ fn asynchronous_radars_are_scored_by_time_not_by_scan_index() {
         &local,
         &sim,
         &dir.path().join("fuse-3.7"),
-        &["--period", "3.7"],
+        &["--period", "3.7", "--no-management", "--bias", "none"],
     );
     let fused2 = read_fused_tracks(&f2.join("fused_tracks.csv")).expect("fused");
     assert!(fused2.iter().any(|f| (f.time / 0.5).fract() != 0.0));
