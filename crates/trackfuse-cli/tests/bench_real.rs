@@ -43,7 +43,7 @@ fn bench_real_scores_what_the_commands_write() {
     let stdout = String::from_utf8(res.get_output().stdout.clone()).expect("utf8");
     let fused = row(&stdout, "trackfuse fused");
     let printed: f64 = fused[0].parse().expect("GOSPA cell");
-    assert!(fused.iter().any(|c| *c == "x"), "no RMSE ratio: {fused:?}");
+    assert!(fused.contains(&"x"), "no RMSE ratio: {fused:?}");
     // one local row per radar of sensors.csv
     let sensors = std::fs::read_to_string(data.join("sensors.csv")).expect("sensors");
     let n = sensors.lines().count() - 1;
