@@ -27,6 +27,7 @@
 
 use super::{GlobalTrack, TrackGroup};
 use crate::params::ParamError;
+use crate::spatial::SweepIndex;
 use crate::stats::chi2_quantile_4;
 use crate::types::{Association, Id, LocalTrack, StateCov, StateVec};
 use serde::{Deserialize, Serialize};
@@ -179,8 +180,10 @@ pub(crate) struct Manager {
     /// Pairs `(older id, younger id, scans in a row)` that passed the merge test, sorted.
     pairs: Vec<(Id, Id, u32)>,
     next_pairs: Vec<(Id, Id, u32)>,
-    /// Group indices sorted by fused x (merge sweep).
+    /// The groups that continue a global track (merge candidates), in group order.
     order: Vec<u32>,
+    /// `order`'s groups by fused x, the merge test's sweep.
+    sweep: SweepIndex,
     /// Merges due this scan: (older's group, younger's group, older id, younger id).
     due: Vec<(usize, usize, Id, Id)>,
     /// Group a group was merged into this scan (`NONE`: not merged).
@@ -237,6 +240,7 @@ impl Manager {
             pairs: Vec::new(),
             next_pairs: Vec::new(),
             order: Vec::new(),
+            sweep: SweepIndex::default(),
             due: Vec::new(),
             absorbed: Vec::new(),
             merged: Vec::new(),
@@ -387,18 +391,20 @@ impl Manager {
                 max_var = max_var.max(fused[k].1[(0, 0)]);
             }
         }
-        self.order
-            .sort_unstable_by(|&a, &b| fused[a as usize].0[0].total_cmp(&fused[b as usize].0[0]));
+        self.sweep
+            .build(self.order.iter().map(|&k| fused[k as usize].0[0]));
         self.next_pairs.clear();
         self.due.clear();
         let gate = self.gate;
-        for (n, &ka) in self.order.iter().enumerate() {
-            let ka = ka as usize;
+        // every point, by x: each pair is tested once, from its left point
+        let by_x = self.sweep.range(f64::NEG_INFINITY, f64::INFINITY);
+        for (n, &ia) in by_x.iter().enumerate() {
+            let ka = self.order[ia as usize] as usize;
             let (xa, pa) = &fused[ka];
             // |dx| <= sqrt(gate * S_xx) for every pair within the 4-d gate
             let reach = (gate * (pa[(0, 0)] + max_var)).sqrt();
-            for &kb in &self.order[n + 1..] {
-                let kb = kb as usize;
+            for &ib in &by_x[n + 1..] {
+                let kb = self.order[ib as usize] as usize;
                 let (xb, pb) = &fused[kb];
                 if xb[0] - xa[0] > reach {
                     break;
