@@ -70,6 +70,10 @@ pub struct TrackerFlags {
     /// Delete a confirmed track after this many consecutive misses.
     #[arg(long)]
     pub delete_after: Option<u32>,
+    /// Report a confirmed track only while it has missed at most this many scans in a
+    /// row (default 1; delete-after - 1 or more reports every live track).
+    #[arg(long)]
+    pub report_max_misses: Option<u32>,
 }
 
 impl TrackerFlags {
@@ -121,6 +125,9 @@ impl TrackerFlags {
         }
         if let Some(d) = self.delete_after {
             c.initiation.delete_after = d;
+        }
+        if let Some(r) = self.report_max_misses {
+            c.initiation.report_max_misses = r;
         }
         c.validate().map_err(|e| anyhow!("tracker: {e}"))?;
         Ok(c)

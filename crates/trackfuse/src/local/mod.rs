@@ -137,6 +137,22 @@ pub struct InitiationConfig {
     /// (default 5).
     #[serde(default = "default_delete_after")]
     pub delete_after: u32,
+    /// A confirmed track is reported (written to local_tracks.csv, sent to the center)
+    /// only while it has missed at most this many scans in a row (default 1); it keeps
+    /// coasting inside the tracker until `delete_after`, and is reported again from its
+    /// next hit. A value of `delete_after - 1` or more reports every live track, the
+    /// papers' reading (their scenario files pin 1000).
+    ///
+    /// Why 1: a track that coasts on prediction alone drifts off an aircraft that turned
+    /// or left the coverage, and the center fuses and publishes it. Measured on swiss-a
+    /// (`trackfuse bench real`, center with `--rule cc`, the other settings at their
+    /// defaults of the time; fused GOSPA / missed / false tracks per scan): every live
+    /// track reported 2211 / 1.91 / 1.60, at most 2 misses 2027 / 1.92 / 0.90, at most 1
+    /// miss 1926 / 2.00 / 0.50, no miss 1961 / 2.96 / 0.15 (a single missed detection,
+    /// one scan in ten at Pd 0.9, then hides a target). MATLAB's `trackerGNN` flags such
+    /// tracks (`IsCoasted`) for a consumer to drop; Stone Soup's trackers report them.
+    #[serde(default = "default_report_max_misses")]
+    pub report_max_misses: u32,
     /// Standard deviation (m) of a known initial position (default 100).
     #[serde(default = "default_known_pos")]
     pub known_position_std: f64,
@@ -173,6 +189,9 @@ fn default_max_speed() -> f64 {
 fn default_delete_after() -> u32 {
     5
 }
+fn default_report_max_misses() -> u32 {
+    1
+}
 fn default_known_pos() -> f64 {
     100.0
 }
@@ -190,6 +209,7 @@ impl Default for InitiationConfig {
             false_delete: default_false_delete(),
             max_speed: default_max_speed(),
             delete_after: default_delete_after(),
+            report_max_misses: default_report_max_misses(),
             known_position_std: default_known_pos(),
             known_velocity_std: default_known_vel(),
         }

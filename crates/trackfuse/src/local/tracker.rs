@@ -584,10 +584,15 @@ impl SensorTracker {
         });
     }
 
-    /// Report the confirmed tracks, in `track_id` order.
+    /// Report the confirmed tracks that have missed at most `report_max_misses` scans in
+    /// a row, in `track_id` order.
     fn report(&self, scan: u32, time: f64, out: &mut Vec<LocalTrack>) {
         let first = out.len();
+        let max_misses = self.cfg.initiation.report_max_misses;
         for t in &self.tracks {
+            if t.misses > max_misses {
+                continue;
+            }
             if let Some(id) = t.id {
                 out.push(LocalTrack {
                     scan,
