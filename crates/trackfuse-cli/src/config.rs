@@ -40,7 +40,7 @@ pub struct TrackerFlags {
     /// (automatic, M hits in N scans) or known (the scenario's initial states).
     #[arg(long)]
     pub init: Option<String>,
-    /// Track score (--init score): probability that clutter confirms a track (default 1e-5).
+    /// Track score (--init score): probability that clutter confirms a track (default 1e-4).
     #[arg(long)]
     pub false_confirm: Option<f64>,
     /// Track score (--init score): probability that a target's tentative track is dropped

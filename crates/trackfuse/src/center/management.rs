@@ -76,9 +76,13 @@ pub struct ManagementConfig {
     /// (every paper and benchmark scenario pins it). On by default because without it the
     /// center publishes every local false track and every duplicate a method splits off.
     pub enabled: bool,
-    /// Updates after which a global track fed by one sensor is confirmed (default 3:
-    /// the usual "confirm after 3 scans" of a radar track manager; a global track seen by
-    /// two sensors in one scan is confirmed at once).
+    /// Updates after which a global track fed by one sensor is confirmed (default 2; a
+    /// global track seen by two sensors in one scan is confirmed at once). The local
+    /// trackers already confirm a track by its score, so the center only has to hold back
+    /// a local track that lives a scan; every scan more delays each aircraft that one
+    /// radar alone sees. Measured on swiss-a with the default local trackers (fused GOSPA
+    /// / missed / false per scan): 3 scans 1849 / 1.70 / 0.46, 2 scans 1832 / 1.50 /
+    /// 0.50 (swiss-b 1854 and 1835).
     pub confirm_scans: u32,
     /// Consecutive scans two global tracks must pass the merge test before they are
     /// merged (default 3: one or two scans of closeness happen at every crossing).
@@ -99,7 +103,7 @@ impl Default for ManagementConfig {
     fn default() -> Self {
         ManagementConfig {
             enabled: true,
-            confirm_scans: 3,
+            confirm_scans: 2,
             merge_scans: 3,
             gate_probability: 0.99,
             switch_scans: 3,
