@@ -70,6 +70,20 @@ pub enum BenchWhat {
     /// fused RMSE against the best radar's (`--reference` scores another tool's output
     /// folder beside it).
     Real(crate::bench_real::RealArgs),
+    /// Bias-estimator throughput: simulate and track the scenario (default: the built-in
+    /// bias-bench, 500 targets and 3 biased radars) in memory, then time the whole fusion
+    /// center over the run with the scenario's bias estimator and with none, on one
+    /// thread, in the thread's CPU time (best of --repeat); the difference is the
+    /// estimator's cost, printed as local tracks per second per core for the estimator
+    /// and for the whole center.
+    Bias {
+        /// Scenario file or built-in name.
+        #[arg(default_value = "bias-bench")]
+        scenario: String,
+        /// Repetitions of each timing (the best is reported).
+        #[arg(long, default_value_t = 5)]
+        repeat: u32,
+    },
 }
 
 /// Peak resident set size of this process (kB), from /proc on Linux.
@@ -123,7 +137,69 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             sweep,
         } => bench_fuse(fusion, *targets, *sensors, *scans, sweep)?,
         BenchWhat::Real(a) => crate::bench_real::run(a)?,
+        BenchWhat::Bias { scenario, repeat } => bench_bias(scenario, *repeat)?,
     }
+    Ok(())
+}
+
+/// `bench bias`: see [`BenchWhat::Bias`].
+fn bench_bias(scenario: &str, repeat: u32) -> Result<()> {
+    let (config, _) = load_scenario(Some(scenario))?;
+    let sc = &config.scenario;
+    let sim = trackfuse::sim::simulate(sc, 0);
+    let known = known_targets(&sim.truth);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let local = pool.install(|| {
+        track_sensors(
+            &sim.sensors,
+            &sim.measurements,
+            &config.tracker,
+            Some(sc.process_noise),
+            &known,
+            sc.seed,
+            0,
+        )
+    })?;
+    let with = config.fusion.clone();
+    let estimator = match with.bias_choice(Some(&sim.sensors)) {
+        trackfuse::center::bias::BiasChoice::Estimator(name) => name.to_string(),
+        trackfuse::center::bias::BiasChoice::Off(why) => {
+            anyhow::bail!("scenario {}: no bias estimator runs ({why:?})", sc.name)
+        }
+    };
+    let mut without = with.clone();
+    without.bias = None;
+    let time = |cfg: &trackfuse::center::FusionConfig| -> Result<(f64, usize)> {
+        let mut best = f64::INFINITY;
+        let mut fused = 0;
+        for _ in 0..repeat.max(1) {
+            // the pool thread's CPU time: on a shared machine wall time counts other work
+            let (run, secs) = pool.install(|| {
+                let t0 = cpu_time::ThreadTime::now();
+                let run = trackfuse::center::fuse_all(&local, cfg, Some(&sim.sensors), None);
+                (run, t0.elapsed().as_secs_f64())
+            });
+            best = best.min(secs);
+            fused = run?.fused.len();
+        }
+        Ok((best, fused))
+    };
+    let (t_with, fused) = time(&with)?;
+    let (t_without, _) = time(&without)?;
+    let n = local.len() as f64;
+    let est = (t_with - t_without).max(f64::MIN_POSITIVE);
+    println!("scenario                        {}", sc.name);
+    println!(
+        "fusion center                   {} + {}, bias {estimator}",
+        with.method, with.rule
+    );
+    println!("local-track rows                {}", local.len());
+    println!("fused rows                      {fused}");
+    println!("center without estimator        {t_without:.4} s (CPU, 1 thread, best of {repeat})");
+    println!("center with estimator           {t_with:.4} s");
+    println!("estimator alone                 {est:.4} s");
+    println!("estimator local tracks/s        {:.0}", n / est);
+    println!("whole center local tracks/s     {:.0}", n / t_with);
     Ok(())
 }
 

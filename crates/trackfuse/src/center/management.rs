@@ -67,7 +67,7 @@ impl Publish {
 /// `--confirm-scans`, `--merge-scans`, `--switch-scans`, `--management-gate`,
 /// `--publish`). The defaults are what a radar engineer sets for any deployment (no
 /// value depends on a data set), and were measured on the real-aircraft files swiss-a
-/// and swiss-b (README: "Global track management").
+/// and swiss-b (README, "Defaults").
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ManagementConfig {

@@ -435,11 +435,14 @@ pub struct FusionConfig {
     /// pin): on the real-aircraft files the `fuzzy` rule's spread term inflates the fused
     /// covariance and its membership weights barely fuse (fused RMSE above every radar's
     /// own). Measured on swiss-a with the default local trackers and center (`trackfuse
-    /// bench real`, fused GOSPA c = 500 m, p = 1 / fused RMSE): `cc` 1832 / 81.8 m, `bc`
-    /// 1869 / 82.5 m (its common-process-noise cross-covariances give consistent
-    /// covariances, NEES 11.8 against 16.6, but more duplicate global tracks), `ci` 1929 /
-    /// 86.0 m, `imf` 1946 / 84.6 m, `fuzzy` 2590 / 114 m; the association method
-    /// matters less (`cc` with `chi2-gnn` 1845, `fdtta` 1821).
+    /// bench real --fuse-args "--rule R"`, fused GOSPA c = 500 m, p = 1 / false tracks
+    /// per scan / fused RMSE): `cc` 1832 / 0.50 / 81.8 m, `bc` 1863 / 0.59 / 82.4 m (its
+    /// common-process-noise cross-covariances make the covariances more consistent, but
+    /// split more duplicate global tracks), `imf` 1882 / 0.57 / 84.3 m, `ci` 1933 / 0.46 /
+    /// 86.0 m, `fuzzy` 2307 / 0.57 / 106.2 m; swiss-b (biased radars, with the default
+    /// bias estimation) `cc` 1835, `bc` 1866. The association method matters less: with
+    /// `cc`, `chi2-gnn` 1848 and `fdtta` 1816 (swiss-b 1824), so the default stays paper
+    /// 000's `fdbsc-ta`.
     #[serde(default = "default_rule")]
     pub rule: String,
     /// Sensor-bias estimator by name, `"none"` (or `None`) for no estimation, or
@@ -447,8 +450,10 @@ pub struct FusionConfig {
     /// (sensors.csv, a scenario's sensors) and two or more of them are range-bearing
     /// radars, else off ([`bias::resolve`], [`FusionConfig::bias_choice`]). Why on by
     /// default: on the real radars of the `swiss-b` files (registration biases) it takes
-    /// the fused GOSPA from 4639 to 2735, and on the unbiased `swiss-a` it changes it by
-    /// -0.5 % to +0.8 % with the `fuzzy`, `bc` and `ci` rules (docs/bias-estimator.md).
+    /// the fused GOSPA with every other default from 3226 to 1835, and on the unbiased
+    /// `swiss-a` it costs 0.8 % (1817 to 1832); with the center's former defaults
+    /// (`fuzzy`) 4639 to 2735 and -0.5 % to +0.8 % with `fuzzy`, `bc` and `ci`
+    /// (docs/bias-estimator.md).
     /// A named estimator needs sensors.csv.
     #[serde(default = "default_bias")]
     pub bias: Option<String>,
