@@ -1,9 +1,9 @@
 //! Helpers shared by the subcommands: scenario lookup, tables, summary printing.
 
+use crate::describe::Spread;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use trackfuse::config::BUILTIN_SCENARIOS;
-use crate::describe::Spread;
 use trackfuse::metrics::Summary;
 use trackfuse::RunConfig;
 

@@ -98,23 +98,35 @@ pub const METRICS: &[MetricOf] = &[
     ("gospa.localisation", "  localisation part (m^p)", |s| {
         Some(s.gospa.localisation)
     }),
-    ("gospa.missed", "  missed part (m^p)", |s| Some(s.gospa.missed)),
-    ("gospa.false", "  false part (m^p)", |s| Some(s.gospa.false_)),
-    ("gospa.mean_missed_targets", "  missed targets per scan", |s| {
-        Some(s.gospa.mean_missed_targets)
+    ("gospa.missed", "  missed part (m^p)", |s| {
+        Some(s.gospa.missed)
     }),
+    ("gospa.false", "  false part (m^p)", |s| {
+        Some(s.gospa.false_)
+    }),
+    (
+        "gospa.mean_missed_targets",
+        "  missed targets per scan",
+        |s| Some(s.gospa.mean_missed_targets),
+    ),
     ("gospa.mean_false_tracks", "  false tracks per scan", |s| {
         Some(s.gospa.mean_false_tracks)
     }),
     ("ospa", "OSPA (m)", |s| s.ospa),
-    ("nees_fused", "NEES fused (4-dim, ideal 4)", |s| s.nees_fused),
-    ("nees_local", "NEES local (4-dim, ideal 4)", |s| s.nees_local),
+    ("nees_fused", "NEES fused (4-dim, ideal 4)", |s| {
+        s.nees_fused
+    }),
+    ("nees_local", "NEES local (4-dim, ideal 4)", |s| {
+        s.nees_local
+    }),
     ("probability_correct_association", "P_c (000 eq. 19)", |s| {
         s.probability_correct_association
     }),
-    ("association_rates.correct", "correct association rate", |s| {
-        s.association_rates.as_ref().map(|r| r.correct)
-    }),
+    (
+        "association_rates.correct",
+        "correct association rate",
+        |s| s.association_rates.as_ref().map(|r| r.correct),
+    ),
     ("association_rates.false", "false association rate", |s| {
         s.association_rates.as_ref().map(|r| r.false_)
     }),
@@ -370,9 +382,8 @@ mod tests {
         fusion.bias = None;
         let mut tracker = base.tracker.clone();
         tracker.gate_probability = 0.99;
-        let out =
-            effective_scenario_text(text, &base.tracker, &base.fusion, &tracker, &fusion)
-                .expect("override");
+        let out = effective_scenario_text(text, &base.tracker, &base.fusion, &tracker, &fusion)
+            .expect("override");
         assert!(out.starts_with("# The scenario as run"), "{out}");
         assert!(out.contains("fusion.rule"), "{out}");
         let back = trackfuse::RunConfig::from_toml(&out, "x").expect("reads back");

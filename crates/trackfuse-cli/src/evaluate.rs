@@ -2,9 +2,9 @@
 
 use crate::common::render_summary;
 use crate::describe::{command_line, summary_json, Provenance};
+use crate::output::{Outputs, SUMMARY_OUTPUTS};
 use crate::plot::{figures, PlotData};
 use crate::report::{write_reports_in, ReportInput};
-use crate::output::{Outputs, SUMMARY_OUTPUTS};
 use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;

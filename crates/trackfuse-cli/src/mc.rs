@@ -3,11 +3,13 @@
 //! `--threads` is.
 
 use crate::common::{load_scenario, render_summary_with, scenario_input, with_seed};
-use crate::describe::{command_line, effective_scenario_text, spreads, summary_json, Methods, Provenance};
+use crate::config::{FusionFlags, TrackerFlags};
+use crate::describe::{
+    command_line, effective_scenario_text, spreads, summary_json, Methods, Provenance,
+};
+use crate::output::{Outputs, MC_OUTPUTS};
 use crate::plot::rmse_figure;
 use crate::report::{write_reports, ReportInput};
-use crate::config::{FusionFlags, TrackerFlags};
-use crate::output::{Outputs, MC_OUTPUTS};
 use anyhow::{bail, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -90,9 +92,12 @@ pub fn run(args: &McArgs) -> Result<()> {
     };
     let path = outs.write("summary.json", summary_json(&summary, &prov)?.as_bytes())?;
     let scenario_text = effective_scenario_text(&text, &sc.tracker, &sc.fusion, &tracker, &fusion)?;
-    let figs = rmse_figure(&summary.fused_rmse_per_scan, "Fused position RMSE per scan over the runs")?
-        .into_iter()
-        .collect();
+    let figs = rmse_figure(
+        &summary.fused_rmse_per_scan,
+        "Fused position RMSE per scan over the runs",
+    )?
+    .into_iter()
+    .collect();
     write_reports(
         &mut outs,
         &ReportInput {

@@ -131,15 +131,10 @@ fn plot_err(e: impl std::fmt::Display) -> anyhow::Error {
 /// Register the font plotters draws text with (DejaVu Sans, embedded, so a PNG looks the
 /// same on every machine), once.
 fn register_font() -> Result<()> {
-    static DONE: std::sync::OnceLock<std::result::Result<(), String>> =
-        std::sync::OnceLock::new();
+    static DONE: std::sync::OnceLock<std::result::Result<(), String>> = std::sync::OnceLock::new();
     DONE.get_or_init(|| {
-        plotters::style::register_font(
-            "sans-serif",
-            FontStyle::Normal,
-            dejavu::sans::regular(),
-        )
-        .map_err(|_| "the embedded font does not load".to_string())
+        plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
+            .map_err(|_| "the embedded font does not load".to_string())
     })
     .clone()
     .map_err(|e| anyhow!("plotting: {e}"))
@@ -305,8 +300,13 @@ fn map_chart<'a, DB: DrawingBackend>(
     root: &'a Area<DB>,
     title: &str,
     b: (f64, f64, f64, f64),
-) -> Result<ChartContext<'a, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>>>
-{
+) -> Result<
+    ChartContext<
+        'a,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+> {
     let mut chart = ChartBuilder::on(root)
         .caption(title, ("sans-serif", 20))
         .margin(10)
@@ -345,9 +345,8 @@ fn draw_truth<DB: DrawingBackend>(
                 .draw_series(LineSeries::new(seg, style))
                 .map_err(plot_err)?;
             if label && i == 0 && j == 0 {
-                s.label("truth").legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], style)
-                });
+                s.label("truth")
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
             }
         }
     }
@@ -426,7 +425,11 @@ fn legend<'a, DB: DrawingBackend + 'a>(chart: &mut MapChart<'a, DB>) -> Result<(
 }
 
 fn draw_map<DB: DrawingBackend>(root: &Area<DB>, m: &MapCtx<'_>) -> Result<()> {
-    let mut chart = map_chart(root, "Scenario: sensors, coverage and true trajectories", m.bounds)?;
+    let mut chart = map_chart(
+        root,
+        "Scenario: sensors, coverage and true trajectories",
+        m.bounds,
+    )?;
     draw_sensors(&mut chart, &m.d.sensors, true, m.bounds)?;
     let style = BLACK.stroke_width(2);
     draw_truth(&mut chart, &m.d.truth, style, true)?;
@@ -484,7 +487,10 @@ fn ellipse(state: &StateVec, cov: &StateCov) -> Option<Vec<(f64, f64)>> {
     if eig.eigenvalues.iter().any(|v| !v.is_finite() || *v < 0.0) {
         return None;
     }
-    let (a, b) = (2.0 * eig.eigenvalues[0].sqrt(), 2.0 * eig.eigenvalues[1].sqrt());
+    let (a, b) = (
+        2.0 * eig.eigenvalues[0].sqrt(),
+        2.0 * eig.eigenvalues[1].sqrt(),
+    );
     let (u, v) = (eig.eigenvectors.column(0), eig.eigenvectors.column(1));
     Some(
         (0..=36)
@@ -514,9 +520,8 @@ fn draw_fused<DB: DrawingBackend>(root: &Area<DB>, m: &MapCtx<'_>) -> Result<()>
                 .draw_series(LineSeries::new(seg, style))
                 .map_err(plot_err)?;
             if i == 0 && j == 0 {
-                s.label("fused tracks (colour per id)").legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], style)
-                });
+                s.label("fused tracks (colour per id)")
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
             }
         }
         if m.d.ellipses {
@@ -533,7 +538,11 @@ fn draw_fused<DB: DrawingBackend>(root: &Area<DB>, m: &MapCtx<'_>) -> Result<()>
                 .draw_series(std::iter::once(
                     EmptyElement::at(last)
                         + Circle::new((0, 0), 2, c.filled())
-                        + Text::new(format!("{id}"), (4, -12), ("sans-serif", 12).into_font().color(&c)),
+                        + Text::new(
+                            format!("{id}"),
+                            (4, -12),
+                            ("sans-serif", 12).into_font().color(&c),
+                        ),
                 ))
                 .map_err(plot_err)?;
         }
@@ -688,7 +697,8 @@ fn local_rms(d: &PlotData, truth: &TruthAt) -> BTreeMap<Id, Vec<(f64, f64)>> {
     out
 }
 
-type XY = Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>;
+type XY =
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>;
 
 fn xy_chart<'a, DB: DrawingBackend>(
     root: &'a Area<DB>,
@@ -784,11 +794,21 @@ fn draw_gospa<DB: DrawingBackend>(root: &Area<DB>, a: &(&[Step], f64, f64)) -> R
         format!("GOSPA (c={c} m, p={p}, alpha=2)"),
         steps.iter().map(|s| (s.time, s.gospa.distance)).collect(),
     )];
-    draw_lines(&top, "GOSPA per time step", "time (s)", "GOSPA (m)", &dist, 1)?;
+    draw_lines(
+        &top,
+        "GOSPA per time step",
+        "time (s)",
+        "GOSPA (m)",
+        &dist,
+        1,
+    )?;
     let parts = vec![
         (
             "localisation".to_string(),
-            steps.iter().map(|s| (s.time, s.gospa.localisation)).collect(),
+            steps
+                .iter()
+                .map(|s| (s.time, s.gospa.localisation))
+                .collect(),
         ),
         (
             "missed targets".to_string(),
@@ -918,7 +938,10 @@ fn draw_bias<DB: DrawingBackend>(root: &Area<DB>, d: &PlotData) -> Result<()> {
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(60)
-            .build_cartesian_2d(-0.5..(n - 0.5).max(0.5), (y.0 - 0.1 * span)..(y.1 + 0.45 * span))
+            .build_cartesian_2d(
+                -0.5..(n - 0.5).max(0.5),
+                (y.0 - 0.1 * span)..(y.1 + 0.45 * span),
+            )
             .map_err(plot_err)?;
         let idc = ids.clone();
         chart
@@ -928,7 +951,8 @@ fn draw_bias<DB: DrawingBackend>(root: &Area<DB>, d: &PlotData) -> Result<()> {
             .x_label_formatter(&move |x| {
                 let i = x.round();
                 if (x - i).abs() < 1e-6 && i >= 0.0 {
-                    idc.get(i as usize).map_or(String::new(), |s| format!("S{s}"))
+                    idc.get(i as usize)
+                        .map_or(String::new(), |s| format!("S{s}"))
                 } else {
                     String::new()
                 }
@@ -976,7 +1000,10 @@ pub fn rmse_figure(per_scan: &[(u32, f64)], title: &str) -> Result<Option<Figure
         "RMSE (m)",
         vec![(
             "fused".to_string(),
-            per_scan.iter().map(|&(s, v)| (s as f64, v)).collect::<Vec<_>>(),
+            per_scan
+                .iter()
+                .map(|&(s, v)| (s as f64, v))
+                .collect::<Vec<_>>(),
         )],
         0usize,
     );
@@ -1114,11 +1141,7 @@ pub fn figures(d: &PlotData) -> Result<Vec<Figure>> {
             ));
         }
         if !d.fused.is_empty() {
-            let a = (
-                steps.as_slice(),
-                d.evaluation.gospa_c,
-                d.evaluation.gospa_p,
-            );
+            let a = (steps.as_slice(), d.evaluation.gospa_c, d.evaluation.gospa_p);
             out.push(figure!(
                 "gospa",
                 "GOSPA over time",
@@ -1173,23 +1196,39 @@ pub fn read_bias(path: &Path) -> Result<Vec<BiasEstimate>> {
         let line = i + 2;
         let rec = rec.with_context(|| format!("{}: line {line}", path.display()))?;
         let cell = |c: usize, name: &str| -> Result<&str> {
-            rec.get(c)
-                .map(str::trim)
-                .ok_or_else(|| anyhow!("{}: line {line}, column {}: `{name}` missing", path.display(), c + 1))
+            rec.get(c).map(str::trim).ok_or_else(|| {
+                anyhow!(
+                    "{}: line {line}, column {}: `{name}` missing",
+                    path.display(),
+                    c + 1
+                )
+            })
         };
         let num = |c: usize, name: &str| -> Result<f64> {
             let s = cell(c, name)?;
             let v: f64 = s.parse().map_err(|_| {
-                anyhow!("{}: line {line}, column {} ({name}): `{s}` is not a number", path.display(), c + 1)
+                anyhow!(
+                    "{}: line {line}, column {} ({name}): `{s}` is not a number",
+                    path.display(),
+                    c + 1
+                )
             })?;
             if !v.is_finite() {
-                bail!("{}: line {line}, column {} ({name}): {v} is not finite", path.display(), c + 1);
+                bail!(
+                    "{}: line {line}, column {} ({name}): {v} is not finite",
+                    path.display(),
+                    c + 1
+                );
             }
             Ok(v)
         };
         let id_s = cell(ci, "sensor_id")?;
         let sensor_id: Id = id_s.parse().map_err(|_| {
-            anyhow!("{}: line {line}, column {} (sensor_id): `{id_s}` is not an integer", path.display(), ci + 1)
+            anyhow!(
+                "{}: line {line}, column {} (sensor_id): `{id_s}` is not an integer",
+                path.display(),
+                ci + 1
+            )
         })?;
         out.push(BiasEstimate {
             sensor_id,
@@ -1224,11 +1263,13 @@ pub fn run(args: &PlotArgs) -> Result<()> {
     let fused_p = input(&args.dir, &args.fused_tracks, "fused_tracks.csv");
     let bias_p = input(&args.dir, &args.bias, "bias_estimates.csv");
     let summary_p = Some(args.dir.join("summary.json")).filter(|p| p.is_file());
-    let all: Vec<PathBuf> = [&truth_p, &sensors_p, &local_p, &fused_p, &bias_p, &summary_p]
-        .into_iter()
-        .flatten()
-        .cloned()
-        .collect();
+    let all: Vec<PathBuf> = [
+        &truth_p, &sensors_p, &local_p, &fused_p, &bias_p, &summary_p,
+    ]
+    .into_iter()
+    .flatten()
+    .cloned()
+    .collect();
     if truth_p.is_none() && sensors_p.is_none() && local_p.is_none() && fused_p.is_none() {
         bail!(
             "{}: none of truth.csv, sensors.csv, local_tracks.csv, fused_tracks.csv there (or given with --truth, --sensors, --local-tracks, --fused-tracks)",
@@ -1262,10 +1303,24 @@ pub fn run(args: &PlotArgs) -> Result<()> {
     if let Some(p) = &summary_p {
         let text =
             std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-        let v: serde_json::Value =
-            serde_json::from_str(&text).with_context(|| format!("{}", p.display()))?;
-        match v.get("fused_rmse_per_scan").and_then(|a| a.as_array()) {
-            Some(a) => {
+        // another tool's summary.json may be anything (Stone Soup's holds NaN, which is
+        // not JSON): said on stderr, and only the RMSE-per-scan plot is left out
+        let v: Option<serde_json::Value> = match serde_json::from_str(&text) {
+            Ok(v) => Some(v),
+            Err(e) => {
+                eprintln!(
+                    "{}: not JSON trackfuse reads ({e}); its RMSE-per-scan plot is left out",
+                    p.display()
+                );
+                None
+            }
+        };
+        match v
+            .as_ref()
+            .map(|v| v.get("fused_rmse_per_scan").and_then(|a| a.as_array()))
+        {
+            None => {}
+            Some(Some(a)) => {
                 for (i, e) in a.iter().enumerate() {
                     let pair = e[0].as_u64().zip(e[1].as_f64()).ok_or_else(|| {
                         anyhow!(
@@ -1279,7 +1334,7 @@ pub fn run(args: &PlotArgs) -> Result<()> {
                     d.rmse_per_scan.push((scan, pair.1));
                 }
             }
-            None => eprintln!(
+            Some(None) => eprintln!(
                 "{}: no fused_rmse_per_scan (not a trackfuse summary); its RMSE-per-scan plot is left out",
                 p.display()
             ),

@@ -51,7 +51,10 @@ fn facts(r: &ReportInput<'_>) -> Vec<(String, String)> {
         ),
     ];
     if let Some(s) = &p.scenario {
-        v.push(("scenario".into(), if s.is_empty() { "-".into() } else { s.clone() }));
+        v.push((
+            "scenario".into(),
+            if s.is_empty() { "-".into() } else { s.clone() },
+        ));
     }
     if let Some(s) = p.seed {
         v.push(("master seed".into(), s.to_string()));
@@ -149,7 +152,9 @@ pub fn markdown(r: &ReportInput<'_>) -> String {
         s.push_str("\n\n");
     }
     if !r.figures.is_empty() {
-        s.push_str("## Plots\n\nIn report.html (inline); as PNG and SVG files with `trackfuse plot`.\n\n");
+        s.push_str(
+            "## Plots\n\nIn report.html (inline); as PNG and SVG files with `trackfuse plot`.\n\n",
+        );
         for f in &r.figures {
             s.push_str(&format!("- {}: {}\n", f.title, f.caption));
         }
@@ -177,7 +182,7 @@ table{border-collapse:collapse;margin:.5em 0 1em}td,th{border:1px solid #ccc;pad
 td:first-child,th:first-child{text-align:left;white-space:pre}th{background:#f0f4f8}\
 dl{display:grid;grid-template-columns:max-content auto;gap:.2em 1em}dt{font-weight:600}dd{margin:0}\
 code,pre{font-family:ui-monospace,'DejaVu Sans Mono',monospace;font-size:.9em}pre{background:#f6f8fa;padding:.8em;overflow:auto;max-height:30em}\
-figure{margin:1em 0}figure img{max-width:100%;height:auto;border:1px solid #ddd}figcaption{font-size:.9em;color:#555}\
+figure{margin:1em 0}figure img{max-width:min(100%,900px);height:auto;border:1px solid #ddd}figcaption{font-size:.9em;color:#555}\
 details{margin:.5em 0}.bad{color:#b00;font-weight:600}.note{font-size:.9em;color:#555}\
 nav a{margin-right:1em}";
 
@@ -198,6 +203,36 @@ document.body.setAttribute('data-images-bad',String(bad.length));
 if(bad.length){console.error('plots that did not render: '+bad.join(', '));}
 });"#;
 
+/// One metric table, folded away when it is long.
+fn html_table(s: &mut String, tb: &crate::common::MetricTable) {
+    let many = tb.rows.len() > 25;
+    if many {
+        s.push_str(&format!(
+            "<details><summary>{} ({} rows)</summary>\n",
+            esc(&tb.title),
+            tb.rows.len()
+        ));
+    } else if !tb.title.is_empty() {
+        s.push_str(&format!("<h3>{}</h3>\n", esc(&tb.title)));
+    }
+    s.push_str("<table>\n<tr>");
+    for h in &tb.header {
+        s.push_str(&format!("<th>{}</th>", esc(h)));
+    }
+    s.push_str("</tr>\n");
+    for row in &tb.rows {
+        s.push_str("<tr>");
+        for c in row {
+            s.push_str(&format!("<td>{}</td>", esc(c)));
+        }
+        s.push_str("</tr>\n");
+    }
+    s.push_str("</table>\n");
+    if many {
+        s.push_str("</details>\n");
+    }
+}
+
 /// report.html.
 pub fn html(r: &ReportInput<'_>) -> String {
     let t = esc(&title(r));
@@ -214,40 +249,22 @@ pub fn html(r: &ReportInput<'_>) -> String {
     s.push_str("</nav>\n<dl>\n");
     for (k, v) in facts(r) {
         if k == "command line" {
-            s.push_str(&format!("<dt>{}</dt><dd><code>{}</code></dd>\n", esc(&k), esc(&v)));
+            s.push_str(&format!(
+                "<dt>{}</dt><dd><code>{}</code></dd>\n",
+                esc(&k),
+                esc(&v)
+            ));
         } else {
             s.push_str(&format!("<dt>{}</dt><dd>{}</dd>\n", esc(&k), esc(&v)));
         }
     }
     s.push_str("</dl>\n<h2 id=\"metrics\">Metrics</h2>\n");
     s.push_str(&format!("<p>runs: {}</p>\n", r.summary.runs));
-    for tb in summary_tables(r.summary, &r.provenance.spread) {
-        let many = tb.rows.len() > 25;
-        if many {
-            s.push_str(&format!(
-                "<details><summary>{} ({} rows)</summary>\n",
-                esc(&tb.title),
-                tb.rows.len()
-            ));
-        } else if !tb.title.is_empty() {
-            s.push_str(&format!("<h3>{}</h3>\n", esc(&tb.title)));
-        }
-        s.push_str("<table>\n<tr>");
-        for h in &tb.header {
-            s.push_str(&format!("<th>{}</th>", esc(h)));
-        }
-        s.push_str("</tr>\n");
-        for row in &tb.rows {
-            s.push_str("<tr>");
-            for c in row {
-                s.push_str(&format!("<td>{}</td>", esc(c)));
-            }
-            s.push_str("</tr>\n");
-        }
-        s.push_str("</table>\n");
-        if many {
-            s.push_str("</details>\n");
-        }
+    // the scalar metrics first, then the plots, then the per-target tables
+    let mut tables = summary_tables(r.summary, &r.provenance.spread);
+    let main = tables.pop();
+    if let Some(t) = &main {
+        html_table(&mut s, t);
     }
     if !r.provenance.spread.is_empty() {
         s.push_str(&format!("<p class=\"note\">{}</p>\n", esc(SPREAD_NOTE)));
@@ -266,6 +283,12 @@ pub fn html(r: &ReportInput<'_>) -> String {
             ));
         }
     }
+    if !tables.is_empty() {
+        s.push_str("<h2 id=\"per-target\">Per target and sensor</h2>\n");
+    }
+    for tb in &tables {
+        html_table(&mut s, tb);
+    }
     s.push_str("<h2 id=\"methods\">Methods and every parameter in force</h2>\n");
     match parameters_toml(r.provenance) {
         Some(p) => s.push_str(&format!("<pre>{}</pre>\n", esc(&p))),
@@ -277,7 +300,9 @@ pub fn html(r: &ReportInput<'_>) -> String {
         s.push_str("<h2 id=\"scenario\">Scenario (as run)</h2>\n");
         s.push_str(&format!("<pre>{}</pre>\n", esc(t)));
     }
-    s.push_str(&format!("<script>{CHECK_SCRIPT}</script>\n</body>\n</html>\n"));
+    s.push_str(&format!(
+        "<script>{CHECK_SCRIPT}</script>\n</body>\n</html>\n"
+    ));
     s
 }
 
@@ -289,7 +314,11 @@ pub fn write_reports(outs: &mut Outputs, r: &ReportInput<'_>) -> Result<()> {
 }
 
 /// [`write_reports`] into `dir` for an output set given by paths (`evaluate --summary`).
-pub fn write_reports_in(outs: &mut Outputs, dir: &std::path::Path, r: &ReportInput<'_>) -> Result<()> {
+pub fn write_reports_in(
+    outs: &mut Outputs,
+    dir: &std::path::Path,
+    r: &ReportInput<'_>,
+) -> Result<()> {
     outs.write_file(&dir.join("report.html"), html(r).as_bytes())?;
     outs.write_file(&dir.join("report.md"), markdown(r).as_bytes())?;
     Ok(())

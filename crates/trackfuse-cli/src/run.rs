@@ -5,10 +5,10 @@
 use crate::common::{load_scenario, render_summary, scenario_input, with_seed};
 use crate::config::{FusionFlags, TrackerFlags};
 use crate::describe::{command_line, effective_scenario_text, summary_json, Methods, Provenance};
-use crate::plot::{figures, PlotData};
-use crate::report::{write_reports, ReportInput};
 use crate::fuse::write_fused;
 use crate::output::{Outputs, RUN_OUTPUTS};
+use crate::plot::{figures, PlotData};
+use crate::report::{write_reports, ReportInput};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::path::{Path, PathBuf};
