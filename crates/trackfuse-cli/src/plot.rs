@@ -140,7 +140,7 @@ fn register_font() -> Result<()> {
     .map_err(|e| anyhow!("plotting: {e}"))
 }
 
-type Area<'a, DB> = DrawingArea<DB, Shift>;
+type Area<DB> = DrawingArea<DB, Shift>;
 
 /// Draw with `svg` into an SVG and with `png` into a PNG of `size` pixels.
 fn render(
@@ -226,7 +226,7 @@ fn map_bounds(points: &[(f64, f64)], size: (u32, u32)) -> Option<(f64, f64, f64,
     let pad = 0.05 * (x1 - x0).max(y1 - y0).max(0.1);
     let (mut x0, mut x1, mut y0, mut y1) = (x0 - pad, x1 + pad, y0 - pad, y1 + pad);
     // same scale on both axes (plot area about size minus the label areas)
-    let aspect = (size.0 as f64 - 100.0) / (size.1 as f64 - 90.0);
+    let aspect = (size.0 as f64 - LEGEND_W as f64 - 80.0) / (size.1 as f64 - 90.0);
     let (w, h) = (x1 - x0, y1 - y0);
     if w / h < aspect {
         let extra = (h * aspect - w) / 2.0;
@@ -327,6 +327,51 @@ fn map_chart<'a, DB: DrawingBackend>(
     Ok(chart)
 }
 
+/// Width (px) of the legend panel right of every chart: legends never cover data.
+const LEGEND_W: u32 = 190;
+
+/// What a legend entry shows.
+#[derive(Debug, Clone, Copy)]
+enum Mark {
+    Line(RGBAColor, u32),
+    Triangle,
+    Dot(RGBAColor),
+    Band(RGBAColor),
+    /// A continuation line of the entry above.
+    Blank,
+}
+
+type Legend = Vec<(String, Mark)>;
+
+/// The chart area and the legend panel right of it.
+fn split_legend<DB: DrawingBackend>(root: &Area<DB>) -> (Area<DB>, Area<DB>) {
+    let w = root.dim_in_pixel().0;
+    root.split_horizontally(w.saturating_sub(LEGEND_W))
+}
+
+/// Draw the legend `entries` into the panel `area`, from the top (below the caption).
+fn side_legend<DB: DrawingBackend>(area: &Area<DB>, entries: &[(String, Mark)]) -> Result<()> {
+    let font = ("sans-serif", 13).into_font();
+    for (i, (label, mark)) in entries.iter().enumerate() {
+        let y = 48 + i as i32 * 20;
+        let (x0, x1) = (6, 28);
+        match *mark {
+            Mark::Line(c, w) => area.draw(&PathElement::new(
+                vec![(x0, y), (x1, y)],
+                c.stroke_width(w.max(2)),
+            )),
+            Mark::Triangle => area.draw(&TriangleMarker::new((17, y), 5, BLACK.filled())),
+            Mark::Dot(c) => area.draw(&Circle::new((17, y), 5, c.filled())),
+            Mark::Band(c) => area.draw(&Rectangle::new([(x0, y - 5), (x1, y + 5)], c.filled())),
+            Mark::Blank => Ok(()),
+        }
+        .map_err(plot_err)?;
+        area.draw(&Text::new(label.clone(), (34, y - 8), font.clone()))
+            .map_err(plot_err)?;
+    }
+    Ok(())
+}
+
 type MapChart<'a, DB> = ChartContext<
     'a,
     DB,
@@ -337,18 +382,17 @@ fn draw_truth<DB: DrawingBackend>(
     chart: &mut MapChart<'_, DB>,
     truth: &[TruthState],
     style: ShapeStyle,
-    label: bool,
+    legend: &mut Legend,
 ) -> Result<()> {
-    for (i, (_, pts)) in truth_series(truth).iter().enumerate() {
-        for (j, seg) in split_jumps(pts).into_iter().enumerate() {
-            let s = chart
+    for pts in truth_series(truth).values() {
+        for seg in split_jumps(pts) {
+            chart
                 .draw_series(LineSeries::new(seg, style))
                 .map_err(plot_err)?;
-            if label && i == 0 && j == 0 {
-                s.label("truth")
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-            }
         }
+    }
+    if !truth.is_empty() {
+        legend.push(("truth".into(), Mark::Line(style.color, style.stroke_width)));
     }
     Ok(())
 }
@@ -358,6 +402,7 @@ fn draw_sensors<DB: DrawingBackend>(
     all: &[Sensor],
     rings: bool,
     b: (f64, f64, f64, f64),
+    legend: &mut Legend,
 ) -> Result<()> {
     // only the sensors in view (a marker out of view would be drawn on the border)
     let sensors: Vec<Sensor> = all
@@ -403,52 +448,47 @@ fn draw_sensors<DB: DrawingBackend>(
                 + TriangleMarker::new((0, 0), 7, style)
                 + Text::new(format!("S{}", s.id), (8, -14), ("sans-serif", 13))
         }))
-        .map_err(plot_err)?
-        .label(if rings && sensors.iter().any(|s| s.max_range > 0.0) {
-            "sensors, coverage (max_range)"
-        } else {
-            "sensors"
-        })
-        .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 5, style));
+        .map_err(plot_err)?;
+    legend.push(("sensors".into(), Mark::Triangle));
+    if rings && sensors.iter().any(|s| s.max_range > 0.0) {
+        legend.push((
+            "coverage (max_range)".into(),
+            Mark::Band(colour(0).mix(0.25)),
+        ));
+    }
     Ok(())
 }
 
-fn legend<'a, DB: DrawingBackend + 'a>(chart: &mut MapChart<'a, DB>) -> Result<()> {
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font(("sans-serif", 13))
-        .background_style(WHITE.mix(0.8))
-        .border_style(RGBColor(180, 180, 180))
-        .draw()
-        .map_err(plot_err)
-}
-
 fn draw_map<DB: DrawingBackend>(root: &Area<DB>, m: &MapCtx<'_>) -> Result<()> {
+    let (plot, side) = split_legend(root);
+    let mut lg = Legend::new();
     let mut chart = map_chart(
-        root,
+        &plot,
         "Scenario: sensors, coverage and true trajectories",
         m.bounds,
     )?;
-    draw_sensors(&mut chart, &m.d.sensors, true, m.bounds)?;
+    draw_sensors(&mut chart, &m.d.sensors, true, m.bounds, &mut lg)?;
     let style = BLACK.stroke_width(2);
-    draw_truth(&mut chart, &m.d.truth, style, true)?;
+    draw_truth(&mut chart, &m.d.truth, style, &mut lg)?;
     // target ids at the start of each trajectory
     chart
         .draw_series(truth_series(&m.d.truth).iter().filter_map(|(id, pts)| {
             pts.first().map(|&p| {
                 EmptyElement::at(p)
                     + Circle::new((0, 0), 3, BLACK.filled())
-                    + Text::new(format!("T{id}"), (5, 3), ("sans-serif", 11))
+                    + Text::new(format!("T{id}"), (-6, 5), ("sans-serif", 12))
             })
         }))
         .map_err(plot_err)?;
-    legend(&mut chart)
+    lg.push(("start of target T<id>".into(), Mark::Dot(BLACK.to_rgba())));
+    side_legend(&side, &lg)
 }
 
 fn draw_local<DB: DrawingBackend>(root: &Area<DB>, m: &MapCtx<'_>) -> Result<()> {
-    let mut chart = map_chart(root, "Local tracks by sensor, over the truth", m.bounds)?;
-    draw_sensors(&mut chart, &m.d.sensors, false, m.bounds)?;
+    let (plot, side) = split_legend(root);
+    let mut lg = Legend::new();
+    let mut chart = map_chart(&plot, "Local tracks by sensor, over the truth", m.bounds)?;
+    draw_sensors(&mut chart, &m.d.sensors, false, m.bounds, &mut lg)?;
     let mut tracks: Tracks = BTreeMap::new();
     for l in &m.d.local {
         tracks
@@ -466,18 +506,21 @@ fn draw_local<DB: DrawingBackend>(root: &Area<DB>, m: &MapCtx<'_>) -> Result<()>
         let i = sensor_ids.iter().position(|s| s == sid).unwrap_or(0);
         let style = colour(i).mix(0.75).stroke_width(1);
         for seg in split_jumps(pts) {
-            let s = chart
+            chart
                 .draw_series(LineSeries::new(seg, style))
                 .map_err(plot_err)?;
-            if labelled.insert(*sid) {
-                s.label(format!("sensor {sid}")).legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], style.stroke_width(3))
-                });
-            }
+        }
+        if labelled.insert(*sid) {
+            lg.push((format!("sensor {sid}"), Mark::Line(style.color, 3)));
         }
     }
-    draw_truth(&mut chart, &m.d.truth, BLACK.mix(0.5).stroke_width(1), true)?;
-    legend(&mut chart)
+    draw_truth(
+        &mut chart,
+        &m.d.truth,
+        BLACK.mix(0.5).stroke_width(1),
+        &mut lg,
+    )?;
+    side_legend(&side, &lg)
 }
 
 /// Points of the 2-sigma ellipse of the position part of `cov` around `c` (km).
@@ -505,8 +548,10 @@ fn ellipse(state: &StateVec, cov: &StateCov) -> Option<Vec<(f64, f64)>> {
 }
 
 fn draw_fused<DB: DrawingBackend>(root: &Area<DB>, m: &MapCtx<'_>) -> Result<()> {
-    let mut chart = map_chart(root, "Fused tracks (with ids) and the truth", m.bounds)?;
-    draw_sensors(&mut chart, &m.d.sensors, false, m.bounds)?;
+    let (plot, side) = split_legend(root);
+    let mut lg = Legend::new();
+    let mut chart = map_chart(&plot, "Fused tracks (with ids) and the truth", m.bounds)?;
+    draw_sensors(&mut chart, &m.d.sensors, false, m.bounds, &mut lg)?;
     let mut tracks: BTreeMap<Id, Vec<&FusedTrack>> = BTreeMap::new();
     for f in &m.d.fused {
         tracks.entry(f.fused_id).or_default().push(f);
@@ -515,14 +560,10 @@ fn draw_fused<DB: DrawingBackend>(root: &Area<DB>, m: &MapCtx<'_>) -> Result<()>
         let c = colour(i);
         let style = c.stroke_width(2);
         let pts: Vec<(f64, f64)> = rows.iter().map(|f| km(position_of(&f.state))).collect();
-        for (j, seg) in split_jumps(&pts).into_iter().enumerate() {
-            let s = chart
+        for seg in split_jumps(&pts) {
+            chart
                 .draw_series(LineSeries::new(seg, style))
                 .map_err(plot_err)?;
-            if i == 0 && j == 0 {
-                s.label("fused tracks (colour per id)")
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-            }
         }
         if m.d.ellipses {
             for f in rows.iter().step_by(10) {
@@ -547,8 +588,18 @@ fn draw_fused<DB: DrawingBackend>(root: &Area<DB>, m: &MapCtx<'_>) -> Result<()>
                 .map_err(plot_err)?;
         }
     }
-    draw_truth(&mut chart, &m.d.truth, BLACK.stroke_width(1), true)?;
-    legend(&mut chart)
+    if !tracks.is_empty() {
+        lg.push((
+            "fused track, id at".into(),
+            Mark::Line(colour(0).to_rgba(), 2),
+        ));
+        lg.push(("  its last point".into(), Mark::Blank));
+        if m.d.ellipses {
+            lg.push(("2-sigma ellipse".into(), Mark::Line(colour(0).mix(0.7), 1)));
+        }
+    }
+    draw_truth(&mut chart, &m.d.truth, BLACK.stroke_width(1), &mut lg)?;
+    side_legend(&side, &lg)
 }
 
 /// Time key of a row (ns, so that equal times compare equal).
@@ -753,31 +804,27 @@ fn draw_lines<DB: DrawingBackend>(
     series: &[(String, Vec<(f64, f64)>)],
     legend_max: usize,
 ) -> Result<()> {
+    let (plot, side) = split_legend(root);
     let x = range_of(series.iter().flat_map(|s| s.1.iter().map(|p| p.0)));
     let y = range_of(series.iter().flat_map(|s| s.1.iter().map(|p| p.1)));
-    let mut chart = xy_chart(root, title, x, (0.0, y.1 * 1.08), xdesc, ydesc)?;
+    let mut chart = xy_chart(&plot, title, x, (0.0, y.1 * 1.08), xdesc, ydesc)?;
+    let mut lg = Legend::new();
     for (i, (name, pts)) in series.iter().enumerate() {
         let style = colour(i).stroke_width(if series.len() > 5 { 1 } else { 2 });
-        let s = chart
+        chart
             .draw_series(LineSeries::new(pts.iter().copied(), style))
             .map_err(plot_err)?;
         if i < legend_max {
-            s.label(name.clone()).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], style.stroke_width(3))
-            });
+            lg.push((name.clone(), Mark::Line(style.color, 3)));
         }
     }
-    if legend_max > 0 && !series.is_empty() {
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font(("sans-serif", 13))
-            .background_style(WHITE.mix(0.8))
-            .border_style(RGBColor(180, 180, 180))
-            .draw()
-            .map_err(plot_err)?;
+    if series.len() > legend_max {
+        lg.push((
+            format!("{} series, colours repeat", series.len()),
+            Mark::Line(colour(0).to_rgba(), 1),
+        ));
     }
-    Ok(())
+    side_legend(&side, &lg)
 }
 
 fn draw_series_fig<DB: DrawingBackend>(
@@ -851,8 +898,9 @@ fn draw_nees<DB: DrawingBackend>(root: &Area<DB>, steps: &[Step]) -> Result<()> 
         .map(|r| r.1.max(r.3))
         .fold(8.0f64, f64::max)
         .min(rows.iter().map(|r| r.3).fold(8.0, f64::max) * 6.0);
+    let (plot, side) = split_legend(root);
     let mut chart = xy_chart(
-        root,
+        &plot,
         "NEES of the fused tracks per time step (4-dim state)",
         x,
         (0.0, ymax * 1.05),
@@ -867,36 +915,33 @@ fn draw_nees<DB: DrawingBackend>(root: &Area<DB>, steps: &[Step]) -> Result<()> 
     let band_style = RGBColor(44, 160, 44).mix(0.2);
     chart
         .draw_series(std::iter::once(Polygon::new(band, band_style)))
-        .map_err(plot_err)?
-        .label("95 % band of a consistent filter")
-        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], band_style.filled()));
+        .map_err(plot_err)?;
     let ideal = BLACK.mix(0.6).stroke_width(1);
     chart
         .draw_series(LineSeries::new([(x.0, 4.0), (x.1, 4.0)], ideal))
-        .map_err(plot_err)?
-        .label("ideal 4")
-        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], ideal));
+        .map_err(plot_err)?;
     let style = colour(0).stroke_width(2);
     chart
         .draw_series(LineSeries::new(
             rows.iter().map(|r| (r.0, r.1.min(ymax * 1.05))),
             style,
         ))
-        .map_err(plot_err)?
-        .label("mean NEES (clipped at the top)")
-        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font(("sans-serif", 13))
-        .background_style(WHITE.mix(0.8))
-        .border_style(RGBColor(180, 180, 180))
-        .draw()
-        .map_err(plot_err)
+        .map_err(plot_err)?;
+    side_legend(
+        &side,
+        &[
+            ("mean NEES".into(), Mark::Line(style.color, 2)),
+            ("  (clipped at the top)".into(), Mark::Blank),
+            ("ideal: 4".into(), Mark::Line(ideal.color, 1)),
+            ("95 % band of the".into(), Mark::Band(band_style)),
+            ("  mean if consistent".into(), Mark::Blank),
+        ],
+    )
 }
 
 fn draw_bias<DB: DrawingBackend>(root: &Area<DB>, d: &PlotData) -> Result<()> {
-    let (left, right) = root.split_horizontally(root.dim_in_pixel().0 / 2);
+    let (charts, side) = split_legend(root);
+    let (left, right) = charts.split_horizontally(charts.dim_in_pixel().0 / 2);
     let ids: Vec<Id> = d.bias.iter().map(|b| b.sensor_id).collect();
     let n = ids.len() as f64;
     for (area, title, unit, scale, est, tru) in [
@@ -931,7 +976,6 @@ fn draw_bias<DB: DrawingBackend>(root: &Area<DB>, d: &PlotData) -> Result<()> {
                 .flat_map(|p| [Some(p.1), p.2, Some(0.0)])
                 .flatten(),
         );
-        // room above the points for the legend
         let span = (y.1 - y.0).max(1e-3);
         let mut chart = ChartBuilder::on(area)
             .caption(title, ("sans-serif", 18))
@@ -966,27 +1010,21 @@ fn draw_bias<DB: DrawingBackend>(root: &Area<DB>, d: &PlotData) -> Result<()> {
         let est_style = colour(0).filled();
         chart
             .draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 6, est_style)))
-            .map_err(plot_err)?
-            .label("estimate (center)")
-            .legend(move |(x, y)| Circle::new((x + 10, y), 5, est_style));
+            .map_err(plot_err)?;
         let true_style = BLACK.stroke_width(3);
         chart
             .draw_series(pts.iter().filter_map(|p| {
                 p.2.map(|t| PathElement::new(vec![(p.0 - 0.3, t), (p.0 + 0.3, t)], true_style))
             }))
-            .map_err(plot_err)?
-            .label("true (sensors.csv)")
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], true_style));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font(("sans-serif", 12))
-            .background_style(WHITE.mix(0.8))
-            .border_style(RGBColor(180, 180, 180))
-            .draw()
             .map_err(plot_err)?;
     }
-    Ok(())
+    side_legend(
+        &side,
+        &[
+            ("estimate (center)".into(), Mark::Dot(colour(0).to_rgba())),
+            ("true (sensors.csv)".into(), Mark::Line(BLACK.to_rgba(), 3)),
+        ],
+    )
 }
 
 /// The fused RMSE per scan figure of a summary's `fused_rmse_per_scan` (none when empty).
