@@ -827,10 +827,16 @@ fn draw_lines<DB: DrawingBackend>(
     side_legend(&side, &lg)
 }
 
-fn draw_series_fig<DB: DrawingBackend>(
-    root: &Area<DB>,
-    a: &(&str, &str, &str, Vec<(String, Vec<(f64, f64)>)>, usize),
-) -> Result<()> {
+/// A line figure: title, x axis, y axis, named series, legend entries at most.
+type LineFig<'a> = (
+    &'a str,
+    &'a str,
+    &'a str,
+    Vec<(String, Vec<(f64, f64)>)>,
+    usize,
+);
+
+fn draw_series_fig<DB: DrawingBackend>(root: &Area<DB>, a: &LineFig<'_>) -> Result<()> {
     draw_lines(root, a.0, a.1, a.2, &a.3, a.4)
 }
 
