@@ -844,17 +844,11 @@ fn draw_gospa<DB: DrawingBackend>(root: &Area<DB>, a: &(&[Step], f64, f64)) -> R
     let (steps, c, p) = *a;
     let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 / 2);
     let dist = vec![(
-        format!("GOSPA (c={c} m, p={p}, alpha=2)"),
+        "GOSPA".to_string(),
         steps.iter().map(|s| (s.time, s.gospa.distance)).collect(),
     )];
-    draw_lines(
-        &top,
-        "GOSPA per time step",
-        "time (s)",
-        "GOSPA (m)",
-        &dist,
-        1,
-    )?;
+    let title = format!("GOSPA per time step (c = {c} m, p = {p}, alpha = 2)");
+    draw_lines(&top, &title, "time (s)", "GOSPA (m)", &dist, 1)?;
     let parts = vec![
         (
             "localisation".to_string(),
@@ -1049,7 +1043,7 @@ pub fn rmse_figure(per_scan: &[(u32, f64)], title: &str) -> Result<Option<Figure
                 .map(|&(s, v)| (s as f64, v))
                 .collect::<Vec<_>>(),
         )],
-        0usize,
+        1usize,
     );
     Ok(Some(figure!(
         "rmse_per_scan",
