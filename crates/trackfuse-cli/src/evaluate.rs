@@ -145,6 +145,10 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
         },
     )?;
     outs.finish();
-    eprintln!("wrote {}", path.display());
+    eprintln!(
+        "wrote {}, and report.html and report.md in {}",
+        path.display(),
+        args.out.display()
+    );
     Ok(())
 }

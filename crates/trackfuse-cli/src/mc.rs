@@ -125,7 +125,7 @@ pub fn run(args: &McArgs) -> Result<()> {
     );
     print!("{}", render_summary_with(&summary, &prov.spread));
     eprintln!(
-        "\n{:.2} s for {runs} runs; summary in {}",
+        "\n{:.2} s for {runs} runs; summary in {} (report.html and report.md beside it)",
         elapsed.as_secs_f64(),
         path.display()
     );
