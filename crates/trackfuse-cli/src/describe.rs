@@ -52,6 +52,11 @@ pub struct Methods {
     /// What `fusion.bias` resolved to with the run's sensors: an estimator's name, or
     /// why estimation is off.
     pub bias_resolved: String,
+    /// The white-acceleration standard deviations (m/s^2) the local filters use:
+    /// `tracker.process_noise`, else the scenario's `process_noise` when non-zero, else
+    /// the library's default (the local trackers' rule).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tracker_process_noise_resolved: Option<[f64; 2]>,
 }
 
 impl Methods {
@@ -65,7 +70,20 @@ impl Methods {
             tracker: tracker.clone(),
             fusion: fusion.clone(),
             bias_resolved,
+            tracker_process_noise_resolved: None,
         }
+    }
+
+    /// With the process noise the local filters use for a scenario whose own
+    /// `process_noise` is `scenario_q` (see the field).
+    pub fn with_scenario_process_noise(mut self, scenario_q: [f64; 2]) -> Methods {
+        self.tracker_process_noise_resolved = Some(
+            self.tracker
+                .process_noise
+                .or(Some(scenario_q).filter(|q| q.iter().any(|&v| v > 0.0)))
+                .unwrap_or([trackfuse::local::DEFAULT_PROCESS_NOISE; 2]),
+        );
+        self
     }
 }
 

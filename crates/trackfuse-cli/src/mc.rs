@@ -86,7 +86,10 @@ pub fn run(args: &McArgs) -> Result<()> {
         seed: Some(sc.scenario.seed),
         run_index: None,
         monte_carlo_runs: Some(runs as u64),
-        methods: Some(Methods::new(&tracker, &fusion, &sc.scenario.sensor_table())),
+        methods: Some(
+            Methods::new(&tracker, &fusion, &sc.scenario.sensor_table())
+                .with_scenario_process_noise(sc.scenario.process_noise),
+        ),
         evaluation: sc.evaluation.clone(),
         spread: spreads(&per_run),
     };

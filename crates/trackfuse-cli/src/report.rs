@@ -75,6 +75,12 @@ fn facts(r: &ReportInput<'_>) -> Vec<(String, String)> {
             format!("{} + {}", m.fusion.method, m.fusion.rule),
         ));
         v.push(("bias estimation".into(), m.bias_resolved.clone()));
+        if let Some([qx, qy]) = m.tracker_process_noise_resolved {
+            v.push((
+                "local process noise".into(),
+                format!("{qx}, {qy} m/s^2 (x, y)"),
+            ));
+        }
     }
     v.push((
         "evaluation".into(),

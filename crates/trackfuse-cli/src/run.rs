@@ -80,7 +80,10 @@ pub fn run(args: &RunArgs) -> Result<()> {
         seed: Some(sc.scenario.seed),
         run_index: Some(args.run),
         monte_carlo_runs: None,
-        methods: Some(Methods::new(&tracker, &fusion, &out.sim.sensors)),
+        methods: Some(
+            Methods::new(&tracker, &fusion, &out.sim.sensors)
+                .with_scenario_process_noise(sc.scenario.process_noise),
+        ),
         evaluation: sc.evaluation.clone(),
         spread: Vec::new(),
     };

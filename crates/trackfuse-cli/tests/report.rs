@@ -85,6 +85,11 @@ fn a_run_records_what_made_it_and_its_scenario_toml_reproduces_it() {
     assert_eq!(s["methods"]["fusion"]["method"], "fdbsc-ta");
     assert_eq!(s["methods"]["bias_resolved"], "track-pair-ls");
     assert!(s["methods"]["tracker"]["gate_probability"].is_number());
+    // 000-s2's [tracker] names none: the scenario's own (matched) process noise
+    assert_eq!(
+        s["methods"]["tracker_process_noise_resolved"],
+        serde_json::json!([0.2, 0.2])
+    );
     assert_eq!(s["evaluation"]["gospa_c"], 1000.0);
     // the scenario.toml written says what ran, and running it again gives the same metrics
     let toml = text(&a.join("scenario.toml"));
