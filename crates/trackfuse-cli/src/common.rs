@@ -1,5 +1,6 @@
 //! Helpers shared by the subcommands: scenario lookup, tables, summary printing.
 
+use crate::describe::Spread;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use trackfuse::config::BUILTIN_SCENARIOS;
@@ -120,87 +121,205 @@ fn opt(v: Option<f64>, digits: usize) -> String {
     v.map_or("-".to_string(), |v| format!("{v:.digits$}"))
 }
 
-/// The metric tables of a summary, as text.
-pub fn render_summary(s: &Summary) -> String {
-    let mut out = String::new();
-    out.push_str(&format!("runs: {}\n\n", s.runs));
+/// A titled table of a summary (what the text output prints and the report shows).
+pub struct MetricTable {
+    pub title: String,
+    pub header: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+}
+
+/// The metric tables of a summary: per-target fused RMSE, per-sensor local RMSE, and the
+/// scalar metrics, these with the Monte Carlo spread (`std`, `95% CI` of the per-run
+/// values, [`crate::describe::Spread`]) when `spread` is not empty.
+pub fn summary_tables(s: &Summary, spread: &[(&str, Spread)]) -> Vec<MetricTable> {
+    let mut out = Vec::new();
     if !s.fused_rmse_per_target.is_empty() {
-        out.push_str("Fused position RMSE per target (m)\n");
-        let rows: Vec<Vec<String>> = s
-            .fused_rmse_per_target
-            .iter()
-            .map(|t| vec![t.target_id.to_string(), f2(t.rmse), t.samples.to_string()])
-            .collect();
-        out.push_str(&table(&["target", "rmse_m", "samples"], &rows));
-        out.push('\n');
+        out.push(MetricTable {
+            title: "Fused position RMSE per target (m)".into(),
+            header: vec!["target".into(), "rmse_m".into(), "samples".into()],
+            rows: s
+                .fused_rmse_per_target
+                .iter()
+                .map(|t| vec![t.target_id.to_string(), f2(t.rmse), t.samples.to_string()])
+                .collect(),
+        });
     }
     if !s.local_rmse.is_empty() {
-        out.push_str("Local position RMSE per sensor and target (m)\n");
-        let rows: Vec<Vec<String>> = s
-            .local_rmse
-            .iter()
-            .map(|t| {
-                vec![
-                    t.sensor_id.to_string(),
-                    t.target_id.to_string(),
-                    f2(t.rmse),
-                    t.samples.to_string(),
-                ]
-            })
-            .collect();
-        out.push_str(&table(&["sensor", "target", "rmse_m", "samples"], &rows));
-        out.push('\n');
+        out.push(MetricTable {
+            title: "Local position RMSE per sensor and target (m)".into(),
+            header: vec![
+                "sensor".into(),
+                "target".into(),
+                "rmse_m".into(),
+                "samples".into(),
+            ],
+            rows: s
+                .local_rmse
+                .iter()
+                .map(|t| {
+                    vec![
+                        t.sensor_id.to_string(),
+                        t.target_id.to_string(),
+                        f2(t.rmse),
+                        t.samples.to_string(),
+                    ]
+                })
+                .collect(),
+        });
     }
     let g = &s.gospa;
-    let mut rows = vec![
-        vec!["fused position RMSE (m)".into(), opt(s.fused_rmse, 2)],
-        vec!["track coverage".into(), opt(s.track_coverage, 3)],
-        vec![
+    // (label, value, digits, spread key)
+    let mut rows: Vec<(String, String, usize, Option<&str>)> = vec![
+        (
+            "fused position RMSE (m)".into(),
+            opt(s.fused_rmse, 2),
+            2,
+            Some("fused_rmse"),
+        ),
+        (
+            "track coverage".into(),
+            opt(s.track_coverage, 3),
+            3,
+            Some("track_coverage"),
+        ),
+        (
             format!("GOSPA (c={}, p={}, alpha=2) (m)", g.c, g.p),
             f2(g.mean),
-        ],
-        vec!["  localisation part (m^p)".into(), f2(g.localisation)],
-        vec!["  missed part (m^p)".into(), f2(g.missed)],
-        vec!["  false part (m^p)".into(), f2(g.false_)],
-        vec![
+            2,
+            Some("gospa.mean"),
+        ),
+        (
+            "  localisation part (m^p)".into(),
+            f2(g.localisation),
+            2,
+            Some("gospa.localisation"),
+        ),
+        (
+            "  missed part (m^p)".into(),
+            f2(g.missed),
+            2,
+            Some("gospa.missed"),
+        ),
+        (
+            "  false part (m^p)".into(),
+            f2(g.false_),
+            2,
+            Some("gospa.false"),
+        ),
+        (
             "  missed targets per scan".into(),
             format!("{:.3}", g.mean_missed_targets),
-        ],
-        vec![
+            3,
+            Some("gospa.mean_missed_targets"),
+        ),
+        (
             "  false tracks per scan".into(),
             format!("{:.3}", g.mean_false_tracks),
-        ],
-        vec!["OSPA (m)".into(), opt(s.ospa, 2)],
-        vec!["NEES fused (4-dim, ideal 4)".into(), opt(s.nees_fused, 2)],
-        vec!["NEES local (4-dim, ideal 4)".into(), opt(s.nees_local, 2)],
-        vec![
+            3,
+            Some("gospa.mean_false_tracks"),
+        ),
+        ("OSPA (m)".into(), opt(s.ospa, 2), 2, Some("ospa")),
+        (
+            "NEES fused (4-dim, ideal 4)".into(),
+            opt(s.nees_fused, 2),
+            2,
+            Some("nees_fused"),
+        ),
+        (
+            "NEES local (4-dim, ideal 4)".into(),
+            opt(s.nees_local, 2),
+            2,
+            Some("nees_local"),
+        ),
+        (
             "NEES fused skipped (singular P)".into(),
             s.nees_fused_skipped.to_string(),
-        ],
-        vec![
+            0,
+            None,
+        ),
+        (
             "NEES local skipped (singular P)".into(),
             s.nees_local_skipped.to_string(),
-        ],
-        vec![
+            0,
+            None,
+        ),
+        (
             "P_c (000 eq. 19)".into(),
             opt(s.probability_correct_association, 4),
-        ],
+            4,
+            Some("probability_correct_association"),
+        ),
     ];
     if let Some(r) = &s.association_rates {
-        rows.push(vec![
+        rows.push((
             "correct association rate".into(),
             format!("{:.4}", r.correct),
-        ]);
-        rows.push(vec![
+            4,
+            Some("association_rates.correct"),
+        ));
+        rows.push((
             "false association rate".into(),
             format!("{:.4}", r.false_),
-        ]);
-        rows.push(vec![
+            4,
+            Some("association_rates.false"),
+        ));
+        rows.push((
             "missed association rate".into(),
             format!("{:.4}", r.missed),
-        ]);
+            4,
+            Some("association_rates.missed"),
+        ));
     }
-    out.push_str(&table(&["metric", "value"], &rows));
+    let with_spread = !spread.is_empty();
+    let mut header = vec!["metric".to_string(), "value".to_string()];
+    if with_spread {
+        header.push("std over runs".into());
+        header.push("95% CI of the run mean".into());
+    }
+    let rows = rows
+        .into_iter()
+        .map(|(label, value, digits, key)| {
+            let mut r = vec![label, value];
+            if with_spread {
+                let sp = key.and_then(|k| spread.iter().find(|(n, _)| *n == k).map(|x| &x.1));
+                r.push(opt(sp.and_then(|x| x.std), digits));
+                r.push(sp.and_then(|x| x.ci95).map_or("-".to_string(), |[lo, hi]| {
+                    format!("[{lo:.digits$}, {hi:.digits$}]")
+                }));
+            }
+            r
+        })
+        .collect();
+    out.push(MetricTable {
+        title: String::new(),
+        header,
+        rows,
+    });
+    out
+}
+
+/// The metric tables of a summary, as text.
+pub fn render_summary(s: &Summary) -> String {
+    render_summary_with(s, &[])
+}
+
+/// [`render_summary`] with the Monte Carlo spread columns ([`summary_tables`]).
+pub fn render_summary_with(s: &Summary, spread: &[(&str, Spread)]) -> String {
+    let mut out = String::new();
+    out.push_str(&format!("runs: {}\n\n", s.runs));
+    let tables = summary_tables(s, spread);
+    let last = tables.len().saturating_sub(1);
+    for (i, t) in tables.iter().enumerate() {
+        if !t.title.is_empty() {
+            out.push_str(&t.title);
+            out.push('\n');
+        }
+        let header: Vec<&str> = t.header.iter().map(|h| h.as_str()).collect();
+        out.push_str(&table(&header, &t.rows));
+        if i != last {
+            out.push('\n');
+        }
+    }
     out
 }
 

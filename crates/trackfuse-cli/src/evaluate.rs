@@ -1,7 +1,10 @@
 //! `trackfuse evaluate`: metrics of fused (and local) tracks against the truth.
 
 use crate::common::render_summary;
+use crate::describe::{command_line, summary_json, Provenance};
 use crate::output::{Outputs, SUMMARY_OUTPUTS};
+use crate::plot::{figures, PlotData};
+use crate::report::{write_reports_in, ReportInput};
 use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
@@ -39,8 +42,8 @@ pub struct EvaluateArgs {
     /// comes back is not). The summary states the gap used (truth_interpolation_max_gap).
     #[arg(long, value_name = "SECONDS")]
     pub truth_gap: Option<f64>,
-    /// Output directory: summary.json is written there (never next to the inputs unless
-    /// this says so).
+    /// Output directory: summary.json, report.html and report.md are written there (never
+    /// next to the inputs unless this says so; with --summary FILE only the reports).
     #[arg(long, default_value = "out/evaluate")]
     pub out: PathBuf,
     /// Write the summary to this file instead of OUT/summary.json (it must not be one of
@@ -66,7 +69,12 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
                 .parent()
                 .filter(|d| !d.as_os_str().is_empty())
                 .unwrap_or(std::path::Path::new("."));
-            Outputs::with_files(dir, vec![file.clone()], &inputs)?
+            let set = vec![
+                file.clone(),
+                args.out.join("report.html"),
+                args.out.join("report.md"),
+            ];
+            Outputs::with_files(dir, set, &inputs)?
         }
         None => Outputs::new(&args.out, SUMMARY_OUTPUTS, &inputs)?,
     };
@@ -96,18 +104,51 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
         args.truth_gap,
     );
     let s = m.summary(&cfg);
+    let prov = Provenance {
+        command: "evaluate",
+        command_line: command_line(),
+        scenario: None,
+        seed: None,
+        run_index: None,
+        monte_carlo_runs: None,
+        methods: None,
+        evaluation: cfg.clone(),
+        spread: Vec::new(),
+    };
     print!("{}", render_summary(&s));
     if let Some(g) = s.truth_interpolation_max_gap {
         println!(
             "fused rows paired with the truth by time, interpolated over truth gaps up to {g} s"
         );
     }
-    let json = serde_json::to_string_pretty(&s)? + "\n";
+    let json = summary_json(&s, &prov)?;
     let path = match &args.summary {
         Some(file) => outs.write_file(file, json.as_bytes())?,
         None => outs.write("summary.json", json.as_bytes())?,
     };
+    let data = PlotData {
+        rmse_per_scan: s.fused_rmse_per_scan.clone(),
+        truth,
+        local: local.unwrap_or_default(),
+        fused,
+        evaluation: cfg,
+        ..Default::default()
+    };
+    write_reports_in(
+        &mut outs,
+        &args.out,
+        &ReportInput {
+            summary: &s,
+            provenance: &prov,
+            scenario_text: None,
+            figures: figures(&data)?,
+        },
+    )?;
     outs.finish();
-    eprintln!("wrote {}", path.display());
+    eprintln!(
+        "wrote {}, and report.html and report.md in {}",
+        path.display(),
+        args.out.display()
+    );
     Ok(())
 }

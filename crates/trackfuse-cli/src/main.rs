@@ -4,11 +4,13 @@ mod bench;
 mod bench_real;
 mod common;
 mod config;
+mod describe;
 mod evaluate;
 mod fuse;
 mod mc;
 mod output;
 mod plot;
+mod report;
 mod reproduce;
 mod run;
 mod simulate;
@@ -47,7 +49,8 @@ enum Command {
     /// Evaluate fused (and local) tracks against the truth; writes summary.json.
     #[command(allow_negative_numbers = true)]
     Evaluate(evaluate::EvaluateArgs),
-    /// SVG plots of a run directory: trajectories and RMSE per scan.
+    /// PNG and SVG plots of any folder of FORMATS.md files (a run directory, another
+    /// tool's output): maps, errors, GOSPA, NEES, bias estimates.
     Plot(plot::PlotArgs),
     /// Monte Carlo: N seeded runs of the whole chain, aggregated.
     #[command(allow_negative_numbers = true)]

@@ -2,9 +2,14 @@
 //! master seed, in parallel, aggregated. The result is byte-identical whatever
 //! `--threads` is.
 
-use crate::common::{load_scenario, render_summary, scenario_input};
+use crate::common::{load_scenario, render_summary_with, scenario_input, with_seed};
 use crate::config::{FusionFlags, TrackerFlags};
-use crate::output::{Outputs, SUMMARY_OUTPUTS};
+use crate::describe::{
+    command_line, effective_scenario_text, spreads, summary_json, Methods, Provenance,
+};
+use crate::output::{Outputs, MC_OUTPUTS};
+use crate::plot::rmse_figure;
+use crate::report::{write_reports, ReportInput};
 use anyhow::{bail, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -27,7 +32,7 @@ pub struct McArgs {
     pub tracker: TrackerFlags,
     #[command(flatten)]
     pub fusion: FusionFlags,
-    /// Output directory (summary.json).
+    /// Output directory (summary.json, report.html, report.md).
     #[arg(long, default_value = "out/mc")]
     pub out: PathBuf,
     /// No progress bar.
@@ -36,9 +41,10 @@ pub struct McArgs {
 }
 
 pub fn run(args: &McArgs) -> Result<()> {
-    let (mut sc, _) = load_scenario(args.scenario.as_deref())?;
+    let (mut sc, mut text) = load_scenario(args.scenario.as_deref())?;
     if let Some(seed) = args.seed {
         sc.scenario.seed = seed;
+        text = with_seed(&text, seed);
     }
     let runs = args.runs.unwrap_or(sc.monte_carlo.runs);
     if runs == 0 {
@@ -47,7 +53,7 @@ pub fn run(args: &McArgs) -> Result<()> {
     let input = scenario_input(args.scenario.as_deref());
     let inputs: Vec<&std::path::Path> = input.iter().map(|p| p.as_path()).collect();
     // checked before the runs, so a refused output costs nothing
-    let mut outs = Outputs::new(&args.out, SUMMARY_OUTPUTS, &inputs)?;
+    let mut outs = Outputs::new(&args.out, MC_OUTPUTS, &inputs)?;
     let tracker = args.tracker.apply(&sc.tracker)?;
     let fusion = args.fusion.apply(&sc.fusion)?;
     let bar = if args.quiet {
@@ -72,9 +78,37 @@ pub fn run(args: &McArgs) -> Result<()> {
         m.merge(r);
     }
     let summary = m.summary(&sc.evaluation);
-    let path = outs.write(
-        "summary.json",
-        (serde_json::to_string_pretty(&summary)? + "\n").as_bytes(),
+    let per_run: Vec<_> = results.iter().map(|r| r.summary(&sc.evaluation)).collect();
+    let prov = Provenance {
+        command: "mc",
+        command_line: command_line(),
+        scenario: Some(sc.scenario.name.clone()),
+        seed: Some(sc.scenario.seed),
+        run_index: None,
+        monte_carlo_runs: Some(runs as u64),
+        methods: Some(
+            Methods::new(&tracker, &fusion, &sc.scenario.sensor_table())
+                .with_scenario_process_noise(sc.scenario.process_noise),
+        ),
+        evaluation: sc.evaluation.clone(),
+        spread: spreads(&per_run),
+    };
+    let path = outs.write("summary.json", summary_json(&summary, &prov)?.as_bytes())?;
+    let scenario_text = effective_scenario_text(&text, &sc.tracker, &sc.fusion, &tracker, &fusion)?;
+    let figs = rmse_figure(
+        &summary.fused_rmse_per_scan,
+        "Fused position RMSE per scan over the runs",
+    )?
+    .into_iter()
+    .collect();
+    write_reports(
+        &mut outs,
+        &ReportInput {
+            summary: &summary,
+            provenance: &prov,
+            scenario_text: Some(&scenario_text),
+            figures: figs,
+        },
     )?;
     outs.finish();
     println!(
@@ -92,9 +126,9 @@ pub fn run(args: &McArgs) -> Result<()> {
         fusion.rule,
         crate::run::bias_label(&fusion, &sc.scenario.sensor_table())
     );
-    print!("{}", render_summary(&summary));
+    print!("{}", render_summary_with(&summary, &prov.spread));
     eprintln!(
-        "\n{:.2} s for {runs} runs; summary in {}",
+        "\n{:.2} s for {runs} runs; summary in {} (report.html and report.md beside it)",
         elapsed.as_secs_f64(),
         path.display()
     );

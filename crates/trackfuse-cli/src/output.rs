@@ -44,11 +44,13 @@ pub const RUN_OUTPUTS: &[&str] = &[
     "associations.csv",
     "bias_estimates.csv",
     "summary.json",
+    "report.html",
+    "report.md",
 ];
-/// `trackfuse mc`'s and `trackfuse evaluate`'s output.
-pub const SUMMARY_OUTPUTS: &[&str] = &["summary.json"];
-/// `trackfuse plot`'s outputs (`rmse_per_scan.svg` when the run has a summary.json).
-pub const PLOT_OUTPUTS: &[&str] = &["trajectories.svg", "rmse_per_scan.svg"];
+/// `trackfuse mc`'s and `trackfuse evaluate`'s outputs.
+pub const MC_OUTPUTS: &[&str] = &["summary.json", "report.html", "report.md"];
+/// `trackfuse evaluate`'s outputs (as `mc`'s).
+pub const SUMMARY_OUTPUTS: &[&str] = MC_OUTPUTS;
 
 /// A command's output folder: its output set, its inputs, and what this run wrote.
 pub struct Outputs {

@@ -4,8 +4,11 @@
 
 use crate::common::{load_scenario, render_summary, scenario_input, with_seed};
 use crate::config::{FusionFlags, TrackerFlags};
+use crate::describe::{command_line, effective_scenario_text, summary_json, Methods, Provenance};
 use crate::fuse::write_fused;
 use crate::output::{Outputs, RUN_OUTPUTS};
+use crate::plot::{figures, PlotData};
+use crate::report::{write_reports, ReportInput};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -43,6 +46,8 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let inputs: Vec<&std::path::Path> = input.iter().map(|p| p.as_path()).collect();
     // checked before the run, so a refused output costs nothing
     let mut outs = Outputs::new(&args.out, RUN_OUTPUTS, &inputs)?;
+    // the scenario as run: the command line's overrides written in
+    let text = effective_scenario_text(&text, &sc.tracker, &sc.fusion, &tracker, &fusion)?;
     let out = run_with(&sc, &tracker, &fusion, args.run)?;
     let ctx = |p: &Path| format!("writing {}", p.display());
     outs.write("scenario.toml", text.as_bytes())?;
@@ -68,9 +73,39 @@ pub fn run(args: &RunArgs) -> Result<()> {
     lw.finish().with_context(|| ctx(&p))?;
     write_fused(&mut outs, &out.fused)?;
     let summary = out.metrics.summary(&sc.evaluation);
-    outs.write(
-        "summary.json",
-        (serde_json::to_string_pretty(&summary)? + "\n").as_bytes(),
+    let prov = Provenance {
+        command: "run",
+        command_line: command_line(),
+        scenario: Some(sc.scenario.name.clone()),
+        seed: Some(sc.scenario.seed),
+        run_index: Some(args.run),
+        monte_carlo_runs: None,
+        methods: Some(
+            Methods::new(&tracker, &fusion, &out.sim.sensors)
+                .with_scenario_process_noise(sc.scenario.process_noise),
+        ),
+        evaluation: sc.evaluation.clone(),
+        spread: Vec::new(),
+    };
+    outs.write("summary.json", summary_json(&summary, &prov)?.as_bytes())?;
+    let data = PlotData {
+        truth: out.sim.truth.clone(),
+        sensors: out.sim.sensors.clone(),
+        local: out.local.clone(),
+        fused: out.fused.fused.clone(),
+        bias: out.fused.bias.clone(),
+        rmse_per_scan: summary.fused_rmse_per_scan.clone(),
+        evaluation: sc.evaluation.clone(),
+        ellipses: false,
+    };
+    write_reports(
+        &mut outs,
+        &ReportInput {
+            summary: &summary,
+            provenance: &prov,
+            scenario_text: Some(&text),
+            figures: figures(&data)?,
+        },
     )?;
     let dir = outs.dir().to_path_buf();
     outs.finish();

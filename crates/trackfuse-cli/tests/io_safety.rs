@@ -324,10 +324,11 @@ fn plot_writes_where_asked_not_into_the_run_directory() {
         .assert()
         .success();
     assert_eq!(files_in(&run), before);
+    // a simulation has sensors and truth: the scenario map only
     assert_eq!(
         files_in(&cwd.path().join("out/plot")),
-        vec!["trajectories.svg"]
+        vec!["scenario_map.png", "scenario_map.svg"]
     );
-    let svg = std::fs::read_to_string(cwd.path().join("out/plot/trajectories.svg")).expect("svg");
+    let svg = std::fs::read_to_string(cwd.path().join("out/plot/scenario_map.svg")).expect("svg");
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
 }

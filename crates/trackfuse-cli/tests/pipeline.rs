@@ -106,9 +106,30 @@ fn mc_is_identical_whatever_the_thread_count() {
             .assert()
             .success();
     }
-    let a = text(&dir.path().join("1/summary.json"));
-    assert_eq!(a, text(&dir.path().join("2/summary.json")));
-    assert!(a.contains("\"runs\": 6"), "{a}");
+    // identical but for the recorded command line (which names --threads and --out)
+    let json = |t: &str| -> serde_json::Value {
+        let mut v: serde_json::Value =
+            serde_json::from_str(&text(&dir.path().join(t).join("summary.json"))).expect("json");
+        let cl = v
+            .as_object_mut()
+            .expect("object")
+            .remove("command_line")
+            .expect("command_line recorded");
+        assert_eq!(cl[1], "--threads");
+        assert_eq!(cl[2], t);
+        v
+    };
+    let a = json("1");
+    assert_eq!(a, json("2"));
+    assert_eq!(a["runs"], 6);
+    let md = |t: &str| -> String {
+        text(&dir.path().join(t).join("report.md"))
+            .lines()
+            .filter(|l| !l.starts_with("- command line:"))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    assert_eq!(md("1"), md("2"));
 }
 
 #[test]
