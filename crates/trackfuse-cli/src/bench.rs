@@ -193,7 +193,11 @@ fn print_io(what: &str, bytes: u64, rows: usize, secs: f64) {
     );
 }
 
-fn bench_io(data: &std::path::Path, local_tracks: Option<&std::path::Path>, repeat: u32) -> Result<()> {
+fn bench_io(
+    data: &std::path::Path,
+    local_tracks: Option<&std::path::Path>,
+    repeat: u32,
+) -> Result<()> {
     use trackfuse::io::{
         read_sensors, LocalTrackStream, LocalTrackWriter, MeasurementStream, MeasurementWriter,
     };

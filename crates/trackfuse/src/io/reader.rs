@@ -90,6 +90,8 @@ impl<R: Read> Table<R> {
             // (`Row::cell`), the same ASCII trim without the csv crate's copy of every
             // record
             .trim(csv::Trim::Headers)
+            // 256 KiB reads instead of the default 8 KiB: a 20th of the read calls
+            .buffer_capacity(1 << 18)
             .from_reader(LineCounter::new(input));
         let header = match reader.byte_headers() {
             Ok(h) => h.clone(),
