@@ -204,21 +204,6 @@ pub fn render_summary(s: &Summary) -> String {
     out
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn seed_replaced_or_added() {
-        let t = "name = \"x\"\nseed = 3\n[[sensors]]\nseed_x = 1\n";
-        assert_eq!(
-            with_seed(t, 9),
-            "name = \"x\"\nseed = 9\n[[sensors]]\nseed_x = 1\n"
-        );
-        assert!(with_seed("dt = 1.0\n", 5).starts_with("seed = 5\n"));
-    }
-}
-
 /// One scan as a reader thread hands it over: the scan index, its rows and each row's
 /// file line.
 type Batch<T> = (u32, Vec<T>, Vec<u64>);
@@ -277,4 +262,19 @@ where
         drop(rx);
         result
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seed_replaced_or_added() {
+        let t = "name = \"x\"\nseed = 3\n[[sensors]]\nseed_x = 1\n";
+        assert_eq!(
+            with_seed(t, 9),
+            "name = \"x\"\nseed = 9\n[[sensors]]\nseed_x = 1\n"
+        );
+        assert!(with_seed("dt = 1.0\n", 5).starts_with("seed = 5\n"));
+    }
 }

@@ -251,7 +251,8 @@ impl CovarianceIntersection {
         let (hg, h1) = (chol.solve(&g), chol.solve(&ones));
         let lambda = -ones.dot(&hg) / ones.dot(&h1);
         let d = -(hg + h1 * lambda);
-        if !(g.dot(&d) < 0.0) {
+        let slope = g.dot(&d);
+        if slope.is_nan() || slope >= 0.0 {
             return false;
         }
         // the longest step that keeps every weight >= 0
@@ -280,7 +281,7 @@ impl CovarianceIntersection {
         let Some(t) = self.exact_on_segment(&base, &dir, len) else {
             return false;
         };
-        if !(t > 0.0) {
+        if t.is_nan() || t <= 0.0 {
             return false;
         }
         for (a, &k) in free.iter().enumerate() {
@@ -713,8 +714,6 @@ mod tests {
             golden_only: true,
             ..Default::default()
         };
-        let mut old_gap = [0.0f64; 2];
-        let mut ref_gap = 0.0f64;
         for n in [2usize, 3] {
             for _ in 0..2000 {
                 let infos: Vec<StateCov> = (0..n)
@@ -740,7 +739,6 @@ mod tests {
                     .zip(&wg)
                     .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
                 assert!(gap <= 1e-5, "{we:?} vs {wg:?}");
-                old_gap[n - 2] = old_gap[n - 2].max(gap);
                 if n == 2 {
                     let t = reference_pair_weight(&infos[0], &infos[1]);
                     // 1e-9, or what double precision resolves: both computations of the
@@ -759,9 +757,6 @@ mod tests {
                         "{} vs the optimum {t} (condition {cond:e})",
                         we[0]
                     );
-                    if cond <= 1e4 {
-                        ref_gap = ref_gap.max((we[0] - t).abs());
-                    }
                 } else {
                     let p = symmetrize(&combined(&we)).cholesky().unwrap().inverse();
                     let g: Vec<f64> = infos.iter().map(|y| -(p * y).trace()).collect();
@@ -779,10 +774,5 @@ mod tests {
                 }
             }
         }
-        eprintln!(
-            "largest weight difference to the golden-section search: pairs {:e}, triples \
-             {:e}; pairs of condition number up to 1e4 to the exact optimum {:e}",
-            old_gap[0], old_gap[1], ref_gap
-        );
     }
 }
