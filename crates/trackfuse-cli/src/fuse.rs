@@ -6,7 +6,9 @@
 //! instants (`--period`, default the shortest of the sensors' median report intervals,
 //! learned in one pass over the file first; `trackfuse::center::instants`), each
 //! instant's fused tracks and associations written before the next batch is read, so
-//! memory does not grow with the number of scans. Synchronous sensors are fused batch
+//! memory does not grow with the number of scans (with more than one thread the next
+//! batch is read on a second thread while the current one is fused:
+//! `common::for_each_scan`, the same bytes at any thread count). Synchronous sensors are fused batch
 //! by batch exactly as scan by scan. `--two-pass` streams
 //! twice: pass 1 estimates the biases, pass 2 reads the files again and fuses every scan
 //! corrected with pass 1's final estimates. Errors found while

@@ -4,8 +4,10 @@
 //!
 //! It streams: measurements are read one scan at a time, tracked, and that scan's local
 //! tracks written before the next scan is read, so memory does not grow with the number
-//! of scans. On an error (a bad row late in the file) the partial local_tracks.csv is
-//! removed.
+//! of scans. With more than one thread (`--threads`, default all cores) the next scan is
+//! read on a second thread while the current one is tracked (`common::for_each_scan`):
+//! the same bytes and the same errors at any thread count. On an error (a bad row late
+//! in the file) the partial local_tracks.csv is removed.
 
 use crate::common::{for_each_scan, load_scenario, scenario_input};
 use crate::config::TrackerFlags;
