@@ -84,6 +84,21 @@ pub enum BenchWhat {
         #[arg(long, default_value_t = 5)]
         repeat: u32,
     },
+    /// CSV throughput: read DATA/measurements.csv (with DATA/sensors.csv) and
+    /// LOCAL_TRACKS with the validating streams, then write the rows read with the
+    /// writers into a sink that counts the bytes; MB/s of this thread's CPU time (best of
+    /// --repeat).
+    Io {
+        /// Directory holding sensors.csv and measurements.csv.
+        #[arg(long, default_value = "out/sim")]
+        data: PathBuf,
+        /// local_tracks.csv (default: none).
+        #[arg(long)]
+        local_tracks: Option<PathBuf>,
+        /// Repetitions (the best is reported).
+        #[arg(long, default_value_t = 3)]
+        repeat: u32,
+    },
 }
 
 /// Peak resident set size of this process (kB), from /proc on Linux.
@@ -138,6 +153,114 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         } => bench_fuse(fusion, *targets, *sensors, *scans, sweep)?,
         BenchWhat::Real(a) => crate::bench_real::run(a)?,
         BenchWhat::Bias { scenario, repeat } => bench_bias(scenario, *repeat)?,
+        BenchWhat::Io {
+            data,
+            local_tracks,
+            repeat,
+        } => bench_io(data, local_tracks.as_deref(), *repeat)?,
+    }
+    Ok(())
+}
+
+/// A sink that counts the bytes written and keeps none (the writers' formatting cost
+/// without the disk's).
+#[derive(Default)]
+struct CountingSink(u64);
+
+impl std::io::Write for CountingSink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0 += buf.len() as u64;
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl trackfuse::io::Sink for CountingSink {
+    type Done = u64;
+    fn done(self) -> std::io::Result<u64> {
+        Ok(self.0)
+    }
+}
+
+/// The best of `repeat` runs of `f` in this thread's CPU seconds, and `f`'s last value.
+fn best_cpu<T>(repeat: u32, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)> {
+    let mut best = f64::INFINITY;
+    let mut last = None;
+    for _ in 0..repeat.max(1) {
+        let t0 = cpu_time::ThreadTime::now();
+        let v = f()?;
+        best = best.min(t0.elapsed().as_secs_f64());
+        last = Some(v);
+    }
+    let v = last.ok_or_else(|| anyhow::anyhow!("no run"))?;
+    Ok((best, v))
+}
+
+fn print_io(what: &str, bytes: u64, rows: usize, secs: f64) {
+    println!(
+        "{what:<28} {:>8.1} MB  {rows:>9} rows  {:>7.3} s  {:>7.0} MB/s  {:>6.2} M rows/s",
+        bytes as f64 / 1e6,
+        secs,
+        bytes as f64 / 1e6 / secs,
+        rows as f64 / 1e6 / secs
+    );
+}
+
+fn bench_io(
+    data: &std::path::Path,
+    local_tracks: Option<&std::path::Path>,
+    repeat: u32,
+) -> Result<()> {
+    use trackfuse::io::{
+        read_sensors, LocalTrackStream, LocalTrackWriter, MeasurementStream, MeasurementWriter,
+    };
+    let sensors = read_sensors(&data.join("sensors.csv"))?;
+    let meas_path = data.join("measurements.csv");
+    let bytes = std::fs::metadata(&meas_path)?.len();
+    // reading: scan by scan into one reused buffer, as `track` reads
+    let (secs, n) = best_cpu(repeat, || {
+        let mut s = MeasurementStream::open(&meas_path, Some(&sensors))?;
+        let mut buf = Vec::new();
+        let mut n = 0;
+        while s.next_scan(&mut buf)?.is_some() {
+            n += buf.len();
+        }
+        Ok(n)
+    })?;
+    print_io("read measurements.csv", bytes, n, secs);
+    let rows = MeasurementStream::open(&meas_path, Some(&sensors))?.collect_rows()?;
+    let (secs, written) = best_cpu(repeat, || {
+        let mut w = MeasurementWriter::new(CountingSink::default(), &sensors)?;
+        for m in &rows {
+            w.write(m)?;
+        }
+        Ok(w.finish()?)
+    })?;
+    print_io("write measurements.csv", written, rows.len(), secs);
+    drop(rows);
+    if let Some(path) = local_tracks {
+        let bytes = std::fs::metadata(path)?.len();
+        let (secs, n) = best_cpu(repeat, || {
+            let mut s = LocalTrackStream::open(path)?;
+            let mut buf = Vec::new();
+            let mut n = 0;
+            while s.next_scan(&mut buf)?.is_some() {
+                n += buf.len();
+            }
+            Ok(n)
+        })?;
+        print_io("read local_tracks.csv", bytes, n, secs);
+        let rows = LocalTrackStream::open(path)?.collect_rows()?;
+        let (secs, written) = best_cpu(repeat, || {
+            let mut w = LocalTrackWriter::new(CountingSink::default())?;
+            for t in &rows {
+                w.write(t)?;
+            }
+            Ok(w.finish()?)
+        })?;
+        print_io("write local_tracks.csv", written, rows.len(), secs);
     }
     Ok(())
 }

@@ -6,7 +6,9 @@
 //! instants (`--period`, default the shortest of the sensors' median report intervals,
 //! learned in one pass over the file first; `trackfuse::center::instants`), each
 //! instant's fused tracks and associations written before the next batch is read, so
-//! memory does not grow with the number of scans. Synchronous sensors are fused batch
+//! memory does not grow with the number of scans (with more than one thread the next
+//! batch is read on a second thread while the current one is fused:
+//! `common::for_each_scan`, the same bytes at any thread count). Synchronous sensors are fused batch
 //! by batch exactly as scan by scan. `--two-pass` streams
 //! twice: pass 1 estimates the biases, pass 2 reads the files again and fuses every scan
 //! corrected with pass 1's final estimates. Errors found while
@@ -14,7 +16,7 @@
 //! sensors.csv, a center error about one local track) or of the scan's first row. On an
 //! error the partial outputs are removed.
 
-use crate::common::{load_scenario, scenario_input};
+use crate::common::{for_each_scan, load_scenario, scenario_input};
 use crate::config::FusionFlags;
 use crate::output::{Outputs, FUSE_OUTPUTS};
 use anyhow::{Context, Result};
@@ -109,7 +111,7 @@ fn write_bias(outs: &mut Outputs, bias: &[BiasEstimate]) -> Result<()> {
 fn check_sensors_cover(
     scan_rows: &[LocalTrack],
     lines: &[u64],
-    local: &LocalTrackStream,
+    (local_path, column): (&Path, usize),
     known: &BTreeSet<Id>,
     sensors_path: &Path,
 ) -> Result<()> {
@@ -130,8 +132,7 @@ fn check_sensors_cover(
                 .collect::<Vec<_>>()
                 .join(", ")
         );
-        let column = local.column("sensor_id").unwrap_or(0);
-        return Err(InputError::cell(local.path(), line, column, "sensor_id", reason).into());
+        return Err(InputError::cell(local_path, line, column, "sensor_id", reason).into());
     }
     Ok(())
 }
@@ -417,20 +418,36 @@ impl<'a> StreamFusion<'a> {
         mut write: impl FnMut(&ScanOutput) -> Result<()>,
     ) -> Result<FuseStats> {
         let mut stats = FuseStats::default();
-        let mut rows = Vec::new();
         let mut out = ScanOutput::default();
         let mut batcher = InstantBatcher::new(self.schedule.0, &self.schedule.1);
         // the file line and the truth label of each local track's latest report
         let mut lines_of: HashMap<(Id, Id), u64> = HashMap::new();
         let mut labels_of: HashMap<(Id, Id), Id> = HashMap::new();
         let path = self.local.path().to_path_buf();
-        while let Some(scan) = self.local.next_scan(&mut rows)? {
-            if let Some((known, path)) = &self.sensors {
-                check_sensors_cover(&rows, self.local.lines(), &self.local, known, path)?;
+        let sid_column = self.local.column("sensor_id").unwrap_or(0);
+        let StreamFusion {
+            local,
+            truth: truth_cursor,
+            labels: scan_labels,
+            label_gate,
+            sensors,
+            ..
+        } = self;
+        // reading on a second thread when more than one is asked for (`--threads`)
+        let prefetch = rayon::current_num_threads() > 1;
+        let next = |rows: &mut Vec<LocalTrack>, lines: &mut Vec<u64>| {
+            let scan = local.next_scan(rows)?;
+            lines.clear();
+            lines.extend_from_slice(local.lines());
+            Ok::<_, InputError>(scan)
+        };
+        for_each_scan(prefetch, next, |scan, rows, read_lines| {
+            if let Some((known, sensors_path)) = &sensors {
+                check_sensors_cover(rows, read_lines, (&path, sid_column), known, sensors_path)?;
             }
-            if let Some(truth) = self.truth.as_mut() {
-                let labels = label_local_tracks(truth.rows_of(scan)?, &rows, self.label_gate);
-                for r in &rows {
+            if let Some(truth) = truth_cursor.as_mut() {
+                let labels = label_local_tracks(truth.rows_of(scan)?, rows, *label_gate);
+                for r in rows.iter() {
                     let key = (r.sensor_id, r.track_id);
                     match labels.get(&(scan, key.0, key.1)) {
                         Some(&l) => labels_of.insert(key, l),
@@ -439,9 +456,9 @@ impl<'a> StreamFusion<'a> {
                 }
             }
             if let Some(c) = corrector {
-                c.correct_with_bias(&mut rows);
+                c.correct_with_bias(rows);
             }
-            for (r, &l) in rows.iter().zip(self.local.lines()) {
+            for (r, &l) in rows.iter().zip(read_lines) {
                 lines_of.insert((r.sensor_id, r.track_id), l);
             }
             stats.local_rows += rows.len();
@@ -449,9 +466,8 @@ impl<'a> StreamFusion<'a> {
                 .iter()
                 .map(|r| r.time)
                 .fold(f64::NEG_INFINITY, f64::max);
-            let has_truth = self.truth.is_some();
-            let scan_labels = self.labels;
-            batcher.push(scan, time, &rows, |s, t, tracks| {
+            let has_truth = truth_cursor.is_some();
+            batcher.push(scan, time, rows, |s, t, tracks| {
                 if has_truth {
                     let map = tracks
                         .iter()
@@ -471,8 +487,9 @@ impl<'a> StreamFusion<'a> {
                 stats.ids.extend(out.fused.iter().map(|f| f.fused_id));
                 write(&out)
             })?;
-        }
-        if let Some(truth) = self.truth.as_mut() {
+            Ok(())
+        })?;
+        if let Some(truth) = truth_cursor.as_mut() {
             truth.finish()?;
         }
         Ok(stats)

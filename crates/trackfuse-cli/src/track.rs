@@ -4,10 +4,12 @@
 //!
 //! It streams: measurements are read one scan at a time, tracked, and that scan's local
 //! tracks written before the next scan is read, so memory does not grow with the number
-//! of scans. On an error (a bad row late in the file) the partial local_tracks.csv is
-//! removed.
+//! of scans. With more than one thread (`--threads`, default all cores) the next scan is
+//! read on a second thread while the current one is tracked (`common::for_each_scan`):
+//! the same bytes and the same errors at any thread count. On an error (a bad row late
+//! in the file) the partial local_tracks.csv is removed.
 
-use crate::common::{load_scenario, scenario_input};
+use crate::common::{for_each_scan, load_scenario, scenario_input};
 use crate::config::TrackerFlags;
 use crate::output::{Outputs, TRACK_OUTPUTS};
 use anyhow::{anyhow, Context, Result};
@@ -19,7 +21,7 @@ use trackfuse::io::Sink;
 use trackfuse::io::{read_sensors, LocalTrackWriter, MeasurementStream};
 use trackfuse::local::{MultiSensorTracker, TrackerConfig};
 use trackfuse::pipeline::scenario_known_targets;
-use trackfuse::Id;
+use trackfuse::{Id, Measurement};
 
 #[derive(Args, Debug)]
 pub struct TrackArgs {
@@ -144,21 +146,29 @@ fn track_stream<W: Sink>(
     out: &std::path::Path,
 ) -> Result<TrackStats> {
     let mut stats = TrackStats::default();
-    let mut scan_meas = Vec::new();
     let mut local = Vec::new();
-    while let Some(scan) = measurements.next_scan(&mut scan_meas)? {
-        for m in &mut scan_meas {
+    let meas_path = measurements.path().to_path_buf();
+    // reading on a second thread when more than one is asked for (`--threads`)
+    let prefetch = rayon::current_num_threads() > 1;
+    let next = |rows: &mut Vec<Measurement>, lines: &mut Vec<u64>| {
+        let scan = measurements.next_scan(rows)?;
+        for m in rows.iter_mut() {
             m.target_id = -1; // the tracker never sees the truth column
         }
+        lines.clear();
+        lines.extend_from_slice(measurements.lines());
+        Ok::<_, trackfuse::io::InputError>(scan)
+    };
+    for_each_scan(prefetch, next, |scan, scan_meas, lines| {
         local.clear();
         let t0 = std::time::Instant::now();
         tracker
-            .process_scan(scan, &scan_meas, &mut local)
+            .process_scan(scan, scan_meas, &mut local)
             .map_err(|e| {
-                let line = measurements.lines().first().copied().unwrap_or(0);
+                let line = lines.first().copied().unwrap_or(0);
                 anyhow!(
                     "{}:{line}: scan {scan} (from this line on): {e}",
-                    measurements.path().display()
+                    meas_path.display()
                 )
             })?;
         stats.elapsed += t0.elapsed();
@@ -169,6 +179,7 @@ fn track_stream<W: Sink>(
                 .with_context(|| format!("writing {}", out.display()))?;
             stats.tracks.insert((l.sensor_id, l.track_id));
         }
-    }
+        Ok(())
+    })?;
     Ok(stats)
 }

@@ -177,4 +177,71 @@ mod tests {
         assert_eq!(q[(0, 0)], 4.0);
         assert!(is_valid(&q));
     }
+
+    /// The check as it was before the Cholesky fast path: the symmetry test, then the
+    /// smallest eigenvalue of `(P + P^T) / 2` for every matrix.
+    fn eigen_only_check(p: &StateCov) -> Result<(), CovarianceError> {
+        let scale = scale(p);
+        for r in 0..4 {
+            for c in (r + 1)..4 {
+                if (p[(r, c)] - p[(c, r)]).abs() > TOLERANCE * scale {
+                    return Err(CovarianceError::NotSymmetric {
+                        row: r,
+                        col: c,
+                        upper: p[(r, c)],
+                        lower: p[(c, r)],
+                    });
+                }
+            }
+        }
+        let eig = nalgebra::SymmetricEigen::new(symmetrize(p));
+        let min = eig.eigenvalues.iter().fold(f64::INFINITY, |m, v| m.min(*v));
+        if min < -TOLERANCE * scale || min.is_nan() {
+            return Err(CovarianceError::NotPositiveSemidefinite {
+                min_eigenvalue: min,
+            });
+        }
+        Ok(())
+    }
+
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(4000))]
+
+        /// The Cholesky fast path accepts and rejects exactly what the eigenvalue check
+        /// does (and, on a rejection, with the same error), on matrices around the
+        /// boundary: `A A^T` of rank 1 to 4 at scales from 1e-6 to 1e6, shifted along an
+        /// eigenvector by multiples of the tolerance (inside, on and outside it), with
+        /// asymmetric noise around the symmetry tolerance.
+        #[test]
+        fn fast_check_agrees_with_the_eigenvalue_check(
+            a in prop::collection::vec(-1.0f64..1.0, 16),
+            rank in 1usize..=4,
+            exp in -6i32..=6,
+            shift in prop::sample::select(vec![
+                0.0, 1e-13, 1e-11, -1e-11, -0.5e-9, -0.99e-9, -1.01e-9, -2e-9, -1e-6, -1.0,
+            ]),
+            asym in prop::sample::select(vec![0.0, 1e-12, 0.99e-9, 1.01e-9, 1e-6]),
+            pick in 0usize..4,
+        ) {
+            let mut m = StateCov::zeros();
+            for r in 0..4 {
+                for c in 0..rank {
+                    m[(r, c)] = a[4 * r + c];
+                }
+            }
+            let base = (m * m.transpose()) * 10f64.powi(exp);
+            let s = scale(&base);
+            // shift the smallest eigenvalue (a zero one when rank < 4) by shift * scale
+            let eig = symmetrize(&base).symmetric_eigen();
+            let k = eig.eigenvalues.imin();
+            let v = eig.eigenvectors.column(k).into_owned();
+            let mut p = base + v * v.transpose() * (shift * s);
+            p[(pick, (pick + 1) % 4)] += asym * s;
+            prop_assert_eq!(check_covariance(&p), eigen_only_check(&p));
+            let d = StateCov::from_diagonal(&base.diagonal());
+            prop_assert_eq!(check_covariance(&d), eigen_only_check(&d));
+        }
+    }
 }

@@ -56,14 +56,19 @@ impl<R> LineCounter<R> {
 impl<R: Read> Read for LineCounter<R> {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         let n = self.inner.read(buf)?;
-        for (i, &b) in buf[..n].iter().enumerate() {
-            let at = self.offset + i as u64;
-            match b {
-                b'\r' => self.ends.push_back(at + 1),
-                b'\n' if !self.after_cr => self.ends.push_back(at + 1),
-                _ => {}
+        let data = &buf[..n];
+        // only the terminator bytes are visited (memchr), not every byte
+        for i in memchr::memchr2_iter(b'\r', b'\n', data) {
+            let after_cr = match i {
+                0 => self.after_cr,
+                _ => data[i - 1] == b'\r',
+            };
+            if data[i] == b'\r' || !after_cr {
+                self.ends.push_back(self.offset + i as u64 + 1);
             }
-            self.after_cr = b == b'\r';
+        }
+        if let Some(&last) = data.last() {
+            self.after_cr = last == b'\r';
         }
         self.offset += n as u64;
         Ok(n)

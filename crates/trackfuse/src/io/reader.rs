@@ -7,7 +7,9 @@ use crate::types::{
     Association, FusedTrack, Id, LocalTrack, Measurement, Sensor, SensorKind, StateCov, StateVec,
     TrackStatus, TruthState, Vec2,
 };
-use std::collections::{HashMap, HashSet};
+// Fx hashing: the keys are small integers from the file, a hash-flooding attack is not a
+// concern of a file reader, and SipHash was a fifth of the reading time.
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -84,7 +86,12 @@ impl<R: Read> Table<R> {
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(true)
             .flexible(false)
-            .trim(csv::Trim::All)
+            // the header here; data cells are trimmed where they are read
+            // (`Row::cell`), the same ASCII trim without the csv crate's copy of every
+            // record
+            .trim(csv::Trim::Headers)
+            // 256 KiB reads instead of the default 8 KiB: a 20th of the read calls
+            .buffer_capacity(1 << 18)
             .from_reader(LineCounter::new(input));
         let header = match reader.byte_headers() {
             Ok(h) => h.clone(),
@@ -237,9 +244,16 @@ fn utf8_reason(cell: &[u8], e: std::str::Utf8Error) -> String {
 }
 
 impl Row<'_> {
+    /// The cell's bytes without leading and trailing ASCII whitespace (what the csv
+    /// crate's `Trim::All` would have left).
+    #[inline]
+    fn cell(&self, col: usize) -> &[u8] {
+        self.rec.get(col).unwrap_or(b"").trim_ascii()
+    }
+
     /// The cell's text, trimmed; an error when it is not UTF-8.
     fn raw(&self, col: usize) -> Result<&str, InputError> {
-        let cell = self.rec.get(col).unwrap_or(b"");
+        let cell = self.cell(col);
         std::str::from_utf8(cell)
             .map(str::trim)
             .map_err(|e| self.err(col, utf8_reason(cell, e)))
@@ -257,11 +271,29 @@ impl Row<'_> {
 
     /// Whether the cell is empty (or blank); a cell with any other byte is not.
     fn is_empty(&self, col: usize) -> bool {
-        self.rec.get(col).is_none_or(|b| b.trim_ascii().is_empty())
+        self.cell(col).is_empty()
     }
 
     /// A finite float.
+    ///
+    /// Fast path: `fast-float2` straight on the cell's bytes (no UTF-8 check, no
+    /// Unicode trim); it accepts a subset of what `str::parse::<f64>` accepts and
+    /// rounds the same (correctly), which `fast_float_parse_is_std_parse` tests. Any
+    /// cell it refuses, and any non-finite value, takes the `str::parse` path, so the
+    /// accepted cells, the values and the error messages are those of `str::parse`.
+    #[inline]
     fn f64(&self, col: usize) -> Result<f64, InputError> {
+        if let Ok(v) = fast_float2::parse::<f64, _>(self.cell(col)) {
+            if v.is_finite() {
+                return Ok(v);
+            }
+        }
+        self.f64_std(col)
+    }
+
+    /// [`Row::f64`] through `str::parse` (the reference, and every error).
+    #[cold]
+    fn f64_std(&self, col: usize) -> Result<f64, InputError> {
         let s = self.raw(col)?;
         if s.is_empty() {
             return Err(self.err(col, "empty cell, a number is required"));
@@ -283,7 +315,20 @@ impl Row<'_> {
         }
     }
 
+    /// An integer. Fast path: an optional `-` and 1 to 18 ASCII digits (no overflow
+    /// possible) are summed by hand; any other cell takes `str::parse::<i64>`, so the
+    /// accepted cells, values and errors are `str::parse`'s (`small_int_is_std_parse`).
+    #[inline]
     fn int(&self, col: usize) -> Result<i64, InputError> {
+        match small_int(self.cell(col)) {
+            Some(v) => Ok(v),
+            None => self.int_std(col),
+        }
+    }
+
+    /// [`Row::int`] through `str::parse` (the reference, and every error).
+    #[cold]
+    fn int_std(&self, col: usize) -> Result<i64, InputError> {
         let s = self.raw(col)?;
         s.parse::<i64>().map_err(|_| {
             if s.is_empty() {
@@ -315,6 +360,28 @@ impl Row<'_> {
         }
         Ok(v)
     }
+}
+
+/// `-?[0-9]{1,18}` as an `i64` (hand-written: the common cell of an id or scan column,
+/// without `str::parse`'s UTF-8 check and sign and overflow handling); `None` for
+/// anything else.
+#[inline]
+fn small_int(b: &[u8]) -> Option<i64> {
+    let (neg, digits) = match b.split_first() {
+        Some((b'-', rest)) => (true, rest),
+        _ => (false, b),
+    };
+    if digits.is_empty() || digits.len() > 18 {
+        return None;
+    }
+    let mut v = 0i64;
+    for &c in digits {
+        if !c.is_ascii_digit() {
+            return None;
+        }
+        v = v * 10 + i64::from(c - b'0');
+    }
+    Some(if neg { -v } else { v })
 }
 
 /// The file contract's one definition of a valid covariance, shared with the fusion
@@ -391,6 +458,9 @@ trait ScanRows {
     fn parse(&mut self, row: &Row<'_>, scan: u32) -> Result<Self::Item, InputError>;
     /// Bring one scan's rows (with their lines) into the order the reader returns.
     fn order(rows: &mut [(Self::Item, u64)]);
+    /// Whether one scan's rows are in that order already (then [`ScanRows::order`] is
+    /// not called and the rows are not moved again: files written by this project are).
+    fn in_order(rows: &[Self::Item]) -> bool;
 }
 
 /// The scan-at-a-time reader behind every `*Stream`.
@@ -433,26 +503,30 @@ impl<P: ScanRows, R: Read> ScanReader<P, R> {
         if let Some(e) = &self.failed {
             return Err(e.clone());
         }
-        match self.fill() {
+        match self.fill(buf) {
             Ok(Some(scan)) => {
-                P::order(&mut self.scratch);
-                for (item, line) in self.scratch.drain(..) {
-                    buf.push(item);
-                    self.lines.push(line);
+                if !P::in_order(buf) {
+                    self.scratch.extend(buf.drain(..).zip(self.lines.drain(..)));
+                    P::order(&mut self.scratch);
+                    for (item, line) in self.scratch.drain(..) {
+                        buf.push(item);
+                        self.lines.push(line);
+                    }
                 }
                 Ok(Some(scan))
             }
             Ok(None) => Ok(None),
             Err(e) => {
-                self.scratch.clear();
+                buf.clear();
+                self.lines.clear();
                 self.failed = Some(e.clone());
                 Err(e)
             }
         }
     }
 
-    /// Read the rows of the next scan into `scratch`.
-    fn fill(&mut self) -> Result<Option<u32>, InputError> {
+    /// Read the rows of the next scan into `buf`, their lines into `lines`.
+    fn fill(&mut self, buf: &mut Vec<P::Item>) -> Result<Option<u32>, InputError> {
         let mut current = None;
         loop {
             let (line, scan) = match self.pending.take() {
@@ -517,7 +591,8 @@ impl<P: ScanRows, R: Read> ScanReader<P, R> {
                 }
             }
             let item = self.rows.parse(&self.table.row(line), scan)?;
-            self.scratch.push((item, line));
+            buf.push(item);
+            self.lines.push(line);
         }
         Ok(current)
     }
@@ -610,7 +685,7 @@ pub fn read_sensors_from<R: Read>(
         t.col("sigma_theta")?;
     }
     let mut out: Vec<Sensor> = Vec::new();
-    let mut seen = HashMap::new();
+    let mut seen = HashMap::default();
     t.for_each_row(|row| {
         let id = row.int(c_id)?;
         if id < 0 {
@@ -744,6 +819,9 @@ impl ScanRows for TruthRows {
     }
     /// The file's order within a scan.
     fn order(_: &mut [(TruthState, u64)]) {}
+    fn in_order(_: &[TruthState]) -> bool {
+        true
+    }
 }
 
 scan_stream!(
@@ -769,8 +847,8 @@ impl<R: Read> TruthStream<R> {
             c_time: t.col("time")?,
             c_tid: t.col("target_id")?,
             cs: [t.col("x")?, t.col("vx")?, t.col("y")?, t.col("vy")?],
-            seen: HashSet::new(),
-            last: HashMap::new(),
+            seen: HashSet::default(),
+            last: HashMap::default(),
         };
         Ok(TruthStream(ScanReader::new(t, rows)))
     }
@@ -808,13 +886,57 @@ struct MeasurementRows {
     rb_cols: Option<(usize, usize)>,
     pos_cols: Option<(usize, usize)>,
     c_tid: Option<usize>,
-    kinds: Option<HashMap<Id, SensorKind>>,
+    /// Whether the sensors are given (then every sensor_id must be one of them, and
+    /// `sensors` holds them all from the start with their kinds).
+    known_sensors: bool,
+    /// Per sensor: its kind (when given), its time in the current scan and its latest
+    /// scan ([`SensorSlots`]).
+    sensors: SensorSlots,
     /// `(sensor, range|x bits, bearing|y bits)` of the current scan.
     seen: HashSet<(Id, u64, u64)>,
-    /// Each sensor's time in the current scan.
-    scan_time: HashMap<Id, f64>,
-    /// Each sensor's time in its latest scan, with the scan and a line of it.
-    last: HashMap<Id, (f64, u32, u64)>,
+}
+
+/// What the measurements reader keeps per sensor.
+#[derive(Debug, Clone, Copy, Default)]
+struct SensorSlot {
+    /// The kind sensors.csv gives it.
+    kind: Option<SensorKind>,
+    /// Its time in the current scan.
+    scan_time: Option<f64>,
+    /// Its time in its latest scan, with the scan and a line of it.
+    last: Option<(f64, u32, u64)>,
+}
+
+/// Per-sensor state by sensor id: a vector of slots, a map from id to slot, and the
+/// slot of the previous row, asked first (a scan's rows of one sensor come together, so
+/// most rows need no lookup at all). Hand-written: the hint is what makes it cheaper than
+/// a map lookup per row.
+#[derive(Debug, Default)]
+struct SensorSlots {
+    ids: Vec<Id>,
+    slots: Vec<SensorSlot>,
+    index: HashMap<Id, usize>,
+    hint: usize,
+}
+
+impl SensorSlots {
+    /// The slot of sensor `id`; a new one when `insert` and the sensor has none yet.
+    #[inline]
+    fn get(&mut self, id: Id, insert: bool) -> Option<&mut SensorSlot> {
+        if self.ids.get(self.hint) != Some(&id) {
+            self.hint = match self.index.get(&id) {
+                Some(&i) => i,
+                None if insert => {
+                    self.index.insert(id, self.ids.len());
+                    self.ids.push(id);
+                    self.slots.push(SensorSlot::default());
+                    self.ids.len() - 1
+                }
+                None => return None,
+            };
+        }
+        self.slots.get_mut(self.hint)
+    }
 }
 
 impl ScanRows for MeasurementRows {
@@ -827,7 +949,9 @@ impl ScanRows for MeasurementRows {
     }
     fn start_scan(&mut self) {
         self.seen.clear();
-        self.scan_time.clear();
+        for slot in &mut self.sensors.slots {
+            slot.scan_time = None;
+        }
     }
     fn parse(&mut self, row: &Row<'_>, scan: u32) -> Result<Measurement, InputError> {
         let time = row.f64(self.c_time)?;
@@ -854,26 +978,21 @@ impl ScanRows for MeasurementRows {
                 ))
             }
         };
-        if let Some(k) = &self.kinds {
-            match k.get(&sensor_id) {
-                None => {
-                    return Err(row.err(
-                        self.c_sid,
-                        format!("sensor_id {sensor_id} is not in sensors.csv"),
-                    ))
-                }
-                Some(&sk) if sk != kind => {
-                    return Err(row.err(
-                        self.c_sid,
-                        format!(
-                            "sensor {sensor_id} is a {} sensor but this row has {} cells",
-                            sk.as_str(),
-                            kind.as_str()
-                        ),
-                    ))
-                }
-                _ => {}
-            }
+        let Some(slot) = self.sensors.get(sensor_id, !self.known_sensors) else {
+            return Err(row.err(
+                self.c_sid,
+                format!("sensor_id {sensor_id} is not in sensors.csv"),
+            ));
+        };
+        if let Some(sk) = slot.kind.filter(|&sk| sk != kind) {
+            return Err(row.err(
+                self.c_sid,
+                format!(
+                    "sensor {sensor_id} is a {} sensor but this row has {} cells",
+                    sk.as_str(),
+                    kind.as_str()
+                ),
+            ));
         }
         let value = match kind {
             SensorKind::RangeBearing => {
@@ -890,17 +1009,15 @@ impl ScanRows for MeasurementRows {
             Some(c) if !row.is_empty(c) => row.int(c)?,
             _ => -1,
         };
-        match self.scan_time.get(&sensor_id) {
-            Some(&t0) if t0 != time => {
+        match slot.scan_time {
+            Some(t0) if t0 != time => {
                 return Err(row.err(
                     self.c_time,
                     format!("scan {scan} of sensor {sensor_id} has two times: {t0} and {time}"),
                 ))
             }
             Some(_) => {}
-            None => {
-                self.scan_time.insert(sensor_id, time);
-            }
+            None => slot.scan_time = Some(time),
         }
         if !self
             .seen
@@ -913,7 +1030,7 @@ impl ScanRows for MeasurementRows {
             ));
         }
         // time must not go backwards as the scan index grows, per sensor
-        if let Some(&(t_prev, s_prev, l_prev)) = self.last.get(&sensor_id) {
+        if let Some((t_prev, s_prev, l_prev)) = slot.last {
             if s_prev != scan && time < t_prev {
                 return Err(row.err(
                     self.c_time,
@@ -924,7 +1041,7 @@ impl ScanRows for MeasurementRows {
                 ));
             }
         }
-        self.last.insert(sensor_id, (time, scan, row.line));
+        slot.last = Some((time, scan, row.line));
         Ok(Measurement {
             scan,
             time,
@@ -937,6 +1054,9 @@ impl ScanRows for MeasurementRows {
     /// Stable by sensor: the file's order within a sensor is kept.
     fn order(rows: &mut [(Measurement, u64)]) {
         rows.sort_by_key(|(m, _)| m.sensor_id);
+    }
+    fn in_order(rows: &[Measurement]) -> bool {
+        rows.is_sorted_by_key(|m| m.sensor_id)
     }
 }
 
@@ -990,10 +1110,17 @@ impl<R: Read> MeasurementStream<R> {
             rb_cols,
             pos_cols,
             c_tid: t.opt("target_id"),
-            kinds: sensors.map(|s| s.iter().map(|s| (s.id, s.kind)).collect()),
-            seen: HashSet::new(),
-            scan_time: HashMap::new(),
-            last: HashMap::new(),
+            known_sensors: sensors.is_some(),
+            sensors: {
+                let mut slots = SensorSlots::default();
+                for s in sensors.unwrap_or(&[]) {
+                    if let Some(slot) = slots.get(s.id, true) {
+                        slot.kind = Some(s.kind);
+                    }
+                }
+                slots
+            },
+            seen: HashSet::default(),
         };
         Ok(MeasurementStream(ScanReader::new(t, rows)))
     }
@@ -1072,6 +1199,9 @@ impl ScanRows for LocalTrackRows {
     fn order(rows: &mut [(LocalTrack, u64)]) {
         rows.sort_by_key(|(l, _)| (l.sensor_id, l.track_id));
     }
+    fn in_order(rows: &[LocalTrack]) -> bool {
+        rows.is_sorted_by_key(|l| (l.sensor_id, l.track_id))
+    }
 }
 
 scan_stream!(
@@ -1101,8 +1231,8 @@ impl<R: Read> LocalTrackStream<R> {
             c_sid: t.col("sensor_id")?,
             c_tid: t.col("track_id")?,
             sc: StateCols::find(&t)?,
-            seen: HashMap::new(),
-            last: HashMap::new(),
+            seen: HashMap::default(),
+            last: HashMap::default(),
         };
         Ok(LocalTrackStream(ScanReader::new(t, rows)))
     }
@@ -1215,6 +1345,9 @@ impl ScanRows for FusedTrackRows {
     fn order(rows: &mut [(FusedTrack, u64)]) {
         rows.sort_by_key(|(f, _)| f.fused_id);
     }
+    fn in_order(rows: &[FusedTrack]) -> bool {
+        rows.is_sorted_by_key(|f| f.fused_id)
+    }
 }
 
 scan_stream!(
@@ -1244,8 +1377,8 @@ impl<R: Read> FusedTrackStream<R> {
             c_src: t.opt("sources"),
             c_status: t.opt("status"),
             sc: StateCols::find(&t)?,
-            seen: HashMap::new(),
-            last: HashMap::new(),
+            seen: HashMap::default(),
+            last: HashMap::default(),
         };
         Ok(FusedTrackStream(ScanReader::new(t, rows)))
     }
@@ -1309,6 +1442,9 @@ impl ScanRows for AssociationRows {
     fn order(rows: &mut [(Association, u64)]) {
         rows.sort_by_key(|(a, _)| *a);
     }
+    fn in_order(rows: &[Association]) -> bool {
+        rows.is_sorted()
+    }
 }
 
 scan_stream!(
@@ -1334,7 +1470,7 @@ impl<R: Read> AssociationStream<R> {
             c_sid: t.col("sensor_id")?,
             c_tid: t.col("track_id")?,
             c_fid: t.col("fused_id")?,
-            seen: HashMap::new(),
+            seen: HashMap::default(),
         };
         Ok(AssociationStream(ScanReader::new(t, rows)))
     }
@@ -1351,4 +1487,67 @@ pub fn read_associations_from<R: Read>(
     path: impl AsRef<Path>,
 ) -> Result<Vec<Association>, InputError> {
     AssociationStream::from_reader(reader, path)?.collect_rows()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Cells over the characters of numbers, signs, exponents and the words std also
+    /// accepts (`inf`, `infinity`, `nan`), so most are near misses of a number.
+    fn numberish() -> impl Strategy<Value = String> {
+        prop::collection::vec(
+            prop::sample::select(vec![
+                '0', '1', '5', '9', '.', '-', '+', 'e', 'E', 'i', 'n', 'f', 'a', 't', 'y', 'I',
+                'N', '_', 'x',
+            ]),
+            0..24,
+        )
+        .prop_map(|c| c.into_iter().collect())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20000))]
+
+        /// Wherever the fast float parser accepts a cell, `str::parse` accepts it too and
+        /// gives the same bits (the reader falls back to `str::parse` elsewhere).
+        #[test]
+        fn fast_float_parse_is_std_parse(s in numberish()) {
+            if let Ok(v) = fast_float2::parse::<f64, _>(s.as_bytes()) {
+                let std = s.parse::<f64>();
+                prop_assert!(std.is_ok(), "fast accepts {s:?}, std does not");
+                let w = std.unwrap_or(0.0);
+                prop_assert!(v.to_bits() == w.to_bits() || (v.is_nan() && w.is_nan()), "{s:?}: {v} vs {w}");
+            }
+        }
+
+        /// Numbers as writers and other tools print them: every f64 in shortest form,
+        /// in `{:e}` form and with 17 significant digits, parse to the same bits.
+        #[test]
+        fn fast_float_parse_of_printed_numbers(bits in any::<u64>()) {
+            let v = f64::from_bits(bits);
+            prop_assume!(v.is_finite());
+            let mut ryu = ryu::Buffer::new();
+            for s in [ryu.format(v).to_string(), format!("{v:e}"), format!("{v:.17e}"), format!("{v}")] {
+                let fast = fast_float2::parse::<f64, _>(s.as_bytes());
+                prop_assert_eq!(fast.ok().map(f64::to_bits), s.parse::<f64>().ok().map(f64::to_bits), "{}", s);
+            }
+        }
+
+        /// The hand-written integer fast path gives `str::parse`'s value wherever it
+        /// answers.
+        #[test]
+        fn small_int_is_std_parse(s in prop::collection::vec(
+            prop::sample::select(vec!['0', '1', '7', '9', '-', '+', ' ', 'x']), 0..22
+        ).prop_map(|c| c.into_iter().collect::<String>()), v in any::<i64>()) {
+            if let Some(fast) = small_int(s.as_bytes()) {
+                prop_assert_eq!(Some(fast), s.parse::<i64>().ok());
+            }
+            let t = v.to_string();
+            if t.trim_start_matches('-').len() <= 18 {
+                prop_assert_eq!(small_int(t.as_bytes()), Some(v));
+            }
+        }
+    }
 }

@@ -53,6 +53,7 @@
 use super::blue::{
     canonical, finish_fused, floored_information_fusion, floored_informations, non_finite, validate,
 };
+use crate::center::linalg::{chol_solve4, cholesky4, solve_lower4};
 use crate::center::{CenterError, FusionContext, FusionRule};
 use crate::covariance::is_valid;
 use crate::params::ParamError;
@@ -95,6 +96,9 @@ impl CovarianceIntersectionParams {
 pub struct CovarianceIntersection {
     criterion: CiCriterion,
     fallbacks: AtomicU64,
+    /// Every line search by golden section (the implementation before the exact `det`
+    /// line search; the tests' reference).
+    golden_only: bool,
 }
 
 const GOLDEN_TOLERANCE: f64 = 1e-10;
@@ -109,6 +113,7 @@ impl CovarianceIntersection {
         Ok(CovarianceIntersection {
             criterion: params.criterion,
             fallbacks: AtomicU64::new(0),
+            golden_only: false,
         })
     }
 
@@ -144,7 +149,9 @@ impl CovarianceIntersection {
         let mut w = vec![1.0 / n as f64; n];
         if n == 2 {
             let f = |t: f64| self.objective(&(infos[0] * t + infos[1] * (1.0 - t)));
-            let t = best_on_segment(&f, 1.0);
+            let t = self
+                .exact_on_segment(&infos[1], &(infos[0] - infos[1]), 1.0)
+                .unwrap_or_else(|| best_on_segment(&f, 1.0));
             w[0] = t;
             w[1] = 1.0 - t;
             return w;
@@ -174,6 +181,9 @@ impl CovarianceIntersection {
             if i == usize::MAX || i == j || grad[i] - grad[j] <= GAP_TOLERANCE * scale {
                 break;
             }
+            if self.newton_step(infos, &mut w, &p, &grad, j) {
+                continue;
+            }
             // Re-split s = w_i + w_j: w_i = t, w_j = s - t, t in [0, s].
             let s = w[i] + w[j];
             let mut rest = StateCov::zeros();
@@ -183,7 +193,9 @@ impl CovarianceIntersection {
                 }
             }
             let f = |t: f64| self.objective(&(rest + infos[i] * t + infos[j] * (s - t)));
-            let t = best_on_segment(&f, s);
+            let t = self
+                .exact_on_segment(&(rest + infos[j] * s), &(infos[i] - infos[j]), s)
+                .unwrap_or_else(|| best_on_segment(&f, s));
             if t == w[i] {
                 break;
             }
@@ -191,6 +203,180 @@ impl CovarianceIntersection {
             w[j] = s - t;
         }
         w
+    }
+}
+
+impl CovarianceIntersection {
+    /// One projected Newton step of the `det` criterion on the simplex (three or more
+    /// members), in place of a pairwise step: on the free weights (`w_k > 0`, and `j`,
+    /// the smallest gradient), the Newton direction `d` of `-ln det(sum w_k Y_k)` under
+    /// `sum d = 0` (Hessian `H_ab = trace(P Y_a P Y_b)`), then the exact line search
+    /// along it up to the first weight that reaches 0 ([`Self::exact_on_segment`]), so
+    /// every step descends and the weights stay on the simplex. Quadratic convergence
+    /// near the optimum: a few steps where the pairwise descent took tens to hundreds.
+    /// `false` (then the caller's pairwise step) for the `trace` criterion, a singular
+    /// `H` (members with equal covariances), a direction that does not descend, or no
+    /// progress along it. The stopping rule stays the caller's (gradient gap).
+    fn newton_step(
+        &self,
+        infos: &[StateCov],
+        w: &mut [f64],
+        p: &StateCov,
+        grad: &[f64],
+        j: usize,
+    ) -> bool {
+        if self.criterion != CiCriterion::Det || self.golden_only {
+            return false;
+        }
+        let free: Vec<usize> = (0..infos.len()).filter(|&k| w[k] > 0.0 || k == j).collect();
+        let m = free.len();
+        if m < 2 {
+            return false;
+        }
+        let py: Vec<StateCov> = free.iter().map(|&k| p * infos[k]).collect();
+        let mut h = nalgebra::DMatrix::<f64>::zeros(m, m);
+        for a in 0..m {
+            for b in a..m {
+                // trace(A B) without the product
+                let v = py[a].component_mul(&py[b].transpose()).sum();
+                h[(a, b)] = v;
+                h[(b, a)] = v;
+            }
+        }
+        let Some(chol) = h.cholesky() else {
+            return false;
+        };
+        let g = nalgebra::DVector::from_iterator(m, free.iter().map(|&k| grad[k]));
+        let ones = nalgebra::DVector::repeat(m, 1.0);
+        let (hg, h1) = (chol.solve(&g), chol.solve(&ones));
+        let lambda = -ones.dot(&hg) / ones.dot(&h1);
+        let d = -(hg + h1 * lambda);
+        let slope = g.dot(&d);
+        if slope.is_nan() || slope >= 0.0 {
+            return false;
+        }
+        // the longest step that keeps every weight >= 0
+        let mut len = f64::INFINITY;
+        let mut blocking = None;
+        for a in 0..m {
+            if d[a] < 0.0 {
+                let r = w[free[a]] / -d[a];
+                if r < len {
+                    len = r;
+                    blocking = Some(a);
+                }
+            }
+        }
+        if !(len.is_finite() && len > 0.0) {
+            return false;
+        }
+        let base = infos
+            .iter()
+            .zip(w.iter())
+            .fold(StateCov::zeros(), |acc, (y, &wk)| acc + y * wk);
+        let dir = free
+            .iter()
+            .zip(d.iter())
+            .fold(StateCov::zeros(), |acc, (&k, &dk)| acc + infos[k] * dk);
+        let Some(t) = self.exact_on_segment(&base, &dir, len) else {
+            return false;
+        };
+        if t.is_nan() || t <= 0.0 {
+            return false;
+        }
+        for (a, &k) in free.iter().enumerate() {
+            w[k] = (w[k] + t * d[a]).max(0.0);
+        }
+        if let Some(a) = blocking.filter(|_| t >= len) {
+            w[free[a]] = 0.0;
+        }
+        true
+    }
+
+    /// The `det` criterion's exact minimiser of `-ln det(B + t D)` on `[0, len]`, or
+    /// `None` (then the caller's golden-section search) for the `trace` criterion or
+    /// when `B` has no Cholesky factor.
+    ///
+    /// With `B = L L^T` and `C = L^-1 D L^-T`, `det(B + t D) = det B q(t)` where
+    /// `q(t) = det(I + t C) = 1 + e1 t + e2 t^2 + e3 t^3 + e4 t^4` and `e_k` is the sum of
+    /// `C`'s principal `k x k` minors. `ln q` is concave on the segment (where
+    /// `B + t D` is positive definite), so `q'` changes sign at most once: the
+    /// minimiser is 0 when `q'(0) = e1 <= 0`, `len` when `q'(len) >= 0`, else the root of
+    /// the cubic `q'`, found by bisection to the last bit of `t` (at most 64 halvings
+    /// of a cubic, no matrix work): a closed form of the two-member weight and of every
+    /// line search of the pairwise descent, in place of about 50 Cholesky factorisations
+    /// of the golden-section search.
+    fn exact_on_segment(&self, b: &StateCov, d: &StateCov, len: f64) -> Option<f64> {
+        if self.criterion != CiCriterion::Det || self.golden_only {
+            return None;
+        }
+        let l = cholesky4(&symmetrize(b))?;
+        let half = solve_lower4(&l, &symmetrize(d))?; // L^-1 D
+        let c = symmetrize(&solve_lower4(&l, &half.transpose())?); // L^-1 D L^-T
+        let m = |i: usize, j: usize| c[(i, j)];
+        let e1 = c.trace();
+        let mut e2 = 0.0;
+        for i in 0..4 {
+            for j in (i + 1)..4 {
+                e2 += m(i, i) * m(j, j) - m(i, j) * m(j, i);
+            }
+        }
+        let minor3 = |a: usize, b: usize, k: usize| {
+            m(a, a) * (m(b, b) * m(k, k) - m(b, k) * m(k, b))
+                - m(a, b) * (m(b, a) * m(k, k) - m(b, k) * m(k, a))
+                + m(a, k) * (m(b, a) * m(k, b) - m(b, b) * m(k, a))
+        };
+        let e3 = minor3(1, 2, 3) + minor3(0, 2, 3) + minor3(0, 1, 3) + minor3(0, 1, 2);
+        let e4 = c.determinant();
+        let dq = |t: f64| e1 + t * (2.0 * e2 + t * (3.0 * e3 + t * 4.0 * e4));
+        if ![e1, e2, e3, e4].iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        if [e1, e2, e3, e4].iter().all(|&v| v == 0.0) {
+            // D = 0: a flat objective, the middle (as the golden-section search's ties)
+            return Some(0.5 * len);
+        }
+        if e1 <= 0.0 {
+            return Some(0.0);
+        }
+        if dq(len) >= 0.0 {
+            return Some(len);
+        }
+        let (mut lo, mut hi) = (0.0f64, len);
+        for _ in 0..64 {
+            let mid = 0.5 * (lo + hi);
+            if mid <= lo || mid >= hi {
+                break;
+            }
+            if dq(mid) > 0.0 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let mut t = 0.5 * (lo + hi);
+        // The cubic's coefficients lose precision when C has a large spread (its sum
+        // cancels near the root): Newton steps on the objective itself polish the
+        // root, with f' = -trace(M^-1 D) and f'' = trace((M^-1 D)^2), M = B + t D, until
+        // a step moves t by less than 1e-15 of the segment (at most 6 steps).
+        for _ in 0..6 {
+            let Some(lm) = cholesky4(&symmetrize(&(b + d * t))) else {
+                break;
+            };
+            let md = chol_solve4(&lm, d);
+            let (g1, g2) = (-md.trace(), md.component_mul(&md.transpose()).sum());
+            let next = t - g1 / g2;
+            if !(next.is_finite() && g2 > 0.0) {
+                break;
+            }
+            let next = next.clamp(0.0, len);
+            let step = (next - t).abs();
+            t = next;
+            if step <= 1e-15 * len {
+                break;
+            }
+        }
+        Some(t)
     }
 }
 
@@ -466,6 +652,127 @@ mod tests {
             let (x, p) = cc.fuse(&[&a, &b], &[1.0, 1.0], &ctx()).unwrap();
             assert!(x.iter().all(|v| v.is_finite()), "{x}");
             assert!(crate::covariance::is_valid(&p), "{p}");
+        }
+    }
+
+    /// A random positive definite covariance: `M M^T + 1e-3 I` with entries of `M` in
+    /// [-1, 1], each axis scaled by `10^[-2, 3]` (position and velocity units of
+    /// different size, condition numbers to about 1e12).
+    fn random_cov(rng: &mut impl rand::RngExt) -> StateCov {
+        let m = StateCov::from_fn(|_, _| rng.random_range(-1.0..1.0));
+        let s = StateVec::from_fn(|_, _| 10f64.powf(rng.random_range(-1.0..1.5)));
+        let p = m * m.transpose() + StateCov::identity() * 1e-3;
+        symmetrize(&(StateCov::from_diagonal(&s) * p * StateCov::from_diagonal(&s)))
+    }
+
+    /// The exact optimum of two members, independently: the generalised eigenvalues
+    /// `lambda_k` of `(Y_1, Y_2)` (eigen-decomposition of `L^-1 Y_1 L^-T`, `Y_2 = L L^T`)
+    /// make `d/dt ln det(t Y_1 + (1 - t) Y_2) = sum (lambda_k - 1) / (1 + t (lambda_k - 1))`,
+    /// decreasing in `t`; its root by 200 bisections.
+    fn reference_pair_weight(y1: &StateCov, y2: &StateCov) -> f64 {
+        let l = symmetrize(y2).cholesky().unwrap().l();
+        let li = l.try_inverse().unwrap();
+        let mu = symmetrize(&(li * y1 * li.transpose()))
+            .symmetric_eigenvalues()
+            .map(|v| v - 1.0);
+        let g = |t: f64| mu.iter().map(|m| m / (1.0 + t * m)).sum::<f64>();
+        if g(0.0) <= 0.0 {
+            return 0.0;
+        }
+        if g(1.0) >= 0.0 {
+            return 1.0;
+        }
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if g(mid) > 0.0 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        0.5 * (lo + hi)
+    }
+
+    /// The exact `det` weights against the golden-section search they replaced and
+    /// against the exact optimum, on random pairs and triples. The golden-section search
+    /// compares objective values, so it resolves the weight only to about 1e-6 (where
+    /// `f(t*) + f'' dt^2 / 2` ties `f(t*)` within its 1e-12 tie tolerance); the exact
+    /// weights are within 1e-9 of the independently computed optimum (pairs; 1e-13 times
+    /// the members' condition number beyond 1e4, where double precision resolves no
+    /// more),
+    /// or meet the
+    /// optimality condition to the same 1e-9 gradient gap (triples), are never worse in
+    /// the objective than the old ones beyond rounding (1e-13 relative), and lie within
+    /// the old search's resolution (1e-5) of the old weights.
+    #[test]
+    fn exact_det_weights_match_the_golden_section_search_and_the_optimum() {
+        use rand::SeedableRng;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
+        let exact = CovarianceIntersection::default();
+        let golden = CovarianceIntersection {
+            golden_only: true,
+            ..Default::default()
+        };
+        for n in [2usize, 3] {
+            for _ in 0..2000 {
+                let infos: Vec<StateCov> = (0..n)
+                    .map(|_| symmetrize(&random_cov(&mut rng).try_inverse().unwrap()))
+                    .collect();
+                let (we, wg) = (exact.optimise(&infos), golden.optimise(&infos));
+                let combined = |w: &[f64]| {
+                    infos
+                        .iter()
+                        .zip(w)
+                        .fold(StateCov::zeros(), |a, (y, &wi)| a + y * wi)
+                };
+                let (fe, fg) = (
+                    exact.objective(&combined(&we)),
+                    exact.objective(&combined(&wg)),
+                );
+                assert!(
+                    fe <= fg + 1e-13 * (1.0 + fg.abs()),
+                    "{we:?} {fe} vs {wg:?} {fg}"
+                );
+                let gap = we
+                    .iter()
+                    .zip(&wg)
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                assert!(gap <= 1e-5, "{we:?} vs {wg:?}");
+                if n == 2 {
+                    let t = reference_pair_weight(&infos[0], &infos[1]);
+                    // 1e-9, or what double precision resolves: both computations of the
+                    // root carry an error of about 1e-16 k / f'' for members of
+                    // condition number k (1e-13 k covers the cases seen, k up to 1e9)
+                    let cond = infos
+                        .iter()
+                        .map(|y| {
+                            let e = y.symmetric_eigenvalues();
+                            e.max() / e.min()
+                        })
+                        .fold(0.0f64, f64::max);
+                    let tol = 1e-9f64.max(1e-13 * cond);
+                    assert!(
+                        (we[0] - t).abs() <= tol,
+                        "{} vs the optimum {t} (condition {cond:e})",
+                        we[0]
+                    );
+                } else {
+                    let p = symmetrize(&combined(&we)).cholesky().unwrap().inverse();
+                    let g: Vec<f64> = infos.iter().map(|y| -(p * y).trace()).collect();
+                    let scale = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                    let top = (0..n)
+                        .filter(|&k| we[k] > 0.0)
+                        .map(|k| g[k])
+                        .fold(f64::MIN, f64::max);
+                    let low = g.iter().copied().fold(f64::MAX, f64::min);
+                    assert!(
+                        top - low <= 1e-9 * scale,
+                        "gradient gap {} at {we:?}",
+                        top - low
+                    );
+                }
+            }
         }
     }
 }
