@@ -754,7 +754,7 @@ impl TrackPairLs {
             // not reported for a scan or two (it coasted, `report_max_misses`) has the
             // same relative motion over the others, and without this allowance each such
             // gap sent its component to the consensus for 8 scans (2.8 times the
-            // estimator's time on bias-bench, the same estimates)
+            // estimator's time on bias-bench, the same fused RMSE)
             let bad = !strict
                 && if m {
                     ei > 1 || ej > 1 || c.n + HISTORY_GAPS < HISTORY
