@@ -56,6 +56,10 @@ enum Command {
     Reproduce(reproduce::ReproduceArgs),
     /// Throughput benchmarks.
     Bench(bench::BenchArgs),
+    /// The fusion center as a service: NDJSON local tracks in over TCP, fused tracks out.
+    Serve(trackfuse_server::cli::ServeArgs),
+    /// Replay a `serve --record` journal: the live run's fused output, byte for byte.
+    Replay(trackfuse_server::cli::ReplayArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// List the registered filters, associators, fusion methods, rules and bias estimators.
@@ -115,6 +119,8 @@ fn real_main() -> Result<()> {
         Command::Evaluate(a) => evaluate::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Plot(a) => plot::run(a),
+        Command::Serve(a) => trackfuse_server::cli::serve(a),
+        Command::Replay(a) => trackfuse_server::cli::replay(a),
         Command::Scenarios => {
             for (name, text) in trackfuse::config::BUILTIN_SCENARIOS {
                 let desc = trackfuse::RunConfig::from_toml(text, name)
