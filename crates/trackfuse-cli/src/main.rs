@@ -60,6 +60,8 @@ enum Command {
     Serve(trackfuse_server::cli::ServeArgs),
     /// Replay a `serve --record` journal: the live run's fused output, byte for byte.
     Replay(trackfuse_server::cli::ReplayArgs),
+    /// Stream synthetic local tracks to a running service; throughput and latency.
+    Loadgen(trackfuse_server::loadgen::LoadgenArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// List the registered filters, associators, fusion methods, rules and bias estimators.
@@ -121,6 +123,7 @@ fn real_main() -> Result<()> {
         Command::Plot(a) => plot::run(a),
         Command::Serve(a) => trackfuse_server::cli::serve(a),
         Command::Replay(a) => trackfuse_server::cli::replay(a),
+        Command::Loadgen(a) => trackfuse_server::loadgen::run(a),
         Command::Scenarios => {
             for (name, text) in trackfuse::config::BUILTIN_SCENARIOS {
                 let desc = trackfuse::RunConfig::from_toml(text, name)

@@ -67,14 +67,16 @@ pub struct Limits {
     /// Messages per second one sensor may send (token bucket, burst of one second);
     /// over it a message is rejected (`rate_limited`). Default 1 000 000.
     pub max_rate_per_sensor: f64,
-    /// Messages held between the connections and the center (default 65 536); when it
-    /// is full the connections wait (TCP backpressure), nothing is dropped.
+    /// Batches (of up to 256 reports, one connection's) held between the connections and
+    /// the center (default 1024); when it is full the connections wait (TCP
+    /// backpressure), nothing is dropped.
     pub ingest_queue: usize,
     /// Reports held in batches not yet fused (default 1 000 000); past it the oldest
     /// batches are fused at once (counted as `forced_by_limit`), nothing is dropped.
     pub max_pending_reports: usize,
-    /// Instants a subscriber may fall behind (default 4096); a subscriber further behind
-    /// misses them: counted, and it gets a `{"kind":"gap","missed":N}` line.
+    /// Instants a subscriber may fall behind (default 64: at 1 000 targets an instant's
+    /// lines are about 1 MB); a subscriber further behind misses them: counted, and it
+    /// gets a `{"kind":"gap","missed":N}` line.
     pub subscriber_buffer: usize,
 }
 
@@ -84,9 +86,9 @@ impl Default for Limits {
             max_line_bytes: 16 * 1024,
             read_timeout: 30.0,
             max_rate_per_sensor: 1_000_000.0,
-            ingest_queue: 65_536,
+            ingest_queue: 1024,
             max_pending_reports: 1_000_000,
-            subscriber_buffer: 4096,
+            subscriber_buffer: 64,
         }
     }
 }

@@ -8,6 +8,7 @@ pub mod cli;
 pub mod config;
 pub mod engine;
 pub mod http;
+pub mod loadgen;
 pub mod message;
 pub mod metrics;
 pub mod server;

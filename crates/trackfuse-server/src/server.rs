@@ -22,7 +22,7 @@ use crate::engine::{Engine, EngineStats, Verdict};
 use crate::message::{parse_report, Reason};
 use crate::metrics::{sensor_label, Metrics, SensorLabel};
 use anyhow::{Context, Result};
-use futures_util::StreamExt;
+use futures_util::{FutureExt, StreamExt};
 use std::collections::{BTreeSet, HashMap};
 use std::io::Write;
 use std::net::SocketAddr;
@@ -39,6 +39,10 @@ use trackfuse::types::{Id, LocalTrack};
 
 /// A report on its way to the center, with its arrival time.
 pub type Ingest = (LocalTrack, Instant);
+
+/// Reports a connection hands to the center at once (at most): one queue operation per
+/// batch, not per message.
+const BATCH: usize = 256;
 
 /// Where to write what the service produces, besides the subscribers.
 #[derive(Debug, Clone, Default)]
@@ -120,7 +124,7 @@ struct Ingress {
     read_timeout: Duration,
     rate: f64,
     metrics: Arc<Metrics>,
-    queue: mpsc::Sender<Ingest>,
+    queue: mpsc::Sender<Vec<Ingest>>,
 }
 
 /// Start the TCP service for `cfg`.
@@ -246,10 +250,36 @@ async fn sensor_connection(
     // the sensor this connection last spoke for, to label what has no sensor id
     let mut last_sensor: Option<Id> = None;
     let mut buckets: HashMap<Id, Bucket> = HashMap::new();
+    let mut batch: Vec<Ingest> = Vec::with_capacity(BATCH);
+    // every way out hands over the batch first
+    macro_rules! flush {
+        () => {
+            if !batch.is_empty() {
+                let full = std::mem::replace(&mut batch, Vec::with_capacity(BATCH));
+                if ingress.queue.send(full).await.is_err() {
+                    return; // the center has stopped
+                }
+            }
+        };
+    }
     loop {
-        let frame = tokio::select! {
-            _ = stop.changed() => return,
-            f = tokio::time::timeout(ingress.read_timeout, frames.next()) => f,
+        let frame = if batch.is_empty() {
+            tokio::select! {
+                _ = stop.changed() => return,
+                f = tokio::time::timeout(ingress.read_timeout, frames.next()) => f,
+            }
+        } else if batch.len() >= BATCH {
+            flush!();
+            continue;
+        } else {
+            // more lines already read: take them; else hand over what we have
+            match frames.next().now_or_never() {
+                Some(f) => Ok(f),
+                None => {
+                    flush!();
+                    continue;
+                }
+            }
         };
         let line = match frame {
             Err(_) => {
@@ -263,9 +293,13 @@ async fn sensor_connection(
                 );
                 return;
             }
-            Ok(None) => return,
+            Ok(None) => {
+                flush!();
+                return;
+            }
             Ok(Some(Err(e))) => {
                 m.log("io", || format!("{peer}: read error: {e}"));
+                flush!();
                 return;
             }
             Ok(Some(Ok(Frame::TooLong))) => {
@@ -315,9 +349,7 @@ async fn sensor_connection(
             continue;
         }
         b.tokens -= 1.0;
-        if ingress.queue.send((track, now)).await.is_err() {
-            return; // the center has stopped
-        }
+        batch.push((track, now));
     }
 }
 
@@ -411,7 +443,7 @@ async fn run_center(
     mut engine: Engine,
     _setup: CenterSetup,
     budget: Duration,
-    mut queue: mpsc::Receiver<Ingest>,
+    mut queue: mpsc::Receiver<Vec<Ingest>>,
     mut new_subs: mpsc::Receiver<mpsc::Sender<Bytes>>,
     mut output: Option<std::io::BufWriter<std::fs::File>>,
     metrics: Arc<Metrics>,
@@ -419,15 +451,22 @@ async fn run_center(
 ) -> Result<EngineStats> {
     let mut last = engine.stats.clone();
     let mut subs: Vec<Subscriber> = Vec::new();
-    let handle = |engine: &mut Engine, item: Ingest| -> Result<()> {
+    // each sensor's accepted counter, looked up once (not per message)
+    let mut accepted: HashMap<Id, prometheus_client::metrics::counter::Counter> = HashMap::new();
+    let mut handle = |engine: &mut Engine, item: Ingest| -> Result<()> {
         let (track, arrival) = item;
         let sensor = track.sensor_id;
         match engine.accept(track, arrival)? {
             Verdict::Accepted => {
-                metrics
-                    .accepted
-                    .get_or_create(&SensorLabel {
-                        sensor: sensor_label(Some(sensor)),
+                accepted
+                    .entry(sensor)
+                    .or_insert_with(|| {
+                        metrics
+                            .accepted
+                            .get_or_create(&SensorLabel {
+                                sensor: sensor_label(Some(sensor)),
+                            })
+                            .clone()
                     })
                     .inc();
             }
@@ -463,13 +502,19 @@ async fn run_center(
             biased;
             _ = stop.changed() => break,
             Some(tx) = new_subs.recv() => subs.push(Subscriber { tx, missed: 0 }),
-            item = queue.recv() => {
-                let Some(item) = item else { break };
-                handle(&mut engine, item)?;
+            batch = queue.recv() => {
+                let Some(batch) = batch else { break };
+                for item in batch {
+                    handle(&mut engine, item)?;
+                }
                 // take what is queued before publishing, up to a bound
-                for _ in 0..4096 {
+                for _ in 0..16 {
                     match queue.try_recv() {
-                        Ok(item) => handle(&mut engine, item)?,
+                        Ok(batch) => {
+                            for item in batch {
+                                handle(&mut engine, item)?;
+                            }
+                        }
                         Err(_) => break,
                     }
                 }
@@ -487,10 +532,18 @@ async fn run_center(
         }
         publish_output(&mut engine, &mut subs, &mut output, &metrics, &mut last)?;
     }
-    // shutdown: what is queued, then every batch held
-    queue.close();
-    while let Some(item) = queue.recv().await {
-        handle(&mut engine, item)?;
+    // shutdown: what the connections still hand over (they stop reading and flush;
+    // the queue ends when the last has gone, at most 5 s), then every batch held
+    let drain = async {
+        while let Some(batch) = queue.recv().await {
+            for item in batch {
+                handle(&mut engine, item)?;
+            }
+        }
+        Ok::<(), anyhow::Error>(())
+    };
+    if let Ok(r) = tokio::time::timeout(Duration::from_secs(5), drain).await {
+        r?;
     }
     engine.release_all()?;
     publish_output(&mut engine, &mut subs, &mut output, &metrics, &mut last)?;
