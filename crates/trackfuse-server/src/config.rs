@@ -36,9 +36,6 @@ pub struct ServiceConfig {
     pub sensors: Vec<ExpectedSensor>,
     #[serde(default)]
     pub limits: Limits,
-    /// NATS JetStream transport instead of TCP (optional).
-    #[serde(default)]
-    pub nats: Option<NatsConfig>,
     /// The fusion center, as in a scenario file's `[fusion]` table.
     #[serde(default)]
     pub fusion: FusionConfig,
@@ -93,35 +90,6 @@ impl Default for Limits {
     }
 }
 
-/// `[nats]`: JetStream input and output.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct NatsConfig {
-    pub url: String,
-    /// Input stream (subjects `<input_subject_prefix>.<sensor_id>`).
-    #[serde(default = "default_in_stream")]
-    pub input_stream: String,
-    #[serde(default = "default_in_prefix")]
-    pub input_subject_prefix: String,
-    /// Output stream and subject of the fused lines.
-    #[serde(default = "default_out_stream")]
-    pub output_stream: String,
-    #[serde(default = "default_out_subject")]
-    pub output_subject: String,
-}
-
-fn default_in_stream() -> String {
-    "TRACKS".into()
-}
-fn default_in_prefix() -> String {
-    "tracks".into()
-}
-fn default_out_stream() -> String {
-    "FUSED".into()
-}
-fn default_out_subject() -> String {
-    "fused".into()
-}
 fn default_sensor_addr() -> String {
     "127.0.0.1:7400".into()
 }

@@ -97,7 +97,9 @@ fn synthetic(sensor: u32, target: u32, k: u32, period: f64) -> LocalTrack {
 fn scan_of(line: &str) -> Option<u32> {
     let i = line.find("\"scan\":")? + 7;
     let rest = &line[i..];
-    let end = rest.find(|c: char| !c.is_ascii_digit()).unwrap_or(rest.len());
+    let end = rest
+        .find(|c: char| !c.is_ascii_digit())
+        .unwrap_or(rest.len());
     rest[..end].parse().ok()
 }
 
@@ -133,7 +135,8 @@ fn http_metrics(addr: &str) -> Result<String> {
 
 /// Run the load (module docs) and print the report.
 pub fn run(args: &LoadgenArgs) -> Result<()> {
-    if args.sensors == 0 || args.targets == 0 || !(args.rate > 0.0) || !(args.duration > 0.0) {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if args.sensors == 0 || args.targets == 0 || !positive(args.rate) || !positive(args.duration) {
         bail!("--sensors, --targets, --rate and --duration must be positive");
     }
     let per_sensor = args.rate / f64::from(args.sensors);
@@ -198,10 +201,7 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
                 buf.clear();
                 let mut first = true;
                 for target in 0..targets {
-                    crate::message::encode_report(
-                        &synthetic(sensor, target, k, period),
-                        &mut buf,
-                    );
+                    crate::message::encode_report(&synthetic(sensor, target, k, period), &mut buf);
                     buf.push(b'\n');
                     if buf.len() >= 1 << 16 || target + 1 == targets {
                         if first {
@@ -239,7 +239,8 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
     }
     let send_time = start.elapsed().as_secs_f64();
     for h in senders {
-        h.join().map_err(|_| anyhow::anyhow!("a sender thread panicked"))??;
+        h.join()
+            .map_err(|_| anyhow::anyhow!("a sender thread panicked"))??;
     }
     stop.store(true, Ordering::Relaxed);
     // the last full instant is fused when the next scan arrives, which it never does:

@@ -166,24 +166,21 @@ pub async fn start(cfg: &ServiceConfig, outputs: Outputs) -> Result<Service> {
         subscriber_listener.local_addr()?,
         http_listener.local_addr()?,
     );
-    let mut tasks = Vec::new();
-    tasks.push(tokio::spawn(accept_sensors(
-        sensor_listener,
-        ingress,
-        stop_rx.clone(),
-    )));
-    tasks.push(tokio::spawn(accept_subscribers(
-        subscriber_listener,
-        new_subs,
-        cfg.limits.subscriber_buffer,
-        metrics.clone(),
-        stop_rx.clone(),
-    )));
-    tasks.push(tokio::spawn(crate::http::serve(
-        http_listener,
-        metrics.clone(),
-        stop_rx.clone(),
-    )));
+    let tasks = vec![
+        tokio::spawn(accept_sensors(sensor_listener, ingress, stop_rx.clone())),
+        tokio::spawn(accept_subscribers(
+            subscriber_listener,
+            new_subs,
+            cfg.limits.subscriber_buffer,
+            metrics.clone(),
+            stop_rx.clone(),
+        )),
+        tokio::spawn(crate::http::serve(
+            http_listener,
+            metrics.clone(),
+            stop_rx.clone(),
+        )),
+    ];
     let center = tokio::spawn(run_center(
         engine,
         setup,
