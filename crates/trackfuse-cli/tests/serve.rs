@@ -150,7 +150,8 @@ fn the_service_over_tcp_equals_fuse_and_counts_every_bad_message() {
     assert_eq!(clocks.len(), 3);
     let mut cfg = format!(
         "sensor_addr = \"127.0.0.1:0\"\nsubscriber_addr = \"127.0.0.1:0\"\n\
-         http_addr = \"127.0.0.1:0\"\nlatency_budget = 120.0\nsensors_csv = \"{}\"\n",
+         http_addr = \"127.0.0.1:0\"\nlatency_budget = 120.0\nsensors_csv = \"{}\"\n\
+         [limits]\nsubscriber_buffer = 1000000\n",
         s(&sensors)
     );
     for (id, c) in &clocks {
@@ -303,7 +304,9 @@ fn the_service_over_tcp_equals_fuse_and_counts_every_bad_message() {
     let mut aw = AssociationWriter::new(Vec::new()).expect("writer");
     let mut n_fused = 0;
     for line in streamed.lines() {
-        match decode_output(line).expect("a fused or association line") {
+        match decode_output(line)
+            .unwrap_or_else(|| panic!("not a fused or association line: {line}"))
+        {
             Output::Fused(f) => {
                 n_fused += 1;
                 fw.write(&f).expect("write")
