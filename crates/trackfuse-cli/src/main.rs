@@ -59,6 +59,12 @@ enum Command {
     Reproduce(reproduce::ReproduceArgs),
     /// Throughput benchmarks.
     Bench(bench::BenchArgs),
+    /// The fusion center as a service: NDJSON local tracks in over TCP, fused tracks out.
+    Serve(trackfuse_server::cli::ServeArgs),
+    /// Replay a `serve --record` journal: the live run's fused output, byte for byte.
+    Replay(trackfuse_server::cli::ReplayArgs),
+    /// Stream synthetic local tracks to a running service; throughput and latency.
+    Loadgen(trackfuse_server::loadgen::LoadgenArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// List the registered filters, associators, fusion methods, rules and bias estimators.
@@ -118,6 +124,9 @@ fn real_main() -> Result<()> {
         Command::Evaluate(a) => evaluate::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Plot(a) => plot::run(a),
+        Command::Serve(a) => trackfuse_server::cli::serve(a),
+        Command::Replay(a) => trackfuse_server::cli::replay(a),
+        Command::Loadgen(a) => trackfuse_server::loadgen::run(a),
         Command::Scenarios => {
             for (name, text) in trackfuse::config::BUILTIN_SCENARIOS {
                 let desc = trackfuse::RunConfig::from_toml(text, name)

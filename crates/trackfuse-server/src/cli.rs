@@ -1,0 +1,117 @@
+//! The `trackfuse serve`, `trackfuse replay` subcommands (their arguments and what they
+//! run); the `trackfuse` binary only wires them in.
+
+use crate::config::ServiceConfig;
+use crate::server::{start, Outputs};
+use anyhow::{Context, Result};
+use clap::Args;
+use std::io::Write;
+use std::path::PathBuf;
+
+/// `trackfuse serve`.
+#[derive(Args, Debug)]
+pub struct ServeArgs {
+    /// The service configuration (center.toml: addresses, expected sensors, latency
+    /// budget, limits, [fusion]).
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Journal every accepted message (and every budget release) to FILE before it is
+    /// processed; `trackfuse replay FILE` reproduces the fused output.
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<PathBuf>,
+    /// Also write the fused stream (what subscribers get) to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+}
+
+/// `trackfuse replay`.
+#[derive(Args, Debug)]
+pub struct ReplayArgs {
+    /// A journal written by `trackfuse serve --record`.
+    pub journal: PathBuf,
+    /// Write the fused stream to FILE (default: standard output).
+    #[arg(long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+}
+
+fn runtime() -> Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")
+}
+
+/// Run the service until SIGTERM or SIGINT, then shut down gracefully.
+pub fn serve(args: &ServeArgs) -> Result<()> {
+    let cfg = ServiceConfig::from_file(&args.config)?;
+    for p in [&args.record, &args.output].into_iter().flatten() {
+        if p == &args.config || cfg.sensors_csv.as_deref().map(PathBuf::from).as_ref() == Some(p) {
+            anyhow::bail!("{}: an output may not replace an input", p.display());
+        }
+    }
+    let outputs = Outputs {
+        record: args.record.clone(),
+        output: args.output.clone(),
+    };
+    runtime()?.block_on(async move {
+        let service = start(&cfg, outputs).await?;
+        eprintln!(
+            "trackfuse serve: sensors on {}, subscribers on {}, http on {}",
+            service.sensor_addr, service.subscriber_addr, service.http_addr
+        );
+        wait_for_signal().await?;
+        eprintln!("trackfuse serve: stopping (fusing what is held, flushing)");
+        let stats = service.shutdown().await?;
+        eprintln!(
+            "trackfuse serve: {} reports accepted, {} late, {} instants fused",
+            stats.accepted, stats.late, stats.instants_fused
+        );
+        Ok(())
+    })
+}
+
+/// SIGTERM or SIGINT.
+async fn wait_for_signal() -> Result<()> {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{signal, SignalKind};
+        let mut term = signal(SignalKind::terminate())?;
+        let mut int = signal(SignalKind::interrupt())?;
+        tokio::select! {
+            _ = term.recv() => {}
+            _ = int.recv() => {}
+        }
+    }
+    #[cfg(not(unix))]
+    tokio::signal::ctrl_c().await?;
+    Ok(())
+}
+
+/// Replay a journal to the output.
+pub fn replay(args: &ReplayArgs) -> Result<()> {
+    let stats = match &args.output {
+        Some(p) => {
+            if p == &args.journal {
+                anyhow::bail!("{}: the output may not replace the journal", p.display());
+            }
+            let f =
+                std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
+            let mut w = std::io::BufWriter::new(f);
+            let s = crate::engine::replay(&args.journal, &mut w)?;
+            w.flush()?;
+            s
+        }
+        None => {
+            let stdout = std::io::stdout();
+            let mut w = std::io::BufWriter::new(stdout.lock());
+            let s = crate::engine::replay(&args.journal, &mut w)?;
+            w.flush()?;
+            s
+        }
+    };
+    eprintln!(
+        "trackfuse replay: {} reports accepted, {} late, {} instants fused",
+        stats.accepted, stats.late, stats.instants_fused
+    );
+    Ok(())
+}

@@ -1,0 +1,405 @@
+//! The deterministic core of the service: reports in (in the order the center task
+//! takes them), fused instants out. No clock, no I/O but the journal: the live service
+//! and `trackfuse replay` drive the same [`Engine`] with the same calls, so a replay of
+//! the journal gives the live output byte for byte.
+//!
+//! # Time, not arrival order
+//! Reports are held in *batches*, one per report time (a batch's scan index is the
+//! largest scan of its reports). The oldest batch is handed to the center's
+//! [`InstantBatcher`] (which fuses the center's update instants up to its time, exactly
+//! as `trackfuse fuse` does batch after batch of a file) when every expected sensor is
+//! *past* its time:
+//! - the sensor has reported a later time, or
+//! - its latest report is earlier and its next report (latest + its period, less
+//!   [`CLOCK_TOLERANCE`] of a period) is due after the batch's time: it has nothing for it.
+//!
+//! A sensor whose latest report *is* the batch's time may still be sending that scan, so
+//! the batch waits for its next report. A batch is also fused when the latency budget
+//! after its first report runs out (the server's timer: [`Engine::release_through`],
+//! journaled), when the reports held pass `max_pending_reports` (the oldest batches, at
+//! once), and at shutdown ([`Engine::release_all`]). So a silent sensor delays an
+//! instant by the budget at most and stalls nobody.
+//!
+//! # Late reports
+//! A report at or before the time of the last batch fused is *late*: its instant is
+//! gone. It is counted (per sensor) and logged, and journaled, but neither fused nor
+//! given to the bias estimator: the estimator pairs local tracks of one fused scan, and a
+//! lone late report has no partner there (feeding it would also make the estimate depend
+//! on how late it came). Its local track's time still advances, so its next report is
+//! judged against it.
+//!
+//! # Choices where the issue is silent
+//! - A report of a local track earlier than that track's previous one is rejected
+//!   (`time_backwards`), a second one at the same time too (`duplicate`), as the CSV
+//!   reader and the center refuse them.
+//! - Reports of different times in one scan index are separate batches (a file's scan
+//!   is one batch in `trackfuse fuse`); files whose scans each have one time (what this
+//!   project's simulator and trackers write) give the same batches.
+
+use crate::config::CenterSetup;
+use crate::message::{encode_association, encode_fused, encode_report, Reason};
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, HashMap};
+use std::io::Write;
+use std::time::{Duration, Instant};
+use trackfuse::center::instants::InstantBatcher;
+use trackfuse::center::{FusionCenter, ScanOutput};
+use trackfuse::clock::CLOCK_TOLERANCE;
+use trackfuse::types::{Id, LocalTrack};
+
+/// A report time as a map key (times are finite: checked on parsing).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct TimeKey(f64);
+impl Eq for TimeKey {}
+impl PartialOrd for TimeKey {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for TimeKey {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&other.0)
+    }
+}
+
+/// The reports of one time not yet fused.
+#[derive(Debug)]
+struct Batch {
+    scan: u32,
+    rows: Vec<LocalTrack>,
+    /// When its first report arrived (for the latency budget and the latency metric).
+    first_arrival: Instant,
+}
+
+/// What [`Engine::accept`] did with a report.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    /// Held for its instant.
+    Accepted,
+    /// Its instant is already fused (module docs): counted, not fused.
+    Late,
+    /// Refused, with the reason.
+    Rejected(Reason),
+}
+
+/// Running totals (the server turns them into metrics).
+#[derive(Debug, Default, Clone)]
+pub struct EngineStats {
+    pub accepted: u64,
+    pub late: u64,
+    pub instants_fused: u64,
+    pub batches_released: u64,
+    /// Batches fused early because `max_pending_reports` was reached.
+    pub forced_by_limit: u64,
+    /// Instants the center refused (an error it reported; logged, the service goes on).
+    pub center_errors: u64,
+}
+
+/// A journal line that is not a report: a release the server's timer made.
+#[derive(Debug, Serialize, Deserialize)]
+struct ReleaseLine {
+    release_through: f64,
+}
+
+/// The journal's first line: everything that decides the output.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct JournalHeader {
+    pub trackfuse_journal: u32,
+    pub setup: CenterSetup,
+}
+
+/// The fusion center with its batches (module docs).
+pub struct Engine {
+    center: FusionCenter,
+    batcher: InstantBatcher,
+    pending: BTreeMap<TimeKey, Batch>,
+    pending_reports: usize,
+    max_pending: usize,
+    /// Each expected sensor's period and latest report time.
+    sensors: BTreeMap<Id, (f64, Option<f64>)>,
+    /// Each local track's latest report time.
+    track_time: HashMap<(Id, Id), f64>,
+    /// The time of the last batch fused.
+    released_through: Option<f64>,
+    journal: Option<std::io::BufWriter<std::fs::File>>,
+    scan_out: ScanOutput,
+    line: Vec<u8>,
+    /// The output lines not yet taken, one chunk per instant ([`Engine::take_output`]).
+    output: Vec<Vec<u8>>,
+    /// Each fused instant's time in the center, not yet taken.
+    pub fusion_times: Vec<Duration>,
+    /// The first-arrival time of each batch released, not yet taken.
+    pub released_arrivals: Vec<Instant>,
+    pub stats: EngineStats,
+    /// Center errors not yet logged.
+    pub errors: Vec<String>,
+}
+
+impl Engine {
+    /// A center for `setup`; with `journal`, every accepted line and timer release is
+    /// written there (after a header with `setup`) before it is processed.
+    pub fn new(setup: &CenterSetup, journal: Option<&std::path::Path>) -> Result<Engine> {
+        let center = FusionCenter::new(&setup.fusion, setup.sensors.as_deref())?;
+        if center.lacks_truth() {
+            anyhow::bail!(
+                "fusion: the method or rule needs the true association, which a live service does not have"
+            );
+        }
+        let batcher = InstantBatcher::new(setup.period(), &setup.clocks());
+        let journal = match journal {
+            Some(p) => {
+                let f = std::fs::File::create(p)
+                    .with_context(|| format!("creating journal {}", p.display()))?;
+                let mut w = std::io::BufWriter::new(f);
+                let header = JournalHeader {
+                    trackfuse_journal: 1,
+                    setup: setup.clone(),
+                };
+                serde_json::to_writer(&mut w, &header)?;
+                w.write_all(b"\n")?;
+                Some(w)
+            }
+            None => None,
+        };
+        Ok(Engine {
+            center,
+            batcher,
+            pending: BTreeMap::new(),
+            pending_reports: 0,
+            max_pending: setup.max_pending_reports,
+            sensors: setup
+                .expected
+                .iter()
+                .map(|s| (s.id, (s.period, None)))
+                .collect(),
+            track_time: HashMap::new(),
+            released_through: None,
+            journal,
+            scan_out: ScanOutput::default(),
+            line: Vec::new(),
+            output: Vec::new(),
+            fusion_times: Vec::new(),
+            released_arrivals: Vec::new(),
+            stats: EngineStats::default(),
+            errors: Vec::new(),
+        })
+    }
+
+    /// Whether `sensor_id` is expected.
+    pub fn knows(&self, sensor_id: Id) -> bool {
+        self.sensors.contains_key(&sensor_id)
+    }
+
+    /// Take one valid report (parsed by [`crate::message::parse_report`], of an
+    /// expected sensor) that arrived at `arrival`, then fuse every batch that is
+    /// complete.
+    pub fn accept(&mut self, track: LocalTrack, arrival: Instant) -> Result<Verdict> {
+        let key = (track.sensor_id, track.track_id);
+        if let Some(&prev) = self.track_time.get(&key) {
+            if track.time < prev {
+                return Ok(Verdict::Rejected(Reason::TimeBackwards));
+            }
+            if track.time == prev {
+                return Ok(Verdict::Rejected(Reason::Duplicate));
+            }
+        }
+        if let Some(j) = self.journal.as_mut() {
+            self.line.clear();
+            encode_report(&track, &mut self.line);
+            self.line.push(b'\n');
+            j.write_all(&self.line).context("writing the journal")?;
+        }
+        self.track_time.insert(key, track.time);
+        if let Some((_, last)) = self.sensors.get_mut(&track.sensor_id) {
+            *last = Some(last.map_or(track.time, |l: f64| l.max(track.time)));
+        }
+        if self.released_through.is_some_and(|r| track.time <= r) {
+            self.stats.late += 1;
+            self.release_ready();
+            return Ok(Verdict::Late);
+        }
+        self.stats.accepted += 1;
+        let batch = self.pending.entry(TimeKey(track.time)).or_insert(Batch {
+            scan: track.scan,
+            rows: Vec::new(),
+            first_arrival: arrival,
+        });
+        batch.scan = batch.scan.max(track.scan);
+        batch.rows.push(track);
+        self.pending_reports += 1;
+        while self.pending_reports > self.max_pending {
+            self.stats.forced_by_limit += 1;
+            self.release_first();
+        }
+        self.release_ready();
+        Ok(Verdict::Accepted)
+    }
+
+    /// Whether every expected sensor is past `time` (module docs).
+    fn complete(&self, time: f64) -> bool {
+        self.sensors.values().all(|&(period, last)| match last {
+            None => false,
+            Some(l) => l > time || (l < time && time < l + period * (1.0 - CLOCK_TOLERANCE)),
+        })
+    }
+
+    /// Fuse the complete batches, oldest first, up to the first incomplete one.
+    fn release_ready(&mut self) {
+        while let Some((k, _)) = self.pending.first_key_value() {
+            if !self.complete(k.0) {
+                break;
+            }
+            self.release_first();
+        }
+    }
+
+    /// The first-arrival time of the oldest batch not yet fused (the server's budget
+    /// timer runs from it) and its time.
+    pub fn oldest_pending(&self) -> Option<(f64, Instant)> {
+        self.pending
+            .first_key_value()
+            .map(|(k, b)| (k.0, b.first_arrival))
+    }
+
+    /// The earliest first-arrival among the batches not yet fused.
+    pub fn earliest_arrival(&self) -> Option<(f64, Instant)> {
+        self.pending
+            .iter()
+            .min_by_key(|(_, b)| b.first_arrival)
+            .map(|(k, b)| (k.0, b.first_arrival))
+    }
+
+    /// Fuse every batch up to and including `time` (the latency budget ran out for it);
+    /// journaled.
+    pub fn release_through(&mut self, time: f64) -> Result<()> {
+        if let Some(j) = self.journal.as_mut() {
+            serde_json::to_writer(
+                &mut *j,
+                &ReleaseLine {
+                    release_through: time,
+                },
+            )?;
+            j.write_all(b"\n").context("writing the journal")?;
+        }
+        while self
+            .pending
+            .first_key_value()
+            .is_some_and(|(k, _)| k.0 <= time)
+        {
+            self.release_first();
+        }
+        self.release_ready();
+        Ok(())
+    }
+
+    /// Fuse every batch held (shutdown, end of a replay) and flush the journal.
+    pub fn release_all(&mut self) -> Result<()> {
+        while !self.pending.is_empty() {
+            self.release_first();
+        }
+        self.flush_journal()
+    }
+
+    /// Flush the journal to the file.
+    pub fn flush_journal(&mut self) -> Result<()> {
+        if let Some(j) = self.journal.as_mut() {
+            j.flush().context("flushing the journal")?;
+        }
+        Ok(())
+    }
+
+    /// Hand the oldest batch to the instant batcher and fuse what it gives.
+    fn release_first(&mut self) {
+        let Some((key, batch)) = self.pending.pop_first() else {
+            return;
+        };
+        self.pending_reports -= batch.rows.len();
+        self.released_through = Some(key.0);
+        self.stats.batches_released += 1;
+        self.released_arrivals.push(batch.first_arrival);
+        let center = &mut self.center;
+        let out = &mut self.scan_out;
+        let output = &mut self.output;
+        let stats = &mut self.stats;
+        let times = &mut self.fusion_times;
+        let result = self
+            .batcher
+            .push(batch.scan, key.0, &batch.rows, |s, t, tracks| {
+                let t0 = Instant::now();
+                center.process_at_into(s, t, tracks, out)?;
+                times.push(t0.elapsed());
+                stats.instants_fused += 1;
+                let mut chunk =
+                    Vec::with_capacity(256 * (out.fused.len() + out.associations.len()));
+                for f in &out.fused {
+                    encode_fused(f, &mut chunk);
+                }
+                for a in &out.associations {
+                    encode_association(a, &mut chunk);
+                }
+                if !chunk.is_empty() {
+                    output.push(chunk);
+                }
+                Ok::<(), trackfuse::center::CenterError>(())
+            });
+        if let Err(e) = result {
+            self.stats.center_errors += 1;
+            self.errors
+                .push(format!("instant at time {}: center error: {e}", key.0));
+        }
+    }
+
+    /// The output lines produced since the last call, one chunk per instant.
+    pub fn take_output(&mut self) -> Vec<Vec<u8>> {
+        std::mem::take(&mut self.output)
+    }
+
+    /// Global tracks the center holds.
+    pub fn live_global_tracks(&self) -> usize {
+        self.center.globals().len()
+    }
+
+    /// Reports held in batches not yet fused.
+    pub fn pending_reports(&self) -> usize {
+        self.pending_reports
+    }
+}
+
+/// Replay a journal: the same engine fed the same lines, every batch fused at the end
+/// (as at shutdown); the output lines written to `out`. Returns the engine's totals.
+pub fn replay(journal: &std::path::Path, out: &mut dyn Write) -> Result<EngineStats> {
+    use std::io::BufRead;
+    let f = std::fs::File::open(journal)
+        .with_context(|| format!("opening journal {}", journal.display()))?;
+    let mut lines = std::io::BufReader::new(f).lines();
+    let first = lines
+        .next()
+        .with_context(|| format!("{}: empty journal", journal.display()))??;
+    let header: JournalHeader = serde_json::from_str(&first)
+        .with_context(|| format!("{}:1: not a trackfuse journal header", journal.display()))?;
+    let mut engine = Engine::new(&header.setup, None)?;
+    let now = Instant::now();
+    for (i, line) in lines.enumerate() {
+        let line = line?;
+        let at = || format!("{}:{}", journal.display(), i + 2);
+        if let Ok(r) = serde_json::from_str::<ReleaseLine>(&line) {
+            engine.release_through(r.release_through)?;
+        } else {
+            let t = crate::message::parse_report(line.as_bytes())
+                .map_err(|r| anyhow::anyhow!("{}: {}: {}", at(), r.reason, r.detail))?;
+            engine.accept(t, now)?;
+        }
+        for chunk in engine.take_output() {
+            out.write_all(&chunk)?;
+        }
+    }
+    engine.release_all()?;
+    for chunk in engine.take_output() {
+        out.write_all(&chunk)?;
+    }
+    for e in &engine.errors {
+        eprintln!("warning: {e}");
+    }
+    Ok(engine.stats.clone())
+}

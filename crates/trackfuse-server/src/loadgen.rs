@@ -1,0 +1,324 @@
+//! `trackfuse loadgen`: stream synthetic local tracks to a running service from N sensor
+//! connections at a given rate, bounded in messages and time, and report throughput,
+//! latency from send to fused output, the service's rejected counts and (with
+//! `--server-pid`) its resident memory over the run.
+//!
+//! The scenario: `--targets` constant-velocity targets on a 1 km grid at 10-30 m/s, each
+//! reported by every sensor at every scan (data time `scan * --period`), its local track
+//! the truth plus 20 m / 2 m/s of deterministic noise, covariance `diag(400, 4, 400, 4)`.
+//! All sensors report at one period, so the service fuses instant `k` once every sensor
+//! has sent a report of scan `k + 1` (its assembly wait). The latency of instant `k` is
+//! measured from the moment the last sensor sent its first report of scan `k + 1` to the
+//! first fused line of `k` received: the service's latency beyond the assembly wait.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use trackfuse::types::{LocalTrack, StateCov, StateVec};
+
+/// `trackfuse loadgen`.
+#[derive(Args, Debug)]
+pub struct LoadgenArgs {
+    /// The service's sensor address.
+    #[arg(long, default_value = "127.0.0.1:7400")]
+    pub sensor_addr: String,
+    /// The service's subscriber address (for the latency).
+    #[arg(long, default_value = "127.0.0.1:7401")]
+    pub subscriber_addr: String,
+    /// The service's HTTP address (for the rejected counts at the end).
+    #[arg(long, default_value = "127.0.0.1:7402")]
+    pub http_addr: String,
+    /// Sensor connections (sensor ids 0..N; the service must expect them).
+    #[arg(long, default_value_t = 4)]
+    pub sensors: u32,
+    #[arg(long, default_value_t = 1000)]
+    pub targets: u32,
+    /// Local-track messages per second, all connections together.
+    #[arg(long, default_value_t = 300_000.0)]
+    pub rate: f64,
+    /// Stop after this many seconds.
+    #[arg(long, default_value_t = 10.0)]
+    pub duration: f64,
+    /// Stop after this many messages (default: no bound but the duration).
+    #[arg(long)]
+    pub max_messages: Option<u64>,
+    /// Data time between scans (s); the service's sensor periods must be it.
+    #[arg(long, default_value_t = 1.0)]
+    pub period: f64,
+    /// The service's process id: sample its resident memory every 10 s.
+    #[arg(long)]
+    pub server_pid: Option<u32>,
+}
+
+/// A 64-bit mix (splitmix64's finaliser): the deterministic noise of the synthetic
+/// local tracks. Hand-written: a load generator needs reproducible, cheap, roughly
+/// uniform numbers, not a statistical RNG stream.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Uniform in [-1, 1).
+fn noise(key: u64) -> f64 {
+    (mix(key) >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+}
+
+/// Sensor `sensor`'s local track of target `target` at scan `k`.
+fn synthetic(sensor: u32, target: u32, k: u32, period: f64) -> LocalTrack {
+    let t = f64::from(k) * period;
+    let side = 32;
+    let x0 = f64::from(target % side) * 1000.0;
+    let y0 = f64::from(target / side) * 1000.0;
+    let vx = 10.0 + 20.0 * (noise(u64::from(target)) * 0.5 + 0.5);
+    let vy = 10.0 + 20.0 * (noise(u64::from(target) + 77_777) * 0.5 + 0.5);
+    let key = (u64::from(sensor) << 48) ^ (u64::from(target) << 24) ^ u64::from(k);
+    LocalTrack {
+        scan: k,
+        time: t,
+        sensor_id: i64::from(sensor),
+        track_id: i64::from(target),
+        state: StateVec::new(
+            x0 + vx * t + 20.0 * noise(key),
+            vx + 2.0 * noise(key ^ 1),
+            y0 + vy * t + 20.0 * noise(key ^ 2),
+            vy + 2.0 * noise(key ^ 3),
+        ),
+        cov: StateCov::from_diagonal(&StateVec::new(400.0, 4.0, 400.0, 4.0)),
+    }
+}
+
+/// The value of `"scan":N` in an output line, without decoding the rest.
+fn scan_of(line: &str) -> Option<u32> {
+    let i = line.find("\"scan\":")? + 7;
+    let rest = &line[i..];
+    let end = rest
+        .find(|c: char| !c.is_ascii_digit())
+        .unwrap_or(rest.len());
+    rest[..end].parse().ok()
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let i = ((sorted.len() - 1) as f64 * p).round() as usize;
+    sorted[i.min(sorted.len() - 1)]
+}
+
+/// Resident memory of `pid` in KiB (Linux `/proc`).
+fn rss_kib(pid: u32) -> Option<u64> {
+    let s = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let l = s.lines().find(|l| l.starts_with("VmRSS:"))?;
+    l.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// `GET /metrics`: the body, or why not.
+fn http_metrics(addr: &str) -> Result<String> {
+    let mut c = TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
+    write!(
+        c,
+        "GET /metrics HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n"
+    )?;
+    let mut text = String::new();
+    c.read_to_string(&mut text)?;
+    Ok(text
+        .split_once("\r\n\r\n")
+        .map(|x| x.1.to_string())
+        .unwrap_or_default())
+}
+
+/// Run the load (module docs) and print the report.
+pub fn run(args: &LoadgenArgs) -> Result<()> {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if args.sensors == 0 || args.targets == 0 || !positive(args.rate) || !positive(args.duration) {
+        bail!("--sensors, --targets, --rate and --duration must be positive");
+    }
+    let per_sensor = args.rate / f64::from(args.sensors);
+    let scan_wall = f64::from(args.targets) / per_sensor; // s of wall time per scan
+    let max_scans = args.max_messages.map_or(u32::MAX, |m| {
+        (m / u64::from(args.sensors * args.targets)).min(u64::from(u32::MAX)) as u32
+    });
+    let stop = Arc::new(AtomicBool::new(false));
+    let sent = Arc::new(AtomicU64::new(0));
+    // per scan: the latest among the sensors of the time it sent its first report
+    let first_sent: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(Vec::new()));
+    let received: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(Vec::new()));
+
+    let sub = TcpStream::connect(&args.subscriber_addr)
+        .with_context(|| format!("connecting to {}", args.subscriber_addr))?;
+    let recv_lines = Arc::new(AtomicU64::new(0));
+    let reader = {
+        let received = received.clone();
+        let recv_lines = recv_lines.clone();
+        std::thread::spawn(move || {
+            let mut r = BufReader::with_capacity(1 << 20, sub);
+            let mut line = String::new();
+            let mut last_scan = None;
+            while r.read_line(&mut line).map(|n| n > 0).unwrap_or(false) {
+                recv_lines.fetch_add(1, Ordering::Relaxed);
+                if let Some(k) = scan_of(&line) {
+                    if last_scan != Some(k) {
+                        last_scan = Some(k);
+                        let now = Instant::now();
+                        let mut v = received.lock().unwrap_or_else(|e| e.into_inner());
+                        let i = k as usize;
+                        if v.len() <= i {
+                            v.resize(i + 1, None);
+                        }
+                        v[i].get_or_insert(now);
+                    }
+                }
+                line.clear();
+            }
+        })
+    };
+    std::thread::sleep(Duration::from_millis(200));
+    let start = Instant::now();
+    let mut senders = Vec::new();
+    for sensor in 0..args.sensors {
+        let mut conn = TcpStream::connect(&args.sensor_addr)
+            .with_context(|| format!("connecting to {}", args.sensor_addr))?;
+        conn.set_nodelay(true)?;
+        let (stop, sent, first_sent) = (stop.clone(), sent.clone(), first_sent.clone());
+        let (targets, period, duration) = (args.targets, args.period, args.duration);
+        senders.push(std::thread::spawn(move || -> Result<()> {
+            let mut buf = Vec::with_capacity(1 << 20);
+            for k in 0..max_scans {
+                let due = start + Duration::from_secs_f64(scan_wall * f64::from(k));
+                let now = Instant::now();
+                if due > now {
+                    std::thread::sleep(due - now);
+                }
+                if stop.load(Ordering::Relaxed) || start.elapsed().as_secs_f64() >= duration {
+                    break;
+                }
+                buf.clear();
+                let mut first = true;
+                for target in 0..targets {
+                    crate::message::encode_report(&synthetic(sensor, target, k, period), &mut buf);
+                    buf.push(b'\n');
+                    if buf.len() >= 1 << 16 || target + 1 == targets {
+                        if first {
+                            let now = Instant::now();
+                            let mut v = first_sent.lock().unwrap_or_else(|e| e.into_inner());
+                            let i = k as usize;
+                            if v.len() <= i {
+                                v.resize(i + 1, None);
+                            }
+                            v[i] = Some(v[i].map_or(now, |t| t.max(now)));
+                            first = false;
+                        }
+                        conn.write_all(&buf)?;
+                        buf.clear();
+                    }
+                }
+                sent.fetch_add(u64::from(targets), Ordering::Relaxed);
+            }
+            Ok(())
+        }));
+    }
+    // memory samples while sending
+    let mut rss = Vec::new();
+    let mut next_sample = Instant::now();
+    while senders.iter().any(|h| !h.is_finished()) {
+        if let Some(pid) = args.server_pid {
+            if Instant::now() >= next_sample {
+                if let Some(r) = rss_kib(pid) {
+                    rss.push((start.elapsed().as_secs_f64(), r));
+                }
+                next_sample += Duration::from_secs(10);
+            }
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let send_time = start.elapsed().as_secs_f64();
+    for h in senders {
+        h.join()
+            .map_err(|_| anyhow::anyhow!("a sender thread panicked"))??;
+    }
+    stop.store(true, Ordering::Relaxed);
+    // the last full instant is fused when the next scan arrives, which it never does:
+    // give the service a moment for what is in flight, then stop reading
+    std::thread::sleep(Duration::from_millis(500));
+    let total = sent.load(Ordering::Relaxed);
+    let first_sent = first_sent.lock().unwrap_or_else(|e| e.into_inner()).clone();
+    let received = received.lock().unwrap_or_else(|e| e.into_inner()).clone();
+    let mut lat: Vec<f64> = received
+        .iter()
+        .enumerate()
+        .filter_map(|(k, r)| {
+            let done = first_sent.get(k + 1).copied().flatten()?;
+            let r = (*r)?;
+            Some(r.saturating_duration_since(done).as_secs_f64())
+        })
+        .collect();
+    lat.sort_by(f64::total_cmp);
+    println!(
+        "sent {total} local-track messages from {} connections in {send_time:.1} s: {:.0} messages/s (asked {:.0})",
+        args.sensors,
+        total as f64 / send_time,
+        args.rate
+    );
+    println!(
+        "instants with output: {} of {} scans sent; output lines received: {}",
+        lat.len(),
+        first_sent.len(),
+        recv_lines.load(Ordering::Relaxed)
+    );
+    println!(
+        "latency beyond the assembly wait (last sensor's first report of scan k+1 -> first fused line of instant k): p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms",
+        percentile(&lat, 0.5) * 1e3,
+        percentile(&lat, 0.99) * 1e3,
+        lat.last().copied().unwrap_or(f64::NAN) * 1e3
+    );
+    if !rss.is_empty() {
+        let s: Vec<String> = rss
+            .iter()
+            .map(|(t, r)| format!("{t:.0}s {:.1}MiB", *r as f64 / 1024.0))
+            .collect();
+        println!("service resident memory: {}", s.join(", "));
+    }
+    match http_metrics(&args.http_addr) {
+        Ok(m) => {
+            let sum = |name: &str| -> u64 {
+                m.lines()
+                    .filter(|l| l.starts_with(name))
+                    .filter_map(|l| l.rsplit(' ').next()?.parse::<u64>().ok())
+                    .sum()
+            };
+            println!(
+                "service: accepted {}, rejected {}, late {}, instants fused {}",
+                sum("trackfuse_accepted_total"),
+                sum("trackfuse_rejected_total"),
+                sum("trackfuse_late_total"),
+                sum("trackfuse_instants_fused_total")
+            );
+        }
+        Err(e) => println!("service metrics: not read ({e:#})"),
+    }
+    drop(reader); // the reader thread ends with the service's stream
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn synthetic_tracks_are_valid_reports_and_scans_are_found() {
+        let t = synthetic(2, 999, 17, 1.0);
+        let mut line = Vec::new();
+        crate::message::encode_report(&t, &mut line);
+        let back = crate::message::parse_report(&line).expect("valid");
+        assert_eq!(back, t);
+        let text = String::from_utf8(line).expect("utf8");
+        assert_eq!(scan_of(&text), Some(17));
+        assert!(noise(1) >= -1.0 && noise(1) < 1.0);
+    }
+}
