@@ -101,3 +101,35 @@ def test_whole_chain_in_memory_equals_files(cli_run):
     local = tf.track(s["sensors"], s["measurements"], scenario=SCENARIO)
     out = tf.fuse(local, sensors=s["sensors"], scenario=SCENARIO)
     assert_same(out["fused"], csv_fused(cli_run / "fuse" / "fused_tracks.csv"), "fused")
+
+
+def test_walkthrough_runs(tmp_path):
+    import subprocess
+    import sys
+    from conftest import REPO
+
+    script = REPO / "crates" / "trackfuse-py" / "examples" / "walkthrough.py"
+    r = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True,
+                       text=True)
+    assert r.returncode == 0, r.stderr
+    assert "GOSPA" in r.stdout and "range bias" in r.stdout
+
+
+def test_readme_example_runs_as_written(tmp_path):
+    """The README's `## Python` example, run as written (it plots with matplotlib,
+    which .ci/run installs in the test environment)."""
+    import os
+    import re
+    import subprocess
+    import sys
+    from conftest import REPO
+
+    text = (REPO / "README.md").read_text()
+    section = text.split("\n## Python\n", 1)[1].split("\n## ", 1)[0]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    env = dict(os.environ, MPLBACKEND="Agg")
+    r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                       text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "GOSPA" in r.stdout
+    assert (tmp_path / "fused.png").stat().st_size > 1000
