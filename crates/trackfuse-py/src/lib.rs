@@ -15,7 +15,10 @@
 //! sensors are a list of dicts (a few rows, with a `kind` string); a measurement's kind is
 //! its sensor's (the library refuses a mismatch, so the arrays carry no `kind` column).
 
-use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
+use numpy::{
+    PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+    PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
@@ -27,8 +30,8 @@ use trackfuse::io::InputError as LibInputError;
 use trackfuse::local::TrackerConfig;
 use trackfuse::metrics::EvaluationConfig;
 use trackfuse::{
-    Association, FusedTrack, Id, LocalTrack, Measurement, RunConfig, Sensor, SensorKind,
-    StateCov, StateVec, TrackStatus, TruthState, Vec2,
+    Association, FusedTrack, Id, LocalTrack, Measurement, RunConfig, Sensor, SensorKind, StateCov,
+    StateVec, TrackStatus, TruthState, Vec2,
 };
 
 pyo3::create_exception!(
@@ -309,7 +312,12 @@ fn truth_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<TruthState>> {
     let time = col1::<f64>(d, w, "time")?;
     let tid = col1::<i64>(d, w, "target_id")?;
     let st = states(d, w, "state", 4)?;
-    let (scan, time, tid, st) = (scan.as_array(), time.as_array(), tid.as_array(), st.as_array());
+    let (scan, time, tid, st) = (
+        scan.as_array(),
+        time.as_array(),
+        tid.as_array(),
+        st.as_array(),
+    );
     let n = check_len(
         w,
         &[
@@ -341,7 +349,12 @@ fn measurements_from(d: &Bound<'_, PyDict>, sensors: &[Sensor]) -> PyResult<Vec<
         Some(_) => Some(col1::<i64>(d, w, "target_id")?),
         None => None,
     };
-    let (scan, time, sid, val) = (scan.as_array(), time.as_array(), sid.as_array(), val.as_array());
+    let (scan, time, sid, val) = (
+        scan.as_array(),
+        time.as_array(),
+        sid.as_array(),
+        val.as_array(),
+    );
     let target = target.as_ref().map(|t| t.as_array());
     let mut cols = vec![
         ("time", time.len()),
@@ -465,7 +478,12 @@ fn associations_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<Association>> {
     let sid = col1::<i64>(d, w, "sensor_id")?;
     let tid = col1::<i64>(d, w, "track_id")?;
     let fid = col1::<i64>(d, w, "fused_id")?;
-    let (scan, sid, tid, fid) = (scan.as_array(), sid.as_array(), tid.as_array(), fid.as_array());
+    let (scan, sid, tid, fid) = (
+        scan.as_array(),
+        sid.as_array(),
+        tid.as_array(),
+        fid.as_array(),
+    );
     let n = check_len(
         w,
         &[
@@ -492,7 +510,9 @@ fn sensors_from(list: &Bound<'_, PyAny>) -> PyResult<Vec<Sensor>> {
     for (i, s) in list.try_iter()?.enumerate() {
         let s = s?;
         let d = s.downcast::<PyDict>().map_err(|_| {
-            PyValueError::new_err(format!("sensors[{i}]: expected a dict (one sensors.csv row)"))
+            PyValueError::new_err(format!(
+                "sensors[{i}]: expected a dict (one sensors.csv row)"
+            ))
         })?;
         let req = |k: &str| -> PyResult<Bound<'_, PyAny>> {
             d.get_item(k)?
@@ -546,7 +566,11 @@ fn set<'py>(d: &Bound<'py, PyDict>, k: &str, v: impl IntoPyObject<'py>) -> PyRes
     d.set_item(k, v)
 }
 
-fn states_out<'py>(py: Python<'py>, it: impl Iterator<Item = StateVec>, n: usize) -> PyResult<Bound<'py, PyAny>> {
+fn states_out<'py>(
+    py: Python<'py>,
+    it: impl Iterator<Item = StateVec>,
+    n: usize,
+) -> PyResult<Bound<'py, PyAny>> {
     let mut v = Vec::with_capacity(n * 4);
     for s in it {
         v.extend_from_slice(s.as_slice());
@@ -556,7 +580,11 @@ fn states_out<'py>(py: Python<'py>, it: impl Iterator<Item = StateVec>, n: usize
 
 /// Row-major `(n, 4, 4)` (nalgebra stores column-major; covariances are symmetric, but
 /// the bits are copied in the order NumPy indexes them).
-fn covs_out<'py>(py: Python<'py>, it: impl Iterator<Item = StateCov>, n: usize) -> PyResult<Bound<'py, PyAny>> {
+fn covs_out<'py>(
+    py: Python<'py>,
+    it: impl Iterator<Item = StateCov>,
+    n: usize,
+) -> PyResult<Bound<'py, PyAny>> {
     let mut v = Vec::with_capacity(n * 16);
     for c in it {
         for r in 0..4 {
@@ -571,10 +599,22 @@ fn covs_out<'py>(py: Python<'py>, it: impl Iterator<Item = StateCov>, n: usize) 
 fn local_to<'py>(py: Python<'py>, t: &[LocalTrack]) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     let n = t.len();
-    set(&d, "scan", arr(py, t.iter().map(|r| i64::from(r.scan)).collect()))?;
+    set(
+        &d,
+        "scan",
+        arr(py, t.iter().map(|r| i64::from(r.scan)).collect()),
+    )?;
     set(&d, "time", arr(py, t.iter().map(|r| r.time).collect()))?;
-    set(&d, "sensor_id", arr(py, t.iter().map(|r| r.sensor_id).collect()))?;
-    set(&d, "track_id", arr(py, t.iter().map(|r| r.track_id).collect()))?;
+    set(
+        &d,
+        "sensor_id",
+        arr(py, t.iter().map(|r| r.sensor_id).collect()),
+    )?;
+    set(
+        &d,
+        "track_id",
+        arr(py, t.iter().map(|r| r.track_id).collect()),
+    )?;
     set(&d, "state", states_out(py, t.iter().map(|r| r.state), n)?)?;
     set(&d, "cov", covs_out(py, t.iter().map(|r| r.cov), n)?)?;
     Ok(d)
@@ -582,32 +622,68 @@ fn local_to<'py>(py: Python<'py>, t: &[LocalTrack]) -> PyResult<Bound<'py, PyDic
 
 fn truth_to<'py>(py: Python<'py>, t: &[TruthState]) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    set(&d, "scan", arr(py, t.iter().map(|r| i64::from(r.scan)).collect()))?;
+    set(
+        &d,
+        "scan",
+        arr(py, t.iter().map(|r| i64::from(r.scan)).collect()),
+    )?;
     set(&d, "time", arr(py, t.iter().map(|r| r.time).collect()))?;
-    set(&d, "target_id", arr(py, t.iter().map(|r| r.target_id).collect()))?;
-    set(&d, "state", states_out(py, t.iter().map(|r| r.state), t.len())?)?;
+    set(
+        &d,
+        "target_id",
+        arr(py, t.iter().map(|r| r.target_id).collect()),
+    )?;
+    set(
+        &d,
+        "state",
+        states_out(py, t.iter().map(|r| r.state), t.len())?,
+    )?;
     Ok(d)
 }
 
 fn measurements_to<'py>(py: Python<'py>, m: &[Measurement]) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    set(&d, "scan", arr(py, m.iter().map(|r| i64::from(r.scan)).collect()))?;
+    set(
+        &d,
+        "scan",
+        arr(py, m.iter().map(|r| i64::from(r.scan)).collect()),
+    )?;
     set(&d, "time", arr(py, m.iter().map(|r| r.time).collect()))?;
-    set(&d, "sensor_id", arr(py, m.iter().map(|r| r.sensor_id).collect()))?;
+    set(
+        &d,
+        "sensor_id",
+        arr(py, m.iter().map(|r| r.sensor_id).collect()),
+    )?;
     let v: Vec<f64> = m.iter().flat_map(|r| [r.value[0], r.value[1]]).collect();
     set(&d, "value", arr(py, v).reshape([m.len(), 2])?)?;
-    set(&d, "target_id", arr(py, m.iter().map(|r| r.target_id).collect()))?;
+    set(
+        &d,
+        "target_id",
+        arr(py, m.iter().map(|r| r.target_id).collect()),
+    )?;
     Ok(d)
 }
 
 fn fused_to<'py>(py: Python<'py>, f: &[FusedTrack]) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     let n = f.len();
-    set(&d, "scan", arr(py, f.iter().map(|r| i64::from(r.scan)).collect()))?;
+    set(
+        &d,
+        "scan",
+        arr(py, f.iter().map(|r| i64::from(r.scan)).collect()),
+    )?;
     set(&d, "time", arr(py, f.iter().map(|r| r.time).collect()))?;
-    set(&d, "fused_id", arr(py, f.iter().map(|r| r.fused_id).collect()))?;
+    set(
+        &d,
+        "fused_id",
+        arr(py, f.iter().map(|r| r.fused_id).collect()),
+    )?;
     set(&d, "state", states_out(py, f.iter().map(|r| r.state), n)?)?;
-    set(&d, "cov", covs_out(py, f.iter().map(|r| r.cov.clone_owned()), n)?)?;
+    set(
+        &d,
+        "cov",
+        covs_out(py, f.iter().map(|r| r.cov.clone_owned()), n)?,
+    )?;
     set(
         &d,
         "sources_count",
@@ -634,18 +710,42 @@ fn fused_to<'py>(py: Python<'py>, f: &[FusedTrack]) -> PyResult<Bound<'py, PyDic
 
 fn associations_to<'py>(py: Python<'py>, a: &[Association]) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    set(&d, "scan", arr(py, a.iter().map(|r| i64::from(r.scan)).collect()))?;
-    set(&d, "sensor_id", arr(py, a.iter().map(|r| r.sensor_id).collect()))?;
-    set(&d, "track_id", arr(py, a.iter().map(|r| r.track_id).collect()))?;
-    set(&d, "fused_id", arr(py, a.iter().map(|r| r.fused_id).collect()))?;
+    set(
+        &d,
+        "scan",
+        arr(py, a.iter().map(|r| i64::from(r.scan)).collect()),
+    )?;
+    set(
+        &d,
+        "sensor_id",
+        arr(py, a.iter().map(|r| r.sensor_id).collect()),
+    )?;
+    set(
+        &d,
+        "track_id",
+        arr(py, a.iter().map(|r| r.track_id).collect()),
+    )?;
+    set(
+        &d,
+        "fused_id",
+        arr(py, a.iter().map(|r| r.fused_id).collect()),
+    )?;
     Ok(d)
 }
 
 fn bias_to<'py>(py: Python<'py>, b: &[BiasEstimate]) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    set(&d, "sensor_id", arr(py, b.iter().map(|r| r.sensor_id).collect()))?;
+    set(
+        &d,
+        "sensor_id",
+        arr(py, b.iter().map(|r| r.sensor_id).collect()),
+    )?;
     set(&d, "bias_r", arr(py, b.iter().map(|r| r.range).collect()))?;
-    set(&d, "bias_theta", arr(py, b.iter().map(|r| r.bearing).collect()))?;
+    set(
+        &d,
+        "bias_theta",
+        arr(py, b.iter().map(|r| r.bearing).collect()),
+    )?;
     Ok(d)
 }
 
@@ -713,7 +813,8 @@ fn tracker_config(
     if let Some(f) = filter {
         c.filter = f.to_string();
     }
-    c.validate().map_err(|e| value_error(format!("tracker: {e}")))?;
+    c.validate()
+        .map_err(|e| value_error(format!("tracker: {e}")))?;
     Ok(c)
 }
 
@@ -744,9 +845,7 @@ fn track<'py>(
     let seed = seed.or(sc.as_ref().map(|c| c.scenario.seed)).unwrap_or(1);
     let pn = sc.as_ref().map(|c| c.scenario.process_noise);
     let local = py
-        .detach(|| {
-            trackfuse::local::track_sensors(&sensors, &meas, &cfg, pn, &known, seed, 0)
-        })
+        .detach(|| trackfuse::local::track_sensors(&sensors, &meas, &cfg, pn, &known, seed, 0))
         .map_err(|e| value_error(format!("local tracking: {e}")))?;
     local_to(py, &local)
 }
