@@ -1009,6 +1009,21 @@ fn read_associations<'py>(py: Python<'py>, path: &str) -> PyResult<Bound<'py, Py
     associations_to(py, &a)
 }
 
+/// Write local tracks as local_tracks.csv with the library's writer (atomic; a
+/// non-finite cell is an error naming it).
+#[pyfunction]
+fn write_local_tracks(path: &str, tracks: &Bound<'_, PyDict>) -> PyResult<()> {
+    let rows = local_from(tracks)?;
+    let p = Path::new(path);
+    let ctx = |e: std::io::Error| value_error(format!("writing {path}: {e}"));
+    let mut w = trackfuse::io::LocalTrackWriter::create(p).map_err(ctx)?;
+    for r in &rows {
+        w.write(r).map_err(ctx)?;
+    }
+    w.finish().map_err(ctx)?;
+    Ok(())
+}
+
 // ---------------------------------------------------------------------------------------
 // the streaming center
 
@@ -1113,6 +1128,7 @@ fn _trackfuse(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_local_tracks, m)?)?;
     m.add_function(wrap_pyfunction!(read_fused_tracks, m)?)?;
     m.add_function(wrap_pyfunction!(read_associations, m)?)?;
+    m.add_function(wrap_pyfunction!(write_local_tracks, m)?)?;
     m.add_class::<FusionCenter>()?;
     Ok(())
 }

@@ -35,6 +35,8 @@ from . import _trackfuse
 from ._trackfuse import InputError, read_associations, read_fused_tracks, read_local_tracks
 from ._trackfuse import read_measurements, read_sensors, read_truth
 
+__version__ = "0.1.0"
+
 __all__ = [
     "FusionCenter",
     "InputError",
@@ -48,6 +50,7 @@ __all__ = [
     "read_truth",
     "simulate",
     "track",
+    "write_local_tracks",
 ]
 
 _INT = ("scan", "sensor_id", "track_id", "target_id", "fused_id", "sources_count", "sources")
@@ -77,6 +80,12 @@ def _columns(d, name):
     if "sources" in out and out["sources"].size == 0:
         out["sources"] = out["sources"].reshape(0, 2)
     return out
+
+
+def write_local_tracks(path, tracks):
+    """Write local tracks (a local-tracks dict) as local_tracks.csv, atomically, with the
+    library's writer: the file ``trackfuse fuse --local-tracks`` reads."""
+    _trackfuse.write_local_tracks(str(path), _columns(tracks, "tracks"))
 
 
 def simulate(scenario, seed=None, run=0):
