@@ -920,6 +920,21 @@ fn fuse<'py>(
     Ok(d)
 }
 
+/// For the benchmark (`benches/fuse_vs_cli.py`): the local tracks converted (not timed),
+/// then the library call [`fuse`] makes with the default config, timed alone: `(wall s,
+/// thread CPU s)`. The difference to a whole `fuse` call is the bindings' own cost.
+#[pyfunction]
+fn _fuse_library_seconds(local_tracks: &Bound<'_, PyDict>) -> PyResult<(f64, f64)> {
+    let local = local_from(local_tracks)?;
+    let cfg = FusionConfig::default();
+    let (t0, c0) = (std::time::Instant::now(), cpu_time::ThreadTime::now());
+    let run = trackfuse::center::instants::fuse_all_at_instants(&local, &cfg, None, None)
+        .map_err(center_error)?;
+    let (wall, cpu) = (t0.elapsed().as_secs_f64(), c0.elapsed().as_secs_f64());
+    drop(run);
+    Ok((wall, cpu))
+}
+
 /// Metrics of fused (and local) tracks against the truth: `trackfuse evaluate`'s
 /// summary.json, as JSON text ([`trackfuse::metrics::evaluate_run_with`]).
 #[pyfunction]
@@ -1129,6 +1144,7 @@ fn _trackfuse(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_fused_tracks, m)?)?;
     m.add_function(wrap_pyfunction!(read_associations, m)?)?;
     m.add_function(wrap_pyfunction!(write_local_tracks, m)?)?;
+    m.add_function(wrap_pyfunction!(_fuse_library_seconds, m)?)?;
     m.add_class::<FusionCenter>()?;
     Ok(())
 }
