@@ -69,3 +69,23 @@ def test_file_errors_carry_file_line_column(tmp_path):
     with pytest.raises(tf.InputError) as e:
         tf.read_truth(str(tmp_path / "missing.csv"))
     assert e.value.line is None and "missing.csv" in str(e.value)
+
+
+def test_mmse_reference_needs_the_truth(local):
+    s, lt = local
+    with pytest.raises(ValueError, match=r"needs the truth .*\(give truth=\)"):
+        tf.fuse(lt, rule="mmse")
+    out = tf.fuse(lt, rule="mmse", truth=s["truth"])
+    assert len(out["fused"]["time"]) > 0
+    # the streaming class has no truth labels: refused up front, not at the first scan
+    with pytest.raises(ValueError, match="needs the truth"):
+        tf.FusionCenter(rule="mmse")
+
+
+def test_bad_scan_and_params_values(local):
+    _, lt = local
+    neg = dict(lt, scan=lt["scan"] - 10**6)
+    with pytest.raises(ValueError, match=r"row 0: scan -\d+ is not in 0"):
+        tf.fuse(neg)
+    with pytest.raises(ValueError, match="expected a bool, int, float, str, list or dict"):
+        tf.fuse(lt, params={"fdbsc-ta": {"eps": object()}})
