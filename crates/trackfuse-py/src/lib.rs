@@ -423,8 +423,14 @@ fn fused_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<FusedTrack>> {
             ("confirmed", confirmed.len()),
         ],
     )?;
-    let total: i64 = count.iter().sum();
-    if count.iter().any(|&c| c < 0) || total as usize != src.nrows() {
+    // a negative count or a sum past i64 is no valid row count (checked, never wrapped)
+    let total = count
+        .iter()
+        .try_fold(0i64, |a, &c| if c < 0 { None } else { a.checked_add(c) });
+    if total.and_then(|t| usize::try_from(t).ok()) != Some(src.nrows()) {
+        let total = total.map_or("a negative or overflowing total".to_string(), |t| {
+            t.to_string()
+        });
         return Err(PyValueError::new_err(format!(
             "{w}: \"sources_count\" sums to {total}, \"sources\" has {} rows",
             src.nrows()

@@ -89,3 +89,15 @@ def test_bad_scan_and_params_values(local):
         tf.fuse(neg)
     with pytest.raises(ValueError, match="expected a bool, int, float, str, list or dict"):
         tf.fuse(lt, params={"fdbsc-ta": {"eps": object()}})
+
+
+def test_fused_sources_must_add_up(local):
+    s, lt = local
+    out = tf.fuse(lt)
+    f = dict(out["fused"], sources_count=out["fused"]["sources_count"].copy())
+    f["sources_count"][0] += 1
+    with pytest.raises(ValueError, match="sources_count"):
+        tf.evaluate(s["truth"], f)
+    f["sources_count"][0] = -1
+    with pytest.raises(ValueError, match="negative or overflowing"):
+        tf.evaluate(s["truth"], f)
