@@ -1,0 +1,103 @@
+"""Errors reach Python as exceptions carrying the library's messages and locations."""
+
+import numpy as np
+import pytest
+
+import trackfuse as tf
+
+
+@pytest.fixture(scope="module")
+def local():
+    s = tf.simulate("000-s1")
+    return s, tf.track(s["sensors"], s["measurements"], scenario="000-s1")
+
+
+def test_unknown_names(local):
+    _, lt = local
+    with pytest.raises(ValueError, match=r'unknown method "nope" \(known: fdbsc-ta'):
+        tf.fuse(lt, method="nope")
+    with pytest.raises(ValueError, match="unknown rule"):
+        tf.FusionCenter(rule="nope")
+    with pytest.raises(ValueError, match="no such file, and not a built-in scenario"):
+        tf.simulate("no-such-scenario")
+
+
+def test_unknown_parameter_names_the_key(local):
+    _, lt = local
+    with pytest.raises(ValueError, match=r"params\.fdbsc-ta\.bogus: unknown field `bogus`"):
+        tf.fuse(lt, params={"fdbsc-ta": {"bogus": 1}})
+
+
+def test_missing_sensors_says_what_to_give(local):
+    _, lt = local
+    with pytest.raises(ValueError, match=r"needs the sensors .*\(give sensors=\)"):
+        tf.fuse(lt, bias="track-pair-ls")
+
+
+def test_bad_arrays(local):
+    s, lt = local
+    bad = dict(lt, state=lt["state"][:, :3])
+    with pytest.raises(ValueError, match=r"expected shape \(n, 4\)"):
+        tf.fuse(bad)
+    short = dict(lt, time=lt["time"][:-1])
+    with pytest.raises(ValueError, match="rows"):
+        tf.fuse(short)
+    nan = {k: v.copy() for k, v in lt.items()}
+    nan["state"][3, 0] = np.nan
+    with pytest.raises(ValueError, match="not finite|non-finite|finite"):
+        tf.fuse(nan)
+    meas = dict(s["measurements"], sensor_id=s["measurements"]["sensor_id"] + 100)
+    with pytest.raises(ValueError, match="sensor_id 101 is not among the sensors"):
+        tf.track(s["sensors"], meas)
+
+
+def test_file_errors_carry_file_line_column(tmp_path):
+    p = tmp_path / "local_tracks.csv"
+    header = "scan,time,sensor_id,track_id,x,vx,y,vy," + ",".join(
+        f"P{i}{j}" for i in range(4) for j in range(4))
+    good = "0,0.0,1,1,0,0,0,0," + ",".join("1" if i == j else "0"
+                                           for i in range(4) for j in range(4))
+    bad = good.replace("0,0.0,1,1,0,", "0,0.0,1,2,abc,", 1)
+    p.write_text(f"{header}\n{good}\n{bad}\n")
+    with pytest.raises(tf.InputError) as e:
+        tf.read_local_tracks(str(p))
+    assert e.value.file == str(p)
+    assert e.value.line == 3
+    assert e.value.column == 5 and e.value.column_name == "x"
+    assert str(p) in str(e.value) and "abc" in str(e.value)
+    assert isinstance(e.value, ValueError)
+    with pytest.raises(tf.InputError) as e:
+        tf.read_truth(str(tmp_path / "missing.csv"))
+    assert e.value.line is None and "missing.csv" in str(e.value)
+
+
+def test_mmse_reference_needs_the_truth(local):
+    s, lt = local
+    with pytest.raises(ValueError, match=r"needs the truth .*\(give truth=\)"):
+        tf.fuse(lt, rule="mmse")
+    out = tf.fuse(lt, rule="mmse", truth=s["truth"])
+    assert len(out["fused"]["time"]) > 0
+    # the streaming class has no truth labels: refused up front, not at the first scan
+    with pytest.raises(ValueError, match="needs the truth"):
+        tf.FusionCenter(rule="mmse")
+
+
+def test_bad_scan_and_params_values(local):
+    _, lt = local
+    neg = dict(lt, scan=lt["scan"] - 10**6)
+    with pytest.raises(ValueError, match=r"row 0: scan -\d+ is not in 0"):
+        tf.fuse(neg)
+    with pytest.raises(ValueError, match="expected a bool, int, float, str, list or dict"):
+        tf.fuse(lt, params={"fdbsc-ta": {"eps": object()}})
+
+
+def test_fused_sources_must_add_up(local):
+    s, lt = local
+    out = tf.fuse(lt)
+    f = dict(out["fused"], sources_count=out["fused"]["sources_count"].copy())
+    f["sources_count"][0] += 1
+    with pytest.raises(ValueError, match="sources_count"):
+        tf.evaluate(s["truth"], f)
+    f["sources_count"][0] = -1
+    with pytest.raises(ValueError, match="negative or overflowing"):
+        tf.evaluate(s["truth"], f)
