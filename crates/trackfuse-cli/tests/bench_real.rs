@@ -58,6 +58,8 @@ fn bench_real_scores_what_the_commands_write() {
         .arg(out.join("fuse/fused_tracks.csv"))
         .arg("--summary")
         .arg(&summary)
+        .arg("--out")
+        .arg(dir.path().join("evaluate"))
         .assert()
         .success();
     let evaluated = gospa_of(&summary);
