@@ -2,7 +2,7 @@
 
 import trackfuse as tf
 
-# paper 000 scenario II: five radars with registration biases, four targets
+# paper 000 scenario II: three radars with registration biases, three targets
 sim = tf.simulate("000-s2", seed=1)
 # one local tracker per sensor, the scenario's [tracker] section (jpda + ekf)
 local = tf.track(sim["sensors"], sim["measurements"], scenario="000-s2")
