@@ -310,10 +310,10 @@ impl BoxGrid {
         };
         self.dims = [nx, ny];
         self.origin = if n_finite == 0 { [0.0; 2] } else { lo };
-        for a in 0..2 {
+        for (a, &wa) in w.iter().enumerate() {
             let n = self.dims[a] as f64;
-            self.inv_cell[a] = if w[a] > 0.0 && w[a].is_finite() {
-                n / w[a]
+            self.inv_cell[a] = if wa > 0.0 && wa.is_finite() {
+                n / wa
             } else {
                 0.0
             };
