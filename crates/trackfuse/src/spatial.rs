@@ -236,6 +236,164 @@ impl EpsGrid {
     }
 }
 
+/// A uniform grid over 2-D points for axis-aligned box queries whose size differs per
+/// query (a track's gate, an initiation reach): the bounding box of the finite points is
+/// cut into about one cell per two points, each cell of the width-to-height ratio the
+/// caller gives (that of its typical query: the axes may have different units), the
+/// points are bucketed by a counting sort (no comparison sort, no hash map), and a query
+/// visits the cells its box overlaps. Non-finite points sit in a list every query
+/// visits. The callers apply their exact tests to what it visits, so it is a prefilter
+/// only: every point in the box is visited exactly once, in cell order (ascending index
+/// within a cell), then the non-finite ones.
+///
+/// Why not [`EpsGrid`]: its cell is the query radius, fixed per rebuild; gates differ
+/// per track by orders of magnitude (range-bearing gates widen with range). Cells sized by
+/// the point density keep a query's cost proportional to its box's area, and the build is
+/// `O(n)`. Rebuilt in place, its buffers reused.
+#[derive(Debug, Clone, Default)]
+pub struct BoxGrid {
+    origin: [f64; 2],
+    inv_cell: [f64; 2],
+    dims: [usize; 2],
+    /// Where each cell's points start in `order` (`dims[0] * dims[1] + 1` entries).
+    start: Vec<u32>,
+    /// The points by cell (ascending index within a cell), with their coordinates, so a
+    /// query reads memory in order.
+    order: Vec<(Vec2, u32)>,
+    cell: Vec<u32>,
+    others: Vec<u32>,
+    fill: Vec<u32>,
+    scratch: Vec<Vec2>,
+}
+
+impl BoxGrid {
+    /// Rebuild for `points` (point `i` is the `i`-th item), with cells of width / height
+    /// `aspect` (about; 1 when `aspect` is not positive and finite).
+    pub fn rebuild(&mut self, aspect: f64, points: impl IntoIterator<Item = Vec2>) {
+        let aspect = if aspect > 0.0 && aspect.is_finite() {
+            aspect
+        } else {
+            1.0
+        };
+        self.cell.clear();
+        self.others.clear();
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        let mut n_finite = 0usize;
+        let mut coords = std::mem::take(&mut self.scratch);
+        coords.clear();
+        coords.extend(points);
+        for p in &coords {
+            if p[0].is_finite() && p[1].is_finite() {
+                n_finite += 1;
+                for a in 0..2 {
+                    lo[a] = lo[a].min(p[a]);
+                    hi[a] = hi[a].max(p[a]);
+                }
+            }
+        }
+        let cells = (n_finite / 2).max(1) as f64;
+        let w = [(hi[0] - lo[0]).max(0.0), (hi[1] - lo[1]).max(0.0)];
+        let (nx, ny) = if n_finite == 0 || w[0] <= 0.0 && w[1] <= 0.0 {
+            (1usize, 1usize)
+        } else if w[1] <= 0.0 {
+            (cells as usize, 1)
+        } else if w[0] <= 0.0 {
+            (1, cells as usize)
+        } else {
+            let nx = (cells * w[0] / (w[1] * aspect))
+                .sqrt()
+                .ceil()
+                .clamp(1.0, cells);
+            let ny = (cells / nx).ceil().clamp(1.0, cells);
+            (nx as usize, ny as usize)
+        };
+        self.dims = [nx, ny];
+        self.origin = if n_finite == 0 { [0.0; 2] } else { lo };
+        for (a, &wa) in w.iter().enumerate() {
+            let n = self.dims[a] as f64;
+            self.inv_cell[a] = if wa > 0.0 && wa.is_finite() {
+                n / wa
+            } else {
+                0.0
+            };
+        }
+        let total = nx * ny;
+        self.start.clear();
+        self.start.resize(total + 1, 0);
+        for (i, p) in coords.iter().enumerate() {
+            if p[0].is_finite() && p[1].is_finite() {
+                let c = self.cx(p[0], 0) + self.cx(p[1], 1) * nx;
+                self.cell.push(c as u32);
+                self.start[c + 1] += 1;
+            } else {
+                self.cell.push(u32::MAX);
+                self.others.push(i as u32);
+            }
+        }
+        for c in 0..total {
+            self.start[c + 1] += self.start[c];
+        }
+        let mut fill = std::mem::take(&mut self.fill);
+        fill.clear();
+        fill.extend_from_slice(&self.start[..total]);
+        self.order.clear();
+        self.order.resize(n_finite, (Vec2::zeros(), 0));
+        for (i, &c) in self.cell.iter().enumerate() {
+            if c != u32::MAX {
+                let f = &mut fill[c as usize];
+                self.order[*f as usize] = (coords[i], i as u32);
+                *f += 1;
+            }
+        }
+        self.scratch = coords;
+        self.fill = fill;
+    }
+
+    /// The cell column (`axis` 0) or row (`axis` 1) of coordinate `v`, clamped to the
+    /// grid (monotone in `v`, so a box's end cells bound its points' cells).
+    #[inline]
+    fn cx(&self, v: f64, axis: usize) -> usize {
+        let c = ((v - self.origin[axis]) * self.inv_cell[axis]).floor();
+        // NaN and negative -> 0 (`as` saturates), beyond the grid -> the last cell
+        (c.max(0.0) as usize).min(self.dims[axis] - 1)
+    }
+
+    /// Call `f(index, point)` for every point whose coordinates may lie in `[lo, hi]`
+    /// (inclusive on both axes): all of those once, in cell order, then every non-finite
+    /// point. A NaN bound visits every point.
+    pub fn for_each_in_box(&self, lo: [f64; 2], hi: [f64; 2], mut f: impl FnMut(u32, &Vec2)) {
+        if self.dims[0] == 0 {
+            return;
+        }
+        let nan = lo.iter().chain(hi.iter()).any(|v| v.is_nan());
+        let (x0, x1, y0, y1) = if nan {
+            (0, self.dims[0] - 1, 0, self.dims[1] - 1)
+        } else {
+            (
+                self.cx(lo[0], 0),
+                self.cx(hi[0], 0),
+                self.cx(lo[1], 1),
+                self.cx(hi[1], 1),
+            )
+        };
+        let nx = self.dims[0];
+        for y in y0..=y1 {
+            if x1 < x0 {
+                break;
+            }
+            let a = self.start[y * nx + x0] as usize;
+            let b = self.start[y * nx + x1 + 1] as usize;
+            for (p, i) in &self.order[a..b] {
+                f(*i, p);
+            }
+        }
+        for &i in &self.others {
+            f(i, &self.scratch[i as usize]);
+        }
+    }
+}
+
 /// Cell coordinates are clamped to this range, so that a neighbour (+-1) still fits an
 /// `i32` and [`pack`] keeps their order. Points beyond it (farther than 2^31 cells from the
 /// origin) share the edge cells: the distance test is exact, so the result is the same.
@@ -470,6 +628,42 @@ mod tests {
                 }
             }
             prop_assert_eq!(pairs, brute);
+        }
+
+        /// The box grid visits every point in the box exactly once (and nothing twice),
+        /// non-finite points always.
+        #[test]
+        fn box_grid_visits_every_point_in_the_box_once(
+            pts in proptest::collection::vec((-2000f64..2000.0, -20f64..20.0), 0..120),
+            boxes in proptest::collection::vec((-2500f64..2500.0, -25f64..25.0, 0f64..900.0, 0f64..9.0), 1..10),
+            snap in proptest::bool::ANY,
+            nan in proptest::bool::ANY,
+            aspect in prop_oneof![Just(1.0), 0.001f64..1000.0, Just(0.0), Just(f64::NAN)],
+        ) {
+            let mut points: Vec<Vec2> = pts
+                .iter()
+                .map(|&(x, y)| if snap { Vec2::new(x.round(), y.round()) } else { Vec2::new(x, y) })
+                .collect();
+            if nan && !points.is_empty() {
+                points[0][1] = f64::NAN;
+            }
+            let mut grid = BoxGrid::default();
+            grid.rebuild(aspect, points.iter().copied());
+            for &(cx, cy, hx, hy) in &boxes {
+                let (lo, hi) = ([cx - hx, cy - hy], [cx + hx, cy + hy]);
+                let mut seen = vec![0u32; points.len()];
+                grid.for_each_in_box(lo, hi, |i, q| {
+                    assert!(q == &points[i as usize] || q[1].is_nan());
+                    seen[i as usize] += 1;
+                });
+                for (i, p) in points.iter().enumerate() {
+                    prop_assert!(seen[i] <= 1, "point {} visited twice", i);
+                    let inside = p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1];
+                    if inside || !p[1].is_finite() {
+                        prop_assert_eq!(seen[i], 1, "point {} missed", i);
+                    }
+                }
+            }
         }
 
         /// The sweep's range is exactly the points whose key is in `[lo, hi]`, in key

@@ -10,8 +10,121 @@
 //! the second coordinate may be an angle; see [`crate::spatial`].)
 
 use super::filter::PredictedMeasurement;
-use crate::spatial::SweepIndex;
+use crate::models::wrap_angle;
+use crate::spatial::{BoxGrid, SweepIndex};
 use crate::types::Vec2;
+use std::f64::consts::PI;
+
+/// The scan's measurements in a two-dimensional grid ([`BoxGrid`]), so that a gate looks
+/// at the measurements near it on both axes instead of the whole strip
+/// `|z_0 - zhat_0| <= sqrt(gamma S_00)` of the sorted sweep (which, as the surveillance
+/// area grows, holds more and more clutter).
+///
+/// It returns exactly the sweep's strip minus measurements that cannot pass the gate:
+/// the strip test is applied as before, and the second axis is pruned by the gate's
+/// exact extent in `nu_1` computed from the very `S^-1` the distance uses
+/// (`nu^T S^-1 nu >= nu_1^2 (A_11 - A_01^2 / A_00)`, `A = S^-1`), widened by 1 % and
+/// 1e-6. So the validated measurements, and everything computed from them, are the
+/// sweep's. Where that bound is not trustworthy (`S^-1` not positive definite or badly
+/// conditioned, an angular half-width of pi/2 or more) the strip is swept as before.
+/// An angular second axis (bearing) is indexed wrapped to `[-pi, pi)`, and a gate across
+/// the seam queries both sides.
+#[derive(Debug, Clone, Default)]
+pub struct GateGrid {
+    grid: BoxGrid,
+    keys: Vec<Vec2>,
+    /// `None`: not built for this scan; else whether the second axis is an angle.
+    built: Option<bool>,
+}
+
+impl GateGrid {
+    /// Forget the previous scan's measurements (the grid is rebuilt on first use).
+    pub fn clear(&mut self) {
+        self.built = None;
+    }
+
+    /// Build the grid over `measurements` (the scan's, in the measurement space) unless
+    /// it is built for this scan already; `angular`: the second coordinate is an angle;
+    /// `shape`: a typical gate, whose width / height ratio the cells take.
+    pub fn ensure(&mut self, measurements: &[Vec2], angular: bool, shape: &PredictedMeasurement) {
+        if self.built.is_some() {
+            return;
+        }
+        self.keys.clear();
+        self.keys.extend(measurements.iter().map(|z| {
+            if angular {
+                Vec2::new(z[0], wrap_angle(z[1]))
+            } else {
+                *z
+            }
+        }));
+        let aspect = (shape.s[(0, 0)] / shape.s[(1, 1)]).sqrt();
+        self.grid.rebuild(aspect, self.keys.iter().copied());
+        self.built = Some(angular);
+    }
+
+    /// Call `f(m)` for the measurements of the sweep's strip `index.range(zhat_0 - half,
+    /// zhat_0 + half)` (`half = sqrt(gamma S_00)`) that may pass the gate of `p` (every one
+    /// that does), each once, in no particular order.
+    pub fn for_each_candidate(
+        &self,
+        p: &PredictedMeasurement,
+        gamma: f64,
+        index: &SweepIndex,
+        mut f: impl FnMut(u32),
+    ) {
+        let half = (gamma * p.s[(0, 0)]).sqrt();
+        let (lo0, hi0) = (p.z[0] - half, p.z[0] + half);
+        let h1 = if self.built == Some(p.angular) {
+            second_half_width(p, gamma)
+        } else {
+            None
+        };
+        let Some(h1) = h1 else {
+            for &m in index.range(lo0, hi0) {
+                f(m);
+            }
+            return;
+        };
+        let c = if p.angular {
+            wrap_angle(p.z[1])
+        } else {
+            p.z[1]
+        };
+        let mut piece = |lo1: f64, hi1: f64| {
+            self.grid.for_each_in_box([lo0, lo1], [hi0, hi1], |m, k| {
+                if k[0] >= lo0 && k[0] <= hi0 && k[1] >= lo1 && k[1] <= hi1 {
+                    f(m);
+                }
+            });
+        };
+        piece(c - h1, c + h1);
+        if p.angular {
+            // h1 < pi / 2: the pieces are disjoint
+            if c - h1 <= -PI {
+                piece(c - h1 + 2.0 * PI, f64::INFINITY);
+            }
+            if c + h1 >= PI {
+                piece(f64::NEG_INFINITY, c + h1 - 2.0 * PI);
+            }
+        }
+    }
+}
+
+/// The half-width in `nu_1` of the gate `nu^T A nu <= gamma` (`A = S^-1` as stored),
+/// widened by 1 % and 1e-6, or `None` when the bound is not to be trusted.
+fn second_half_width(p: &PredictedMeasurement, gamma: f64) -> Option<f64> {
+    let a = &p.s_inv;
+    let (a00, a11) = (a[(0, 0)], a[(1, 1)]);
+    let a01 = 0.5 * (a[(0, 1)] + a[(1, 0)]);
+    let schur = a11 - a01 * a01 / a00;
+    let ok = a00 > 0.0 && a11 > 0.0 && schur.is_finite() && schur > 1e-6 * a11 && gamma >= 0.0;
+    if !ok {
+        return None;
+    }
+    let h = (gamma / schur).sqrt() * 1.01 + 1e-6;
+    (h.is_finite() && (!p.angular || h < 0.5 * PI)).then_some(h)
+}
 
 /// Validated measurements per track, in a flat buffer reused scan after scan.
 #[derive(Debug, Clone, Default)]
@@ -42,6 +155,36 @@ impl Gates {
                     self.entries.push((m, d2));
                 }
             }
+            self.entries[first..].sort_unstable_by_key(|e| e.0);
+        }
+    }
+
+    /// [`Gates::compute`] with the candidates from the two-dimensional `grid` (built
+    /// here if it is not yet, for this scan's `measurements`): the same gates, found
+    /// without sweeping the whole strip.
+    pub fn compute_grid(
+        &mut self,
+        predictions: &[PredictedMeasurement],
+        measurements: &[Vec2],
+        index: &SweepIndex,
+        grid: &mut GateGrid,
+        gamma: f64,
+    ) {
+        self.start.clear();
+        self.entries.clear();
+        if let Some(p) = predictions.first() {
+            grid.ensure(measurements, p.angular, p);
+        }
+        for p in predictions {
+            self.start.push(self.entries.len() as u32);
+            let first = self.entries.len();
+            let entries = &mut self.entries;
+            grid.for_each_candidate(p, gamma, index, |m| {
+                let d2 = p.distance2(&measurements[m as usize]);
+                if d2 <= gamma {
+                    entries.push((m, d2));
+                }
+            });
             self.entries[first..].sort_unstable_by_key(|e| e.0);
         }
     }
@@ -107,5 +250,52 @@ mod tests {
             assert_eq!(got, brute, "track {t}");
         }
         assert!((gate_probability(gate_threshold(0.99)) - 0.99).abs() < 1e-12);
+        let mut grid = GateGrid::default();
+        let mut by_grid = Gates::default();
+        by_grid.compute_grid(&preds, &meas, &index, &mut grid, 9.21);
+        for t in 0..preds.len() {
+            assert_eq!(by_grid.of(t), gates.of(t), "track {t}");
+        }
+    }
+
+    /// The grid's gates are the sweep's, in range-bearing space across the +-pi seam
+    /// (bearings given unwrapped too) and for wide, thin and tilted gates.
+    #[test]
+    fn grid_gates_equal_the_sweep_across_the_bearing_seam() {
+        let meas: Vec<Vec2> = (0..600)
+            .map(|i| {
+                let a = i as f64 * 0.61;
+                let r = 1000.0 + (a * 1.3).sin().abs() * 2000.0;
+                let b = (a * 2.9).sin() * 3.3 + if i % 7 == 0 { 2.0 * PI } else { 0.0 };
+                Vec2::new(r, b)
+            })
+            .collect();
+        let mut preds = Vec::new();
+        for i in 0..40 {
+            let z = Vec2::new(
+                1000.0 + i as f64 * 50.0,
+                -PI + (i as f64 * 0.173) % (2.0 * PI),
+            );
+            for s in [
+                Mat2::new(400.0, 0.0, 0.0, 0.01),
+                Mat2::new(40000.0, 1.0, 1.0, 0.3),
+                Mat2::new(100.0, 0.05, 0.05, 1e-4),
+                Mat2::new(1e6, 0.0, 0.0, 3.0),
+            ] {
+                preds.push(PredictedMeasurement::new(z, s, POSITION_H, true).expect("spd"));
+            }
+        }
+        let mut index = SweepIndex::default();
+        index.build(meas.iter().map(|z| z[0]));
+        let (mut sweep, mut by_grid) = (Gates::default(), Gates::default());
+        sweep.compute(&preds, &meas, &index, 9.21);
+        let mut grid = GateGrid::default();
+        by_grid.compute_grid(&preds, &meas, &index, &mut grid, 9.21);
+        let mut validated = 0;
+        for t in 0..preds.len() {
+            assert_eq!(by_grid.of(t), sweep.of(t), "track {t}");
+            validated += sweep.of(t).len();
+        }
+        assert!(validated > 100, "the test gates something ({validated})");
     }
 }

@@ -31,13 +31,13 @@
 use super::association::{AssociationProblem, AssociationWeights, DataAssociator};
 use super::filter::common::log_likelihood;
 use super::filter::{Filter, FilterState, PredictedMeasurement};
-use super::gating::{gate_threshold, Gates};
+use super::gating::{gate_threshold, GateGrid, Gates};
 use super::registry::{AssociatorContext, AssociatorSettings, FilterSettings, LocalRegistry};
 use super::{InitiationMethod, TrackerConfig, DEFAULT_PROCESS_NOISE};
 use crate::clock::{ReportClock, ReportTimes};
 use crate::models::range_bearing_to_position;
 use crate::params::ParamError;
-use crate::spatial::SweepIndex;
+use crate::spatial::{BoxGrid, SweepIndex};
 use crate::types::{
     Id, LocalTrack, Mat2, Measurement, Sensor, SensorKind, StateCov, StateVec, Vec2,
 };
@@ -200,6 +200,12 @@ pub struct SensorTracker {
     predictions: Vec<PredictedMeasurement>,
     predicted_of: Vec<usize>,
     index: SweepIndex,
+    /// The scan's measurements in two dimensions, for the gates (built on first use).
+    gate_grid: GateGrid,
+    /// The previous scan's single points in two dimensions, for two-point initiation.
+    seed_grid: BoxGrid,
+    /// `(track_id, track)` of the scan's reported tracks, sorted before they are written.
+    report_order: Vec<(Id, u32)>,
     gates: Gates,
     weights: AssociationWeights,
     /// Whether each track was updated this scan.
@@ -357,6 +363,9 @@ impl SensorTracker {
             predictions: Vec::new(),
             predicted_of: Vec::new(),
             index: SweepIndex::default(),
+            gate_grid: GateGrid::default(),
+            seed_grid: BoxGrid::default(),
+            report_order: Vec::new(),
             gates: Gates::default(),
             weights: AssociationWeights::default(),
             updated: Vec::new(),
@@ -442,6 +451,7 @@ impl SensorTracker {
         self.used.clear();
         self.used.resize(measurements.len(), false);
         self.index.build(self.converted.iter().map(|z| z[0]));
+        self.gate_grid.clear();
         if self.cfg.initiation.method == InitiationMethod::Score && self.clutter_per_m2 <= 0.0 {
             self.seen_scans += 1;
             self.seen_measurements += measurements.len() as u64;
@@ -501,8 +511,13 @@ impl SensorTracker {
                 self.predicted_of.push(i);
             }
         }
-        self.gates
-            .compute(&self.predictions, &self.converted, &self.index, self.gamma);
+        self.gates.compute_grid(
+            &self.predictions,
+            &self.converted,
+            &self.index,
+            &mut self.gate_grid,
+            self.gamma,
+        );
     }
 
     /// Step 3: the associator weighs the gated measurements for every predicted track.
@@ -586,25 +601,32 @@ impl SensorTracker {
 
     /// Report the confirmed tracks that have missed at most `report_max_misses` scans in
     /// a row, in `track_id` order.
-    fn report(&self, scan: u32, time: f64, out: &mut Vec<LocalTrack>) {
-        let first = out.len();
+    ///
+    /// The (unique) track ids are sorted with the tracks' positions, then the rows are
+    /// written in that order: sorting the rows themselves moved 200-byte rows around.
+    fn report(&mut self, scan: u32, time: f64, out: &mut Vec<LocalTrack>) {
         let max_misses = self.cfg.initiation.report_max_misses;
-        for t in &self.tracks {
+        self.report_order.clear();
+        for (i, t) in self.tracks.iter().enumerate() {
             if t.misses > max_misses {
                 continue;
             }
             if let Some(id) = t.id {
-                out.push(LocalTrack {
-                    scan,
-                    time,
-                    sensor_id: self.sensor.id,
-                    track_id: id,
-                    state: t.state.mean,
-                    cov: crate::types::symmetrize(&t.state.cov),
-                });
+                self.report_order.push((id, i as u32));
             }
         }
-        out[first..].sort_by_key(|l| l.track_id);
+        self.report_order.sort_unstable();
+        for &(id, i) in &self.report_order {
+            let t = &self.tracks[i as usize];
+            out.push(LocalTrack {
+                scan,
+                time,
+                sensor_id: self.sensor.id,
+                track_id: id,
+                state: t.state.mean,
+                cov: crate::types::symmetrize(&t.state.cov),
+            });
+        }
     }
 
     fn is_known_unconfirmed(&self, t: &Track) -> bool {
@@ -645,16 +667,19 @@ impl SensorTracker {
             let Some(p) = self.filter.predict_measurement(&t.state, &self.sensor) else {
                 continue;
             };
-            let half = (self.gamma * p.s[(0, 0)]).sqrt();
-            for &m in self.index.range(p.z[0] - half, p.z[0] + half) {
-                if self.used[m as usize] {
-                    continue;
-                }
-                let d2 = p.distance2(&self.converted[m as usize]);
-                if d2 <= self.gamma {
-                    self.candidates.push((d2, ti as u32, m));
-                }
-            }
+            self.gate_grid.ensure(&self.converted, p.angular, &p);
+            let (used, converted, gamma) = (&self.used, &self.converted, self.gamma);
+            let candidates = &mut self.candidates;
+            self.gate_grid
+                .for_each_candidate(&p, gamma, &self.index, |m| {
+                    if used[m as usize] {
+                        return;
+                    }
+                    let d2 = p.distance2(&converted[m as usize]);
+                    if d2 <= gamma {
+                        candidates.push((d2, ti as u32, m));
+                    }
+                });
         }
         self.candidates
             .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
@@ -764,27 +789,37 @@ impl SensorTracker {
         let spread = |c: &Mat2| c[(0, 0)].max(c[(1, 1)]).max(0.0).sqrt();
         let max_dt = seeds.iter().map(|s| time - s.time).fold(0.0, f64::max);
         let max_seed_sigma = seeds.iter().map(|s| spread(&s.cov)).fold(0.0, f64::max);
+        // The seeds in a two-dimensional grid: a measurement looks at the seeds in the
+        // box of its largest reach instead of the whole x strip. The strip's own test
+        // (x within `reach_max`, as the sweep over x-sorted seeds had it) is kept, and
+        // `d <= reach <= reach_max` bounds `|dy|`, so the pairs are the sweep's (their
+        // order is set by the sort below).
+        self.seed_grid
+            .rebuild(1.0, seeds.iter().map(|s| s.position));
         for (m, &(p, pc)) in cart.iter().enumerate() {
             if self.used[m] {
                 continue;
             }
             let sp = spread(&pc);
             let reach_max = max_speed * max_dt + 3.0 * (sp + max_seed_sigma);
-            let lo = seeds.partition_point(|s| s.position[0] < p[0] - reach_max);
-            for (si, s) in seeds.iter().enumerate().skip(lo) {
-                if s.position[0] > p[0] + reach_max {
-                    break;
+            let (x_lo, x_hi) = (p[0] - reach_max, p[0] + reach_max);
+            let reach_y = reach_max * 1.01 + 1e-6;
+            let (lo, hi) = ([x_lo, p[1] - reach_y], [x_hi, p[1] + reach_y]);
+            self.seed_grid.for_each_in_box(lo, hi, |si, position| {
+                if position[0] < x_lo || position[0] > x_hi {
+                    return;
                 }
+                let s = &seeds[si as usize];
                 let dt = time - s.time;
                 if dt <= 0.0 {
-                    continue;
+                    return;
                 }
                 let reach = max_speed * dt + 3.0 * (sp + spread(&s.cov));
                 let d = (p - s.position).norm();
                 if d <= reach {
-                    pairs.push((d / dt, m as u32, si as u32));
+                    pairs.push((d / dt, m as u32, si));
                 }
-            }
+            });
         }
         pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
         let mut meas_paired = vec![false; self.used.len()];
