@@ -385,7 +385,7 @@ mod figure_tests {
     fn assert_not_blank(bytes: &[u8], name: &str) {
         let dec = png::Decoder::new(std::io::Cursor::new(bytes));
         let mut reader = dec.read_info().expect("png header");
-        let mut buf = vec![0; reader.output_buffer_size()];
+        let mut buf = vec![0; reader.output_buffer_size().expect("png size")];
         let info = reader.next_frame(&mut buf).expect("png data");
         let px = &buf[..info.buffer_size()];
         let mut colours = std::collections::BTreeSet::new();
