@@ -1054,6 +1054,61 @@ pub fn rmse_figure(per_scan: &[(u32, f64)], title: &str) -> Result<Option<Figure
     )))
 }
 
+/// One named `(x, y)` series of a line figure.
+pub type Series = (String, Vec<(f64, f64)>);
+
+/// Lines with a dot at every point (the sweeps of the reproductions: few points, each
+/// a Monte Carlo result), the y axis from 0 to `y_max` (or 8 % above the largest value).
+fn draw_points<DB: DrawingBackend>(
+    root: &Area<DB>,
+    a: &(&str, &str, &str, &[Series], Option<f64>),
+) -> Result<()> {
+    let (title, xdesc, ydesc, series, y_max) = *a;
+    let (plot, side) = split_legend(root);
+    let x = range_of(series.iter().flat_map(|s| s.1.iter().map(|p| p.0)));
+    let y = range_of(series.iter().flat_map(|s| s.1.iter().map(|p| p.1)));
+    let top = y_max.unwrap_or(y.1 * 1.08);
+    let mut chart = xy_chart(&plot, title, x, (0.0, top), xdesc, ydesc)?;
+    let mut lg = Legend::new();
+    let n = series.len() as u32;
+    for (i, (name, pts)) in series.iter().enumerate() {
+        let c = colour(i);
+        // earlier series wider and with larger dots, so that a later one drawn over an
+        // equal curve leaves it visible at its edges
+        let (base, step) = if pts.len() <= 60 { (2, 2) } else { (1, 1) };
+        let w = base + step * (n - 1 - i as u32).min(2);
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(w)))
+            .map_err(plot_err)?;
+        if pts.len() <= 60 {
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, w + 1, c.filled())))
+                .map_err(plot_err)?;
+        }
+        lg.push((name.clone(), Mark::Line(c.to_rgba(), w)));
+    }
+    if n > 1 {
+        lg.push(("(equal curves overlap:".into(), Mark::Blank));
+        lg.push((" the first drawn widest)".into(), Mark::Blank));
+    }
+    side_legend(&side, &lg)
+}
+
+/// A line figure of named series (for the reproductions' figures): `xdesc` / `ydesc`
+/// are the axis labels with their units; `y_max` fixes the top of the y axis (the
+/// bottom is 0). Series of at most 60 points get a dot at every point.
+pub fn line_figure(
+    name: &'static str,
+    title: &str,
+    caption: &str,
+    (xdesc, ydesc): (&str, &str),
+    series: &[Series],
+    y_max: Option<f64>,
+) -> Result<Figure> {
+    let a = (title, xdesc, ydesc, series, y_max);
+    Ok(figure!(name, title, caption, (900, 480), draw_points(&a)))
+}
+
 /// Every figure the data allow, in [`FIGURE_NAMES`] order.
 pub fn figures(d: &PlotData) -> Result<Vec<Figure>> {
     let mut out = Vec::new();

@@ -5,10 +5,12 @@
 //! its output.
 
 use crate::common::load_scenario;
+use crate::plot::{line_figure, Figure, Series};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::time::Duration;
 use trackfuse::center::FusionConfig;
 use trackfuse::local::TrackerConfig;
@@ -48,7 +50,22 @@ pub struct Ctx {
     /// `--runs`, when given (else the reproduction uses the paper's count).
     pub runs: Option<u32>,
     pub quiet: bool,
+    /// The figures drawn so far, written next to the Markdown when the reproduction is
+    /// done (`figures/<name>.{png,svg}`).
+    pub figures: Mutex<Vec<ReproFigure>>,
 }
+
+/// A figure of a reproduction and the series it plots (kept so that the tests can
+/// compare the plotted numbers with the tables).
+pub struct ReproFigure {
+    pub figure: Figure,
+    /// Read only by the tests.
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub series: Vec<Series>,
+}
+
+/// The folder of a reproduction's figures, relative to its Markdown file.
+pub const FIGURES_DIR: &str = "figures";
 
 impl Ctx {
     /// The number of runs: `--runs` or the paper's.
@@ -62,6 +79,29 @@ impl Ctx {
             Some(r) => format!("trackfuse reproduce {paper} --runs {r}"),
             None => format!("trackfuse reproduce {paper}"),
         }
+    }
+
+    /// Draw a line figure (PNG and SVG, see [`line_figure`]) of `series`, keep it to be
+    /// written to `figures/NAME.{png,svg}` next to the Markdown, and return the Markdown
+    /// that shows it (the PNG, linking the SVG).
+    pub fn figure(
+        &self,
+        name: &'static str,
+        title: &str,
+        caption: &str,
+        axes: (&str, &str),
+        series: Vec<Series>,
+        y_max: Option<f64>,
+    ) -> Result<String> {
+        let figure = line_figure(name, title, caption, axes, &series, y_max)?;
+        let md = format!(
+            "![{title}]({FIGURES_DIR}/{name}.png)\n\n*{caption}* ([SVG]({FIGURES_DIR}/{name}.svg))\n\n"
+        );
+        self.figures
+            .lock()
+            .map_err(|_| anyhow::anyhow!("figure list poisoned"))?
+            .push(ReproFigure { figure, series });
+        Ok(md)
     }
 
     /// A progress bar for `n` steps (hidden with --quiet).
@@ -246,27 +286,216 @@ pub fn run(args: &ReproduceArgs) -> Result<()> {
         let names: Vec<&str> = REPRODUCTIONS.iter().map(|r| r.name).collect();
         bail!("no reproduction {name:?} (known: {})", names.join(", "));
     };
-    let ctx = Ctx {
-        runs: args.runs,
-        quiet: args.quiet,
-    };
-    let t0 = std::time::Instant::now();
-    let md = (r.run)(&ctx)?;
     let out = args
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("docs/reproduction/{name}.md")));
-    if let Some(dir) = out.parent() {
-        if !dir.as_os_str().is_empty() {
-            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        }
-    }
-    trackfuse::io::AtomicFile::write_all_to(&out, md.as_bytes())
-        .with_context(|| format!("writing {}", out.display()))?;
+    let t0 = std::time::Instant::now();
+    let figs = produce(r, args.runs, args.quiet, &out)?;
     eprintln!(
-        "reproduction {name}: {:.1} s -> {}",
+        "reproduction {name}: {:.1} s -> {} ({} figures)",
         t0.elapsed().as_secs_f64(),
-        out.display()
+        out.display(),
+        figs.len()
     );
     Ok(())
+}
+
+/// Run reproduction `r`, write its Markdown to `out` and its figures to
+/// `figures/<name>.{png,svg}` in `out`'s folder; returns the figures.
+fn produce(
+    r: &Reproduction,
+    runs: Option<u32>,
+    quiet: bool,
+    out: &Path,
+) -> Result<Vec<ReproFigure>> {
+    let ctx = Ctx {
+        runs,
+        quiet,
+        figures: Mutex::new(Vec::new()),
+    };
+    let md = (r.run)(&ctx)?;
+    let figs = ctx
+        .figures
+        .into_inner()
+        .map_err(|_| anyhow::anyhow!("figure list poisoned"))?;
+    let dir = out.parent().unwrap_or(Path::new(""));
+    if !dir.as_os_str().is_empty() {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    if !figs.is_empty() {
+        let fdir = dir.join(FIGURES_DIR);
+        std::fs::create_dir_all(&fdir).with_context(|| format!("creating {}", fdir.display()))?;
+        for f in &figs {
+            for (ext, bytes) in [("png", &f.figure.png[..]), ("svg", f.figure.svg.as_bytes())] {
+                let path = fdir.join(format!("{}.{ext}", f.figure.name));
+                trackfuse::io::AtomicFile::write_all_to(&path, bytes)
+                    .with_context(|| format!("writing {}", path.display()))?;
+            }
+        }
+    }
+    trackfuse::io::AtomicFile::write_all_to(out, md.as_bytes())
+        .with_context(|| format!("writing {}", out.display()))?;
+    Ok(figs)
+}
+
+#[cfg(test)]
+mod figure_tests {
+    //! Smoke tests of the reproductions' figures: a reproduction at a small run count
+    //! writes every figure as a non-blank PNG and an SVG, the Markdown shows them, and
+    //! the plotted series are the numbers of the Markdown's tables.
+
+    use super::*;
+
+    fn reproduction(name: &str) -> &'static Reproduction {
+        REPRODUCTIONS
+            .iter()
+            .find(|r| r.name == name)
+            .expect("known reproduction")
+    }
+
+    /// Run `name` with `runs` runs into a temporary folder: the Markdown and the figures.
+    fn produce_in(name: &str, runs: u32) -> (tempfile::TempDir, String, Vec<ReproFigure>) {
+        let dir = tempfile::tempdir().expect("tmp");
+        let out = dir.path().join(format!("{name}.md"));
+        let figs = produce(reproduction(name), Some(runs), true, &out).expect("reproduction");
+        let md = std::fs::read_to_string(&out).expect("markdown");
+        for f in &figs {
+            let stem = dir.path().join(FIGURES_DIR).join(f.figure.name);
+            let png = std::fs::read(stem.with_extension("png")).expect("png written");
+            assert_not_blank(&png, f.figure.name);
+            let svg = std::fs::read_to_string(stem.with_extension("svg")).expect("svg written");
+            assert!(svg.starts_with("<svg"), "{}", f.figure.name);
+            assert!(
+                md.contains(&format!("]({FIGURES_DIR}/{}.png)", f.figure.name)),
+                "{} not linked",
+                f.figure.name
+            );
+            assert!(
+                f.series.iter().all(|s| !s.1.is_empty()),
+                "{}",
+                f.figure.name
+            );
+        }
+        (dir, md, figs)
+    }
+
+    /// The PNG decodes, and besides the white background it has many drawn pixels in
+    /// several colours (axes and text in black, the series in colour).
+    fn assert_not_blank(bytes: &[u8], name: &str) {
+        let dec = png::Decoder::new(std::io::Cursor::new(bytes));
+        let mut reader = dec.read_info().expect("png header");
+        let mut buf = vec![0; reader.output_buffer_size().expect("png size")];
+        let info = reader.next_frame(&mut buf).expect("png data");
+        let px = &buf[..info.buffer_size()];
+        let mut colours = std::collections::BTreeSet::new();
+        let mut drawn = 0usize;
+        for p in px.chunks(3) {
+            if p != [255, 255, 255] {
+                drawn += 1;
+                colours.insert((p[0], p[1], p[2]));
+            }
+        }
+        assert!(drawn > 2000, "{name}: {drawn} drawn pixels");
+        assert!(colours.len() > 5, "{name}: {} colours", colours.len());
+    }
+
+    /// The cells of the first Markdown table after the line starting with `heading`
+    /// (without the header and separator rows).
+    fn table_after(md: &str, heading: &str) -> Vec<Vec<String>> {
+        let mut lines = md.lines().skip_while(|l| !l.starts_with(heading));
+        assert!(lines.next().is_some(), "no {heading:?}");
+        lines
+            .skip_while(|l| !l.starts_with('|'))
+            .take_while(|l| l.starts_with('|'))
+            .skip(2)
+            .map(|l| {
+                let cells: Vec<String> = l.split('|').map(|c| c.trim().to_string()).collect();
+                cells[1..cells.len() - 1].to_vec()
+            })
+            .collect()
+    }
+
+    fn figure<'a>(figs: &'a [ReproFigure], name: &str) -> &'a ReproFigure {
+        figs.iter()
+            .find(|f| f.figure.name == name)
+            .unwrap_or_else(|| panic!("no figure {name}"))
+    }
+
+    #[test]
+    fn figs_5_6_of_000_plot_the_pc_tables() {
+        let (_dir, md, figs) = produce_in("000", 1);
+        let names = ["000-fig5", "000-fig6", "000-fig5-deg", "000-fig6-deg"];
+        assert_eq!(figs.len(), names.len());
+        let headings = [
+            "### Fig. 5: bearing",
+            "### Fig. 6: range",
+            "### Fig. 5, bearing values read as degrees",
+            "### Fig. 6, bearing value read as degrees",
+        ];
+        for (name, heading) in names.iter().zip(headings) {
+            let f = figure(&figs, name);
+            let rows = table_after(&md, heading);
+            assert_eq!(f.series.len(), 3, "{name}");
+            for (col, (_, pts)) in f.series.iter().enumerate() {
+                assert_eq!(pts.len(), rows.len(), "{name}");
+                for (row, &(x, y)) in rows.iter().zip(pts) {
+                    // the table shows x to 1 or 2 decimals
+                    let shown: f64 = row[0].parse().expect("x");
+                    assert!((shown - x).abs() < 0.051, "{name}: x {x} against {shown}");
+                    assert_eq!(format!("{y:.3}"), row[col + 1], "{name}: P_c at {x}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn figs_9_12_of_003_are_the_per_scan_rmse_behind_table_5() {
+        let (_dir, md, figs) = produce_in("003", 1);
+        assert_eq!(figs.len(), 4);
+        for (case, heading) in ["### Case 1", "### Case 2"].iter().enumerate() {
+            let rows = table_after(&md, heading);
+            for (t, col) in [(0usize, 2usize), (1, 5)] {
+                let name = [["003-fig9", "003-fig10"], ["003-fig11", "003-fig12"]][t][case];
+                let f = figure(&figs, name);
+                assert!(f.series.len() <= rows.len(), "{name}");
+                for (row, (label, pts)) in rows.iter().zip(&f.series) {
+                    // scan k at k * 0.1 s, one point per scan with an estimate
+                    assert!(pts.len() > 500, "{name} {label}: {} points", pts.len());
+                    let mean = pts.iter().map(|p| p.1).sum::<f64>() / pts.len() as f64;
+                    assert_eq!(format!("{mean:.2}"), row[col], "{name} {label}");
+                }
+            }
+        }
+    }
+
+    const FIGS_004: [&str; 6] = [
+        "004-fig2", "004-fig3", "004-fig4", "004-fig5", "004-fig6", "004-fig7",
+    ];
+
+    #[test]
+    fn figs_2_7_of_004_plot_the_threshold_sweep() {
+        let (_dir, md, figs) = produce_in("004", 1);
+        assert_eq!(figs.len(), 6);
+        for (k, name) in FIGS_004.iter().enumerate() {
+            let f = figure(&figs, name);
+            let rows = table_after(&md, &format!("### Fig. {}:", k + 2));
+            assert_eq!(f.series.len(), if k < 3 { 2 } else { 4 }, "{name}");
+            for (col, (label, pts)) in f.series.iter().enumerate() {
+                assert_eq!(pts.len(), rows.len(), "{name}");
+                for (row, &(x, y)) in rows.iter().zip(pts) {
+                    assert_eq!(format!("{x:.2}"), row[0], "{name}");
+                    assert_eq!(format!("{y:.2}"), row[col + 1], "{name} {label} at {x}");
+                }
+            }
+        }
+        // the three rates of a point sum to 100 %
+        for case in [0usize, 3] {
+            let s: Vec<&ReproFigure> = (0..3).map(|k| figure(&figs, FIGS_004[case + k])).collect();
+            for i in 0..s[0].series[0].1.len() {
+                let total: f64 = s.iter().map(|f| f.series[0].1[i].1).sum();
+                assert!((total - 100.0).abs() < 1e-6, "{total}");
+            }
+        }
+    }
 }

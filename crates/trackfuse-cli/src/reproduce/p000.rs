@@ -973,6 +973,10 @@ struct Sweep {
     biases: fn(f64) -> (f64, f64),
     /// How a swept value is shown.
     show: fn(f64) -> String,
+    /// The figure's file name and the swept value on its x axis, with its label.
+    file: &'static str,
+    x: fn(f64) -> f64,
+    xdesc: &'static str,
 }
 
 fn figs56(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
@@ -1024,6 +1028,9 @@ fn figs56(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
             values: sweep(FIG5_BEARING_STEP, FIG5_BEARING_MAX, full),
             biases: |x| (FIG5_RANGE_BIAS, x),
             show: |x| format!("{x:.1}"),
+            file: "000-fig5",
+            x: |x| x,
+            xdesc: "bearing bias of both radars (rad)",
         },
         Sweep {
             title: format!(
@@ -1034,6 +1041,9 @@ fn figs56(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
             values: sweep(FIG6_RANGE_STEP, FIG6_RANGE_MAX, full),
             biases: |x| (x, FIG6_BEARING_BIAS),
             show: |x| format!("{:.2}", x / 1000.0),
+            file: "000-fig6",
+            x: |x| x / 1000.0,
+            xdesc: "range bias of both radars (km)",
         },
         Sweep {
             title: format!(
@@ -1045,6 +1055,9 @@ fn figs56(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
             values: sweep(FIG5_BEARING_STEP * deg, FIG5_BEARING_MAX * deg, full),
             biases: |x| (FIG5_RANGE_BIAS, x),
             show: |x| format!("{:.1}", x.to_degrees()),
+            file: "000-fig5-deg",
+            x: f64::to_degrees,
+            xdesc: "bearing bias of both radars (deg)",
         },
         Sweep {
             title: format!(
@@ -1056,6 +1069,9 @@ fn figs56(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
             values: sweep(FIG6_RANGE_STEP, FIG6_RANGE_MAX, full),
             biases: |x| (x, FIG6_BEARING_BIAS.to_radians()),
             show: |x| format!("{:.2}", x / 1000.0),
+            file: "000-fig6-deg",
+            x: |x| x / 1000.0,
+            xdesc: "range bias of both radars (km)",
         },
     ];
     // per sweep: the mean P_c of each column over the sweep's values
@@ -1096,6 +1112,29 @@ fn figs56(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
         let mut h: Vec<&str> = vec![sw.unit];
         h.extend(header.iter().map(String::as_str));
         md.push_str(&md_table(&h, &rows));
+        md.push('\n');
+        let series = variants
+            .iter()
+            .zip(&columns)
+            .map(|(var, col)| {
+                let pts = sw
+                    .values
+                    .iter()
+                    .zip(col)
+                    .filter_map(|(&x, p)| p.map(|p| ((sw.x)(x), p)))
+                    .collect();
+                (var.label.to_string(), pts)
+            })
+            .collect();
+        let title = sw.title.trim_start_matches("### ").trim_end();
+        md.push_str(&ctx.figure(
+            sw.file,
+            &format!("000 {}", title.split(':').next().unwrap_or(title)),
+            &format!("P_c (eq. 19) against the biases: {title}."),
+            (sw.xdesc, "P_c (probability of correct association)"),
+            series,
+            Some(1.05),
+        )?);
         let n = sw.values.len();
         let last_nonzero = (0..n)
             .rev()

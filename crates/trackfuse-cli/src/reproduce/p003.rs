@@ -70,6 +70,26 @@ const EXTRA_RULES: [(&str, &str); 2] = [
 /// The targets of Table 5.
 const TARGETS: [Id; 2] = [2, 3];
 
+/// The files of Figs. 9-12 (RMSE per scan), by target of [`TARGETS`] and case.
+const FIGS: [[(&str, &str); 2]; 2] = [
+    [("003-fig9", "Fig. 9"), ("003-fig10", "Fig. 10")],
+    [("003-fig11", "Fig. 11"), ("003-fig12", "Fig. 12")],
+];
+
+/// A rule's name in the figures' legends.
+fn legend_name(rule: &str) -> String {
+    match rule {
+        "superior" => "superior track",
+        "fuzzy" => "fuzzy fusion",
+        "sf" => "simple fusion",
+        "cc" => "convex comb.",
+        "ci" => "cov. intersection",
+        "bc" => "Bar-Shalom-Campo",
+        other => other,
+    }
+    .to_string()
+}
+
 /// g (m/s^2) as the scenario files read "10g".
 const G: f64 = 9.81;
 
@@ -109,6 +129,18 @@ impl PerScan {
             }
         }
         (count > 0).then(|| total / count as f64)
+    }
+
+    /// The RMSE over the runs at each scan with at least one estimate, as `(time (s),
+    /// RMSE (m))` with scan k at k dt (what [`Self::mean_rmse`] averages).
+    fn per_scan(&self, dt: f64) -> Vec<(f64, f64)> {
+        self.sum
+            .iter()
+            .zip(&self.n)
+            .enumerate()
+            .filter(|(_, (_, &n))| n > 0)
+            .map(|(k, (s, &n))| (k as f64 * dt, (s / n as f64).sqrt()))
+            .collect()
     }
 
     /// One RMS over every scan and run.
@@ -693,6 +725,27 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             &rows,
         ));
         md.push('\n');
+        let dt = cases[c].scenario.dt;
+        for (t, target) in TARGETS.iter().enumerate() {
+            let (file, fig) = FIGS[t][c];
+            let series = all_rules
+                .iter()
+                .zip(case_results)
+                .map(|(rule, r)| (legend_name(rule), r.fused[t].per_scan(dt)))
+                .collect();
+            md.push_str(&ctx.figure(
+                file,
+                &format!("003 {fig}: RMSE of target {target}, case {}", c + 1),
+                &format!(
+                    "Fused position RMSE of target {target} per scan over the runs, case {} \
+                     (its time mean is the table's number).",
+                    c + 1
+                ),
+                ("time (s)", "position RMSE (m)"),
+                series,
+                None,
+            )?);
+        }
     }
 
     // ranking

@@ -33,6 +33,26 @@ const CASE1: [(f64, f64); 2] = [(0.6, 5.0), (0.8, 25.0)];
 /// Case 2 parameter groups.
 const GROUPS: [(&str, [f64; 3]); 2] = [("group 1", [0.8, 0.1, 0.1]), ("group 2", [0.4, 0.3, 0.3])];
 
+/// The thresholds of the sweep behind the figures: 0.50 to 0.90 in steps of 0.05, through
+/// every threshold the paper's figures use (0.55, 0.6, 0.8) and from eps_min up.
+const SWEEP: [f64; 9] = [0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9];
+
+/// Monte Carlo runs per point of the threshold sweep (fewer than the tables' 50, to keep
+/// `reproduce 004` near a minute; one run is 12 000 track-scans per configuration).
+const SWEEP_RUNS: u32 = 2;
+
+/// The figures of the sweep: file name, the paper's figure, case, and which rate.
+const SWEEP_FIGS: [(&str, &str, usize, usize); 6] = [
+    ("004-fig2", "Fig. 2", 1, 0),
+    ("004-fig3", "Fig. 3", 1, 1),
+    ("004-fig4", "Fig. 4", 1, 2),
+    ("004-fig5", "Fig. 5", 2, 0),
+    ("004-fig6", "Fig. 6", 2, 1),
+    ("004-fig7", "Fig. 7", 2, 2),
+];
+
+const RATE_NAMES: [&str; 3] = ["correct", "false", "missed"];
+
 /// The `(n0, k)` of the sensitivity rows (the files' defaults are (10, 7)).
 const WINDOWS: [(i64, i64); 3] = [(5, 3), (10, 7), (20, 15)];
 
@@ -103,7 +123,16 @@ fn name(adaptive: bool) -> &'static str {
 }
 
 fn rates(ctx: &Ctx, label: &str, sc: &RunConfig, fusion: &FusionConfig) -> Result<Rates> {
-    let runs = ctx.runs_or(PAPER_RUNS);
+    rates_n(ctx, ctx.runs_or(PAPER_RUNS), label, sc, fusion)
+}
+
+fn rates_n(
+    ctx: &Ctx,
+    runs: u32,
+    label: &str,
+    sc: &RunConfig,
+    fusion: &FusionConfig,
+) -> Result<Rates> {
     let gate = sc.evaluation.label_gate;
     let (r, rows) = monte_carlo_with(ctx, label, sc, &sc.tracker, fusion, runs, |out| {
         row_counts(out, gate)
@@ -475,6 +504,111 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         &rows,
     ));
     md.push('\n');
+    // ---- threshold sweep, the figures
+    let sweep_runs = runs.min(SWEEP_RUNS);
+    md.push_str("## Rates against the threshold (Figs. 2-7)\n\n");
+    md.push_str(&format!(
+        "The paper's figures compare the variants at the thresholds 0.6 and 0.8 (case 1) \
+         and 0.55 (case 2). To draw the rates as curves, the reproduction sweeps the \
+         threshold (FT-FDTTA: eps; AT-FDTTA: its start value eps_0, eps_min = 0.5) from 0.5 \
+         to 0.9 in steps of 0.05, through those values, with {sweep_runs} Monte Carlo runs \
+         per point (fewer than the tables' {runs}, to keep `trackfuse reproduce 004` near a \
+         minute: the points are not the tables' numbers and differ from them by the Monte \
+         Carlo spread). Case 1 with tau = (0.5, 0.2, 0.3); case 2 with both parameter \
+         groups. Rates in %.\n\n"
+    ));
+    // (case, label, rates per threshold)
+    let mut curves: Vec<(usize, String, Vec<Rates>)> = Vec::new();
+    for adaptive in [false, true] {
+        let mut v = Vec::new();
+        for &eps in &SWEEP {
+            let f = with_fdtta(
+                &c1.fusion,
+                &[
+                    ("threshold", mode_value(adaptive)),
+                    ("eps", toml::Value::Float(eps)),
+                ],
+            );
+            let label = format!("004 sweep case 1 {} {eps}", name(adaptive));
+            v.push(rates_n(ctx, sweep_runs, &label, &c1, &f)?);
+        }
+        curves.push((1, name(adaptive).to_string(), v));
+    }
+    for (group, tau) in &GROUPS {
+        for adaptive in [false, true] {
+            let mut v = Vec::new();
+            for &eps in &SWEEP {
+                let f = with_fdtta(
+                    &c2.fusion,
+                    &[
+                        ("threshold", mode_value(adaptive)),
+                        ("eps", toml::Value::Float(eps)),
+                        (
+                            "tau",
+                            toml::Value::Array(
+                                tau.iter().map(|&t| toml::Value::Float(t)).collect(),
+                            ),
+                        ),
+                    ],
+                );
+                let label = format!("004 sweep case 2 {} {group} {eps}", name(adaptive));
+                v.push(rates_n(ctx, sweep_runs, &label, &c2, &f)?);
+            }
+            curves.push((2, format!("{}, {group}", name(adaptive)), v));
+        }
+    }
+    let rate_of = |r: &Rates, k: usize| 100.0 * [r.correct, r.false_, r.missed][k];
+    for &(file, fig, case, k) in &SWEEP_FIGS {
+        let chosen: Vec<&(usize, String, Vec<Rates>)> =
+            curves.iter().filter(|c| c.0 == case).collect();
+        md.push_str(&format!(
+            "### {fig}: {} association rate, case {case}\n\n",
+            RATE_NAMES[k]
+        ));
+        let mut header = vec!["threshold".to_string()];
+        header.extend(chosen.iter().map(|c| format!("{} (%)", c.1)));
+        let rows: Vec<Vec<String>> = SWEEP
+            .iter()
+            .enumerate()
+            .map(|(i, eps)| {
+                let mut row = vec![format!("{eps:.2}")];
+                row.extend(chosen.iter().map(|c| pct(rate_of(&c.2[i], k) / 100.0)));
+                row
+            })
+            .collect();
+        let h: Vec<&str> = header.iter().map(String::as_str).collect();
+        md.push_str(&md_table(&h, &rows));
+        md.push('\n');
+        let series = chosen
+            .iter()
+            .map(|c| {
+                (
+                    c.1.clone(),
+                    SWEEP
+                        .iter()
+                        .zip(&c.2)
+                        .map(|(&eps, r)| (eps, rate_of(r, k)))
+                        .collect(),
+                )
+            })
+            .collect();
+        md.push_str(&ctx.figure(
+            file,
+            &format!("004 {fig}: {} rate, case {case}", RATE_NAMES[k]),
+            &format!(
+                "{} association rate against the threshold (AT-FDTTA: its start value), \
+                 case {case}, {sweep_runs} runs per point.",
+                RATE_NAMES[k]
+            ),
+            (
+                "threshold eps (similarity, dimensionless)",
+                "association rate (%)",
+            ),
+            series,
+            (k == 0).then_some(100.0),
+        )?);
+    }
+
     md.push_str(
         "## Where we differ, and why\n\n\
          The paper's rates are read off figures we do not have; only the differences its \
