@@ -24,7 +24,7 @@ use clap::Args;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
-use trackfuse::center::bias::BiasEstimate;
+use trackfuse::center::bias::{BiasEstimate, BiasSample};
 use trackfuse::center::instants::{default_period, InstantBatcher};
 use trackfuse::center::t2ta::truth::{self, TruthSource};
 use trackfuse::center::{
@@ -87,7 +87,72 @@ pub fn write_fused(outs: &mut Outputs, run: &FusedRun) -> Result<()> {
     if !run.bias.is_empty() {
         write_bias(outs, &run.bias)?;
     }
+    if !run.bias_history.is_empty() {
+        let p = outs.path(BIAS_HISTORY)?;
+        let mut w = BiasHistoryWriter::create(&p)?;
+        for b in &run.bias_history {
+            w.write(b)?;
+        }
+        w.finish()?;
+    }
     Ok(())
+}
+
+/// The file of every sensor's bias estimate after each fused instant.
+const BIAS_HISTORY: &str = "bias_history.csv";
+
+/// Writes bias_history.csv (docs/formats.md): `scan,time,sensor_id,bias_r,bias_theta`,
+/// one row per sensor per fused instant, as the center goes (streamed, atomically: an
+/// unfinished writer leaves no file). Non-finite estimates are an error naming the row.
+struct BiasHistoryWriter {
+    path: PathBuf,
+    file: Option<trackfuse::io::AtomicFile>,
+    line: u64,
+}
+
+impl BiasHistoryWriter {
+    fn create(path: &Path) -> Result<BiasHistoryWriter> {
+        use std::io::Write;
+        let mut w = trackfuse::io::AtomicFile::create(path)
+            .with_context(|| format!("writing {}", path.display()))?;
+        w.write_all(b"scan,time,sensor_id,bias_r,bias_theta\n")
+            .with_context(|| format!("writing {}", path.display()))?;
+        Ok(BiasHistoryWriter {
+            path: path.to_path_buf(),
+            file: Some(w),
+            line: 1,
+        })
+    }
+
+    fn write(&mut self, b: &BiasSample) -> Result<()> {
+        use std::io::Write;
+        self.line += 1;
+        crate::output::finite_cells(
+            &self.path.display().to_string(),
+            self.line,
+            &[
+                (4, "bias_r", b.estimate.range),
+                (5, "bias_theta", b.estimate.bearing),
+            ],
+        )?;
+        if let Some(w) = self.file.as_mut() {
+            writeln!(
+                w,
+                "{},{},{},{},{}",
+                b.scan, b.time, b.estimate.sensor_id, b.estimate.range, b.estimate.bearing
+            )
+            .with_context(|| format!("writing {}", self.path.display()))?;
+        }
+        Ok(())
+    }
+
+    fn finish(mut self) -> Result<()> {
+        let ctx = || format!("writing {}", self.path.display());
+        if let Some(w) = self.file.take() {
+            w.commit().with_context(ctx)?;
+        }
+        Ok(())
+    }
 }
 
 /// Write bias_estimates.csv (finite cells only, atomically).
@@ -205,6 +270,21 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     // and leave no partial file, and `outs` dropped unfinished removes the output set
     let mut fw = FusedTrackWriter::create(&fused_path).with_context(|| ctx(&fused_path))?;
     let mut aw = AssociationWriter::create(&assoc_path).with_context(|| ctx(&assoc_path))?;
+    let mut history = match center.has_bias_estimator() {
+        true => Some(BiasHistoryWriter::create(&outs.path(BIAS_HISTORY)?)?),
+        false => None,
+    };
+    let mut samples = Vec::new();
+    let mut record = |center: &FusionCenter, s: u32, t: f64| -> Result<()> {
+        if let Some(h) = history.as_mut() {
+            samples.clear();
+            center.record_bias(s, t, &mut samples);
+            for b in &samples {
+                h.write(b)?;
+            }
+        }
+        Ok(())
+    };
     let mut write = |out: &ScanOutput| -> Result<()> {
         for f in &out.fused {
             fw.write(f).with_context(|| ctx(&fused_path))?;
@@ -218,7 +298,7 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         // pass 1 estimates the biases and writes nothing; pass 2 reads the files again,
         // corrects every scan with pass 1's final estimates and fuses without estimator
         // (what `fuse_all_two_pass` does on a whole file in memory)
-        let first_stats = first.run(&mut center, None, |_| Ok(()))?;
+        let first_stats = first.run(&mut center, None, |_, c, s, t| record(c, s, t))?;
         let second_cfg = FusionConfig {
             bias: None,
             ..cfg.clone()
@@ -226,15 +306,21 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         let mut second = new_center(args, &second_cfg, sensors.as_deref(), &labels)?;
         let mut again = StreamFusion::open(args, &labels, sensors.as_deref())?;
         again.schedule = (period, clocks);
-        let mut stats = again.run(&mut second, Some(&center), &mut write)?;
+        let mut stats = again.run(&mut second, Some(&center), |out, _, _, _| write(out))?;
         stats.elapsed += first_stats.elapsed;
         (stats, center.bias_estimates())
     } else {
-        let stats = first.run(&mut center, None, &mut write)?;
+        let stats = first.run(&mut center, None, |out, c, s, t| {
+            write(out)?;
+            record(c, s, t)
+        })?;
         (stats, center.bias_estimates())
     };
     fw.finish().with_context(|| ctx(&fused_path))?;
     aw.finish().with_context(|| ctx(&assoc_path))?;
+    if let Some(h) = history {
+        h.finish()?;
+    }
     if !bias.is_empty() {
         write_bias(&mut outs, &bias)?;
     }
@@ -415,7 +501,7 @@ impl<'a> StreamFusion<'a> {
         &mut self,
         center: &mut FusionCenter,
         corrector: Option<&FusionCenter>,
-        mut write: impl FnMut(&ScanOutput) -> Result<()>,
+        mut write: impl FnMut(&ScanOutput, &FusionCenter, u32, f64) -> Result<()>,
     ) -> Result<FuseStats> {
         let mut stats = FuseStats::default();
         let mut out = ScanOutput::default();
@@ -485,7 +571,7 @@ impl<'a> StreamFusion<'a> {
                 stats.elapsed += t0.elapsed();
                 stats.fused_rows += out.fused.len();
                 stats.ids.extend(out.fused.iter().map(|f| f.fused_id));
-                write(&out)
+                write(&out, center, s, t)
             })?;
             Ok(())
         })?;

@@ -32,7 +32,12 @@ pub const SIMULATE_OUTPUTS: &[&str] = &[
 /// `trackfuse track`'s outputs.
 pub const TRACK_OUTPUTS: &[&str] = &["local_tracks.csv"];
 /// `trackfuse fuse`'s outputs (`bias_estimates.csv` with a bias estimator only).
-pub const FUSE_OUTPUTS: &[&str] = &["fused_tracks.csv", "associations.csv", "bias_estimates.csv"];
+pub const FUSE_OUTPUTS: &[&str] = &[
+    "fused_tracks.csv",
+    "associations.csv",
+    "bias_estimates.csv",
+    "bias_history.csv",
+];
 /// `trackfuse run`'s outputs: simulate's, track's, fuse's and `summary.json`.
 pub const RUN_OUTPUTS: &[&str] = &[
     "scenario.toml",
@@ -43,6 +48,7 @@ pub const RUN_OUTPUTS: &[&str] = &[
     "fused_tracks.csv",
     "associations.csv",
     "bias_estimates.csv",
+    "bias_history.csv",
     "summary.json",
     "report.html",
     "report.md",

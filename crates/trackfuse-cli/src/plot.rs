@@ -13,6 +13,9 @@
 //! - `gospa`: GOSPA per time step and its localisation / missed / false parts;
 //! - `nees`: the mean NEES of the fused estimates per time step with its 95 % band;
 //! - `bias`: the center's bias estimates against the true biases of sensors.csv;
+//! - `bias_convergence`: each sensor's range and bearing bias estimate over time
+//!   (bias_history.csv), with its true bias of sensors.csv as a dashed line of the same
+//!   colour when sensors.csv is there;
 //! - `rmse_per_scan`: the fused RMSE per scan of a summary.json that has it.
 //!
 //! Where the issue is silent: the per-time curves pair estimates with the truth at the
@@ -29,7 +32,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use trackfuse::center::bias::BiasEstimate;
+use trackfuse::center::bias::{BiasEstimate, BiasSample};
 use trackfuse::io::{read_fused_tracks, read_local_tracks, read_sensors, read_truth};
 use trackfuse::metrics::{gated_assignment, gospa, EvaluationConfig, Gospa};
 use trackfuse::types::{
@@ -41,7 +44,8 @@ use crate::output::Outputs;
 #[derive(Args, Debug)]
 pub struct PlotArgs {
     /// A folder of FORMATS.md files (ours or another tool's): any of truth.csv,
-    /// sensors.csv, local_tracks.csv, fused_tracks.csv, bias_estimates.csv, summary.json.
+    /// sensors.csv, local_tracks.csv, fused_tracks.csv, bias_estimates.csv,
+    /// bias_history.csv, summary.json.
     /// The options below name files elsewhere (e.g. the truth of another tool's output).
     pub dir: PathBuf,
     /// truth.csv (default: DIR/truth.csv when it exists).
@@ -59,6 +63,9 @@ pub struct PlotArgs {
     /// bias_estimates.csv (default: DIR/bias_estimates.csv when it exists).
     #[arg(long)]
     pub bias: Option<PathBuf>,
+    /// bias_history.csv (default: DIR/bias_history.csv when it exists).
+    #[arg(long)]
+    pub bias_history: Option<PathBuf>,
     /// Draw 2-sigma position ellipses of the fused tracks (every tenth row of a track).
     #[arg(long)]
     pub ellipses: bool,
@@ -84,6 +91,8 @@ pub struct PlotData {
     pub local: Vec<LocalTrack>,
     pub fused: Vec<FusedTrack>,
     pub bias: Vec<BiasEstimate>,
+    /// Every sensor's estimate after each fused instant (bias_history.csv).
+    pub bias_history: Vec<BiasSample>,
     /// A summary's `fused_rmse_per_scan`.
     pub rmse_per_scan: Vec<(u32, f64)>,
     pub evaluation: EvaluationConfig,
@@ -113,6 +122,7 @@ pub const FIGURE_NAMES: &[&str] = &[
     "gospa",
     "nees",
     "bias",
+    "bias_convergence",
     "rmse_per_scan",
 ];
 
@@ -1262,14 +1272,26 @@ pub fn figures(d: &PlotData) -> Result<Vec<Figure>> {
             draw_bias(d)
         ));
     }
+    if !d.bias_history.is_empty() {
+        out.push(figure!(
+            "bias_convergence",
+            "Bias estimates over time",
+            "Each sensor's range (left, m) and bearing (right, mrad) bias estimate after every fused instant, one colour per sensor; its true bias from sensors.csv dashed in the same colour.",
+            (1000, 450),
+            draw_bias_convergence(d)
+        ));
+    }
     if let Some(f) = rmse_figure(&d.rmse_per_scan, "Fused position RMSE per scan")? {
         out.push(f);
     }
     Ok(out)
 }
 
-/// bias_estimates.csv (`sensor_id,bias_r,bias_theta`), errors naming file, line, column.
-pub fn read_bias(path: &Path) -> Result<Vec<BiasEstimate>> {
+/// The rows of a small CSV file of named numeric columns: each row's cells of `names`
+/// (in that order) parsed as finite numbers, errors naming file, line and column. The
+/// bias files are a few rows per instant, so this reads them with the `csv` crate
+/// rather than the streaming readers of the large files.
+fn read_numeric_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>> {
     let mut r = csv::ReaderBuilder::new()
         .from_path(path)
         .with_context(|| format!("reading {}", path.display()))?;
@@ -1277,28 +1299,28 @@ pub fn read_bias(path: &Path) -> Result<Vec<BiasEstimate>> {
         .headers()
         .with_context(|| format!("reading {}", path.display()))?
         .clone();
-    let col = |name: &str| {
-        headers
-            .iter()
-            .position(|h| h.trim() == name)
-            .ok_or_else(|| anyhow!("{}: line 1: no column `{name}`", path.display()))
-    };
-    let (ci, cr, ct) = (col("sensor_id")?, col("bias_r")?, col("bias_theta")?);
+    let cols: Vec<usize> = names
+        .iter()
+        .map(|name| {
+            headers
+                .iter()
+                .position(|h| h.trim() == *name)
+                .ok_or_else(|| anyhow!("{}: line 1: no column `{name}`", path.display()))
+        })
+        .collect::<Result<_>>()?;
     let mut out = Vec::new();
     for (i, rec) in r.records().enumerate() {
         let line = i + 2;
         let rec = rec.with_context(|| format!("{}: line {line}", path.display()))?;
-        let cell = |c: usize, name: &str| -> Result<&str> {
-            rec.get(c).map(str::trim).ok_or_else(|| {
+        let mut row = Vec::with_capacity(cols.len());
+        for (&c, name) in cols.iter().zip(names) {
+            let s = rec.get(c).map(str::trim).ok_or_else(|| {
                 anyhow!(
                     "{}: line {line}, column {}: `{name}` missing",
                     path.display(),
                     c + 1
                 )
-            })
-        };
-        let num = |c: usize, name: &str| -> Result<f64> {
-            let s = cell(c, name)?;
+            })?;
             let v: f64 = s.parse().map_err(|_| {
                 anyhow!(
                     "{}: line {line}, column {} ({name}): `{s}` is not a number",
@@ -1313,23 +1335,135 @@ pub fn read_bias(path: &Path) -> Result<Vec<BiasEstimate>> {
                     c + 1
                 );
             }
-            Ok(v)
-        };
-        let id_s = cell(ci, "sensor_id")?;
-        let sensor_id: Id = id_s.parse().map_err(|_| {
-            anyhow!(
-                "{}: line {line}, column {} (sensor_id): `{id_s}` is not an integer",
-                path.display(),
-                ci + 1
-            )
-        })?;
-        out.push(BiasEstimate {
-            sensor_id,
-            range: num(cr, "bias_r")?,
-            bearing: num(ct, "bias_theta")?,
-        });
+            // ids and scans must be whole numbers in range
+            if (name.ends_with("_id") || *name == "scan")
+                && (v.fract() != 0.0
+                    || v.abs() > (1u64 << 53) as f64
+                    || (*name == "scan" && !(0.0..=u32::MAX as f64).contains(&v)))
+            {
+                bail!(
+                    "{}: line {line}, column {} ({name}): `{s}` is not an integer in range",
+                    path.display(),
+                    c + 1
+                );
+            }
+            row.push(v);
+        }
+        out.push(row);
     }
     Ok(out)
+}
+
+/// bias_estimates.csv (`sensor_id,bias_r,bias_theta`), errors naming file, line, column.
+pub fn read_bias(path: &Path) -> Result<Vec<BiasEstimate>> {
+    Ok(
+        read_numeric_columns(path, &["sensor_id", "bias_r", "bias_theta"])?
+            .into_iter()
+            .map(|r| BiasEstimate {
+                sensor_id: r[0] as Id,
+                range: r[1],
+                bearing: r[2],
+            })
+            .collect(),
+    )
+}
+
+/// bias_history.csv (`scan,time,sensor_id,bias_r,bias_theta`), errors naming file, line,
+/// column.
+pub fn read_bias_history(path: &Path) -> Result<Vec<BiasSample>> {
+    Ok(
+        read_numeric_columns(path, &["scan", "time", "sensor_id", "bias_r", "bias_theta"])?
+            .into_iter()
+            .map(|r| BiasSample {
+                scan: r[0] as u32,
+                time: r[1],
+                estimate: BiasEstimate {
+                    sensor_id: r[2] as Id,
+                    range: r[3],
+                    bearing: r[4],
+                },
+            })
+            .collect(),
+    )
+}
+
+/// Each sensor's range and bearing bias estimates over time, its true bias dashed.
+fn draw_bias_convergence<DB: DrawingBackend>(root: &Area<DB>, d: &PlotData) -> Result<()> {
+    let (charts, side) = split_legend(root);
+    let (left, right) = charts.split_horizontally(charts.dim_in_pixel().0 / 2);
+    let mut by_sensor: BTreeMap<Id, Vec<&BiasSample>> = BTreeMap::new();
+    for b in &d.bias_history {
+        by_sensor.entry(b.estimate.sensor_id).or_default().push(b);
+    }
+    let x = range_of(d.bias_history.iter().map(|b| b.time));
+    type Get = fn(&BiasSample) -> f64;
+    type True = fn(&Sensor) -> f64;
+    let panels: [(&Area<DB>, &str, &str, Get, True); 2] = [
+        (
+            &left,
+            "Range bias estimate",
+            "range bias (m)",
+            |b| b.estimate.range,
+            |s| s.bias_r,
+        ),
+        (
+            &right,
+            "Bearing bias estimate",
+            "bearing bias (mrad)",
+            |b| b.estimate.bearing * 1000.0,
+            |s| s.bias_theta * 1000.0,
+        ),
+    ];
+    for (area, title, unit, get, tru) in panels {
+        let truths: BTreeMap<Id, f64> = by_sensor
+            .keys()
+            .filter_map(|id| {
+                d.sensors
+                    .iter()
+                    .find(|s| s.id == *id)
+                    .map(|s| (*id, tru(s)))
+            })
+            .collect();
+        let y = range_of(
+            d.bias_history
+                .iter()
+                .map(get)
+                .chain(truths.values().copied())
+                .chain([0.0]),
+        );
+        let pad = 0.08 * (y.1 - y.0).max(1e-3);
+        let mut chart = xy_chart(area, title, x, (y.0 - pad, y.1 + pad), "time (s)", unit)?;
+        for (i, (id, rows)) in by_sensor.iter().enumerate() {
+            let c = colour(i);
+            chart
+                .draw_series(LineSeries::new(
+                    rows.iter().map(|b| (b.time, get(b))),
+                    c.stroke_width(2),
+                ))
+                .map_err(plot_err)?;
+            if let Some(&t) = truths.get(id) {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        [(x.0, t), (x.1.max(x.0 + 1.0), t)],
+                        8,
+                        5,
+                        c.stroke_width(1),
+                    ))
+                    .map_err(plot_err)?;
+            }
+        }
+    }
+    let mut lg = Legend::new();
+    for (i, id) in by_sensor.keys().enumerate() {
+        lg.push((
+            format!("sensor {id} estimate"),
+            Mark::Line(colour(i).to_rgba(), 3),
+        ));
+    }
+    if !d.sensors.is_empty() {
+        lg.push(("true bias: dashed".into(), Mark::Line(BLACK.mix(0.6), 1)));
+    }
+    side_legend(&side, &lg)
 }
 
 /// The file `given`, or `dir/name` when it exists.
@@ -1355,9 +1489,10 @@ pub fn run(args: &PlotArgs) -> Result<()> {
     let local_p = input(&args.dir, &args.local_tracks, "local_tracks.csv");
     let fused_p = input(&args.dir, &args.fused_tracks, "fused_tracks.csv");
     let bias_p = input(&args.dir, &args.bias, "bias_estimates.csv");
+    let history_p = input(&args.dir, &args.bias_history, "bias_history.csv");
     let summary_p = Some(args.dir.join("summary.json")).filter(|p| p.is_file());
     let all: Vec<PathBuf> = [
-        &truth_p, &sensors_p, &local_p, &fused_p, &bias_p, &summary_p,
+        &truth_p, &sensors_p, &local_p, &fused_p, &bias_p, &history_p, &summary_p,
     ]
     .into_iter()
     .flatten()
@@ -1392,6 +1527,9 @@ pub fn run(args: &PlotArgs) -> Result<()> {
     }
     if let Some(p) = &bias_p {
         d.bias = read_bias(p)?;
+    }
+    if let Some(p) = &history_p {
+        d.bias_history = read_bias_history(p)?;
     }
     if let Some(p) = &summary_p {
         let text =

@@ -94,6 +94,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
         local: out.local.clone(),
         fused: out.fused.fused.clone(),
         bias: out.fused.bias.clone(),
+        bias_history: out.fused.bias_history.clone(),
         rmse_per_scan: summary.fused_rmse_per_scan.clone(),
         evaluation: sc.evaluation.clone(),
         ellipses: false,

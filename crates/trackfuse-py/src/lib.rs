@@ -923,6 +923,14 @@ fn fuse<'py>(
     d.set_item("fused", fused_to(py, &run.fused)?)?;
     d.set_item("associations", associations_to(py, &run.associations)?)?;
     d.set_item("bias", bias_to(py, &run.bias)?)?;
+    let h = &run.bias_history;
+    let hd = bias_to(
+        py,
+        &h.iter().map(|b| b.estimate).collect::<Vec<BiasEstimate>>(),
+    )?;
+    set(&hd, "scan", arr(py, h.iter().map(|b| b.scan).collect()))?;
+    set(&hd, "time", arr(py, h.iter().map(|b| b.time).collect()))?;
+    d.set_item("bias_history", hd)?;
     Ok(d)
 }
 

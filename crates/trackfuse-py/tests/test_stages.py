@@ -70,6 +70,14 @@ def test_fuse_equals_cli(cli_run):
     np.testing.assert_array_equal(out["bias"]["bias_r"], [float(r["bias_r"]) for r in bias])
     np.testing.assert_array_equal(out["bias"]["bias_theta"],
                                   [float(r["bias_theta"]) for r in bias])
+    # the estimates over time are the CLI's bias_history.csv, the last instant's the final
+    hist = csv_rows(cli_run / "fuse" / "bias_history.csv")
+    assert len(hist) == len(out["bias_history"]["time"]) > len(sensors)
+    np.testing.assert_array_equal(out["bias_history"]["bias_r"],
+                                  [float(r["bias_r"]) for r in hist])
+    np.testing.assert_array_equal(out["bias_history"]["time"], [float(r["time"]) for r in hist])
+    np.testing.assert_array_equal(out["bias_history"]["bias_r"][-len(sensors):],
+                                  out["bias"]["bias_r"])
 
 
 def test_fuse_options_change_the_result(cli_run):
@@ -79,6 +87,7 @@ def test_fuse_options_change_the_result(cli_run):
     b = tf.fuse(local, sensors=sensors, rule="ci", bias="none",
                 params={"ci": {"criterion": "trace"}})
     assert len(a["bias"]["sensor_id"]) == 0
+    assert len(a["bias_history"]["time"]) == 0
     assert not np.array_equal(a["fused"]["cov"][:20], b["fused"]["cov"][:20])
 
 

@@ -67,6 +67,14 @@ class BiasEstimates(TypedDict):
     bias_r: FloatArray  # m
     bias_theta: FloatArray  # rad
 
+class BiasHistory(TypedDict):
+    # every sensor's estimate after each fused instant (bias_history.csv)
+    scan: IntArray
+    time: FloatArray  # s
+    sensor_id: IntArray
+    bias_r: FloatArray  # m
+    bias_theta: FloatArray  # rad
+
 class Simulation(TypedDict):
     sensors: List[Sensor]
     truth: Truth
@@ -76,6 +84,7 @@ class FusedRun(TypedDict):
     fused: FusedTracks
     associations: Associations
     bias: BiasEstimates
+    bias_history: BiasHistory
 
 class ScanResult(TypedDict):
     fused: FusedTracks

@@ -27,7 +27,7 @@
 //! Ids are never reused. The center keeps all its state itself, so the CLI, the Monte
 //! Carlo engine and a streaming service drive it the same way.
 
-use super::bias::{BiasEstimate, BiasEstimator};
+use super::bias::{BiasEstimate, BiasEstimator, BiasSample};
 use super::management::{Manager, Publish};
 use super::registry::{make_rule, CenterRegistry};
 use super::t2ta::truth::{self, TruthAssociator, TruthSource};
@@ -257,6 +257,18 @@ impl FusionCenter {
             .as_ref()
             .map(|b| b.estimates())
             .unwrap_or_default()
+    }
+
+    /// Append the current bias estimates to `history` as samples of the instant
+    /// `(scan, time)` just fused (nothing without a bias estimator).
+    pub fn record_bias(&self, scan: u32, time: f64, history: &mut Vec<BiasSample>) {
+        if let Some(b) = self.bias.as_ref() {
+            history.extend(b.estimates().into_iter().map(|estimate| BiasSample {
+                scan,
+                time,
+                estimate,
+            }));
+        }
     }
 
     /// Whether the center runs the `truth` associator without truth labels (built with
@@ -874,6 +886,9 @@ pub struct FusedRun {
     pub associations: Vec<Association>,
     /// The bias estimates after the last scan (empty without a bias estimator).
     pub bias: Vec<BiasEstimate>,
+    /// Every sensor's estimate after each fused instant, in time order (empty without a
+    /// bias estimator; with [`fuse_all_two_pass`], pass 1's, the estimator's own run).
+    pub bias_history: Vec<BiasSample>,
 }
 
 /// Run a fusion center over a whole set of local tracks (any order), scan by scan.
@@ -949,6 +964,7 @@ pub fn fuse_all_two_pass(
     };
     let mut run = fuse_all(&corrected, &second, sensors, labels)?;
     run.bias = first.bias;
+    run.bias_history = first.bias_history;
     Ok(run)
 }
 
@@ -963,6 +979,10 @@ fn fuse_scans(center: &mut FusionCenter, tracks: &[LocalTrack]) -> Result<FusedR
         let out = center.process_scan(ts)?;
         run.fused.extend(out.fused);
         run.associations.extend(out.associations);
+        if let Some(t) = ts.first() {
+            let time = ts.iter().map(|t| t.time).fold(t.time, f64::max);
+            center.record_bias(t.scan, time, &mut run.bias_history);
+        }
     }
     run.bias = center.bias_estimates();
     Ok(run)

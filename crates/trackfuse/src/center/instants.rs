@@ -210,6 +210,7 @@ pub fn fuse_all_at_instants(
             center.process_at_into(s, t, tr, &mut out)?;
             run.fused.extend_from_slice(&out.fused);
             run.associations.extend_from_slice(&out.associations);
+            center.record_bias(s, t, &mut run.bias_history);
             Ok::<(), CenterError>(())
         })?;
     }

@@ -125,6 +125,17 @@ pub struct BiasEstimate {
     pub bearing: f64,
 }
 
+/// One sensor's bias estimate after one fused instant: the rows of `bias_history.csv`
+/// (docs/formats.md), which show the estimator converging over time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BiasSample {
+    /// The fused instant's scan index.
+    pub scan: u32,
+    /// The fused instant's time (s).
+    pub time: f64,
+    pub estimate: BiasEstimate,
+}
+
 /// Sensor-bias estimator.
 pub trait BiasEstimator: Send {
     /// The name (as `[fusion] bias = "..."` selects it).
