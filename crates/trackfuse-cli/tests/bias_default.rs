@@ -47,25 +47,11 @@ fn fuse_estimates_the_biases_of_radars_by_default_and_says_why_not_without_senso
     assert!(err.contains("sensors.csv"), "{err}");
 }
 
-/// `(sensor_id, true bias_r)` of a sensors.csv.
-fn true_range_biases(path: &Path) -> Vec<(i64, f64)> {
-    let text = std::fs::read_to_string(path).expect("sensors.csv");
-    let mut lines = text.lines();
-    let head: Vec<&str> = lines.next().expect("header").split(',').collect();
-    let col = |n: &str| head.iter().position(|h| *h == n).expect("column");
-    let (ci, cr) = (col("sensor_id"), col("bias_r"));
-    lines
-        .map(|l| {
-            let c: Vec<&str> = l.split(',').collect();
-            (c[ci].parse().expect("id"), c[cr].parse().expect("bias_r"))
-        })
-        .collect()
-}
-
 #[test]
 fn the_bias_history_shows_the_estimates_converging_and_is_plotted() {
     let dir = tempfile::tempdir().expect("tmp");
-    let run = dir.path().join("run");
+    // in `sim`, where the `fuse` helper reads local_tracks.csv
+    let run = dir.path().join("sim");
     trackfuse()
         .args(["run", "--out"])
         .arg(&run)
@@ -85,7 +71,11 @@ fn the_bias_history_shows_the_estimates_converging_and_is_plotted() {
             )
         })
         .collect();
-    let truth = true_range_biases(&run.join("sensors.csv"));
+    let truth: Vec<(i64, f64)> = trackfuse::io::read_sensors(&run.join("sensors.csv"))
+        .expect("sensors.csv")
+        .iter()
+        .map(|s| (s.id, s.bias_r))
+        .collect();
     assert!(rows.len() > 10 * truth.len(), "{} rows", rows.len());
     assert!(
         rows.windows(2).all(|w| w[0].0 <= w[1].0),
@@ -110,17 +100,14 @@ fn the_bias_history_shows_the_estimates_converging_and_is_plotted() {
         }
     }
     // fuse on the run's files writes the same history
+    let sensors = run.join("sensors.csv");
+    let (estimated, _) = fuse(
+        dir.path(),
+        &["--sensors", sensors.to_str().expect("path")],
+        "fused",
+    );
+    assert!(estimated);
     let fused = dir.path().join("fused");
-    trackfuse()
-        .arg("fuse")
-        .arg("--local-tracks")
-        .arg(run.join("local_tracks.csv"))
-        .arg("--sensors")
-        .arg(run.join("sensors.csv"))
-        .arg("--out")
-        .arg(&fused)
-        .assert()
-        .success();
     let again = std::fs::read_to_string(fused.join("bias_history.csv")).expect("fuse history");
     assert!(again == hist, "fuse's bias_history.csv differs from run's");
     // the run report and `plot` draw it
