@@ -15,6 +15,7 @@ pub mod center;
 pub mod clock;
 pub mod config;
 pub mod covariance;
+pub mod experiments;
 pub mod io;
 pub mod local;
 pub mod metrics;

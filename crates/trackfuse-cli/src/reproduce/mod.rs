@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Duration;
 use trackfuse::center::FusionConfig;
+use trackfuse::experiments::{index_table, IndexLine};
 use trackfuse::local::TrackerConfig;
 use trackfuse::metrics::{RunMetrics, Summary};
 use trackfuse::montecarlo::run_parallel;
@@ -43,6 +44,14 @@ pub struct ReproduceArgs {
     /// No progress bars.
     #[arg(long)]
     pub quiet: bool,
+    /// Every reproduction, one after another, into `--dir` (default docs/reproduction/),
+    /// plus `index.md`: one line per table with the paper's value, ours, the ratio,
+    /// whether the ranking agrees and a verdict.
+    #[arg(long, conflicts_with_all = ["paper", "out", "list"])]
+    pub all: bool,
+    /// The folder `--all` writes to.
+    #[arg(long, requires = "all")]
+    pub dir: Option<PathBuf>,
 }
 
 /// What a reproduction is given.
@@ -53,6 +62,8 @@ pub struct Ctx {
     /// The figures drawn so far, written next to the Markdown when the reproduction is
     /// done (`figures/<name>.{png,svg}`).
     pub figures: Mutex<Vec<ReproFigure>>,
+    /// The index lines (tables against the paper) given so far, see [`Ctx::verdict`].
+    pub index: Mutex<Vec<IndexLine>>,
 }
 
 /// A figure of a reproduction and the series it plots (kept so that the tests can
@@ -102,6 +113,16 @@ impl Ctx {
             .map_err(|_| anyhow::anyhow!("figure list poisoned"))?
             .push(ReproFigure { figure, series });
         Ok(md)
+    }
+
+    /// Record one line of docs/reproduction/index.md: a table of the paper against ours.
+    #[allow(dead_code)] // called by the reproductions as they gain their index lines
+    pub fn verdict(&self, line: IndexLine) -> Result<()> {
+        self.index
+            .lock()
+            .map_err(|_| anyhow::anyhow!("index poisoned"))?
+            .push(line);
+        Ok(())
     }
 
     /// A progress bar for `n` steps (hidden with --quiet).
@@ -275,6 +296,9 @@ pub fn num(v: Option<f64>, d: usize) -> String {
 }
 
 pub fn run(args: &ReproduceArgs) -> Result<()> {
+    if args.all {
+        return run_all(args);
+    }
     if args.list || args.paper.is_none() {
         for r in REPRODUCTIONS {
             println!("{:<8} {}", r.name, r.summary);
@@ -291,7 +315,7 @@ pub fn run(args: &ReproduceArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("docs/reproduction/{name}.md")));
     let t0 = std::time::Instant::now();
-    let figs = produce(r, args.runs, args.quiet, &out)?;
+    let (figs, _) = produce(r, args.runs, args.quiet, &out)?;
     eprintln!(
         "reproduction {name}: {:.1} s -> {} ({} figures)",
         t0.elapsed().as_secs_f64(),
@@ -301,24 +325,91 @@ pub fn run(args: &ReproduceArgs) -> Result<()> {
     Ok(())
 }
 
+/// `reproduce --all`: every reproduction into `--dir`, then index.md.
+fn run_all(args: &ReproduceArgs) -> Result<()> {
+    let dir = args
+        .dir
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("docs/reproduction"));
+    let t0 = std::time::Instant::now();
+    let overall = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(REPRODUCTIONS.len() as u64)
+    };
+    overall.set_style(
+        ProgressStyle::with_template("reproduce --all {bar:30} {pos}/{len} {msg} {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let mut lines = Vec::new();
+    let mut times = Vec::new();
+    for r in REPRODUCTIONS {
+        overall.set_message(r.name);
+        let t = std::time::Instant::now();
+        let out = dir.join(format!("{}.md", r.name));
+        let (_, l) = produce(r, args.runs, args.quiet, &out)?;
+        times.push((r.name, t.elapsed().as_secs_f64(), l.len()));
+        lines.extend(l);
+        overall.inc(1);
+    }
+    overall.finish_and_clear();
+    let runs = match args.runs {
+        Some(r) => format!(" --runs {r}"),
+        None => String::new(),
+    };
+    let mut md = format!(
+        "# Reproductions: index\n\nMade by `trackfuse reproduce --all{runs}` ({}). One line per table: \
+         the paper's value, ours, their ratio, whether the methods rank as in the paper, and \
+         a verdict (matches / same ranking, off / differs) with its reason. Each \
+         reproduction's file has the full tables and the readings side by side.\n\n",
+        if args.runs.is_some() {
+            "runs as given"
+        } else {
+            "each paper's own run count"
+        }
+    );
+    md.push_str(&index_table(&lines));
+    md.push_str("\n| reproduction | file | wall (s) | index lines |\n|---|---|---|---|\n");
+    for (name, secs, n) in &times {
+        md.push_str(&format!(
+            "| {name} | [{name}.md]({name}.md) | {secs:.0} | {n} |\n"
+        ));
+    }
+    let index = dir.join("index.md");
+    trackfuse::io::AtomicFile::write_all_to(&index, md.as_bytes())
+        .with_context(|| format!("writing {}", index.display()))?;
+    eprintln!(
+        "reproduce --all: {:.1} s -> {} ({} index lines)",
+        t0.elapsed().as_secs_f64(),
+        index.display(),
+        lines.len()
+    );
+    Ok(())
+}
+
 /// Run reproduction `r`, write its Markdown to `out` and its figures to
-/// `figures/<name>.{png,svg}` in `out`'s folder; returns the figures.
+/// `figures/<name>.{png,svg}` in `out`'s folder; returns the figures and the index lines.
 fn produce(
     r: &Reproduction,
     runs: Option<u32>,
     quiet: bool,
     out: &Path,
-) -> Result<Vec<ReproFigure>> {
+) -> Result<(Vec<ReproFigure>, Vec<IndexLine>)> {
     let ctx = Ctx {
         runs,
         quiet,
         figures: Mutex::new(Vec::new()),
+        index: Mutex::new(Vec::new()),
     };
     let md = (r.run)(&ctx)?;
     let figs = ctx
         .figures
         .into_inner()
         .map_err(|_| anyhow::anyhow!("figure list poisoned"))?;
+    let lines = ctx
+        .index
+        .into_inner()
+        .map_err(|_| anyhow::anyhow!("index poisoned"))?;
     let dir = out.parent().unwrap_or(Path::new(""));
     if !dir.as_os_str().is_empty() {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -336,7 +427,7 @@ fn produce(
     }
     trackfuse::io::AtomicFile::write_all_to(out, md.as_bytes())
         .with_context(|| format!("writing {}", out.display()))?;
-    Ok(figs)
+    Ok((figs, lines))
 }
 
 #[cfg(test)]
@@ -358,7 +449,7 @@ mod figure_tests {
     fn produce_in(name: &str, runs: u32) -> (tempfile::TempDir, String, Vec<ReproFigure>) {
         let dir = tempfile::tempdir().expect("tmp");
         let out = dir.path().join(format!("{name}.md"));
-        let figs = produce(reproduction(name), Some(runs), true, &out).expect("reproduction");
+        let (figs, _) = produce(reproduction(name), Some(runs), true, &out).expect("reproduction");
         let md = std::fs::read_to_string(&out).expect("markdown");
         for f in &figs {
             let stem = dir.path().join(FIGURES_DIR).join(f.figure.name);
