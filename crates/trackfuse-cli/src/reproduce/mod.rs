@@ -116,7 +116,6 @@ impl Ctx {
     }
 
     /// Record one line of docs/reproduction/index.md: a table of the paper against ours.
-    #[allow(dead_code)] // called by the reproductions as they gain their index lines
     pub fn verdict(&self, line: IndexLine) -> Result<()> {
         self.index
             .lock()

@@ -19,6 +19,7 @@ use super::{md_table, monte_carlo_with, num, rel, scenario, Ctx};
 use anyhow::{Context, Result};
 use std::collections::HashMap;
 use trackfuse::center::FusionConfig;
+use trackfuse::experiments::{IndexLine, Verdict};
 use trackfuse::metrics::label_local_tracks;
 use trackfuse::pipeline::RunOutput;
 use trackfuse::{Id, RunConfig};
@@ -176,6 +177,45 @@ fn yes(b: bool) -> String {
     if b { "yes" } else { "no" }.to_string()
 }
 
+/// The index line of case 1 at threshold `eps`: AT-FDTTA's gain in correct rate over
+/// FT-FDTTA (percentage points), the paper's ("about" `paper_gain`) against ours. The band
+/// for "matches" is half to twice the paper's gain (the paper states the gain in words,
+/// "about"); a gain of the paper's sign outside it is "same ranking, off"; a gain of the
+/// other sign (FT-FDTTA better) "differs".
+fn gain_line(eps: f64, paper_gain: f64, gain: f64) -> IndexLine {
+    let ranking = gain > 0.0;
+    let (verdict, reason) = if !ranking {
+        (
+            Verdict::Differs,
+            if gain < 0.0 {
+                format!("FT-FDTTA's correct rate is the higher one ({gain:+.2} points), the paper has AT-FDTTA ahead")
+            } else {
+                "the two correct rates are equal, the paper has AT-FDTTA ahead".to_string()
+            },
+        )
+    } else if gain >= 0.5 * paper_gain && gain <= 2.0 * paper_gain {
+        (
+            Verdict::Matches,
+            "AT-FDTTA ahead by within half to twice the paper's 'about' figure".to_string(),
+        )
+    } else {
+        (
+            Verdict::SameRankingOff,
+            format!("AT-FDTTA ahead as in the paper, by {gain:.2} points against its 'about {paper_gain}'"),
+        )
+    };
+    IndexLine {
+        reproduction: "004".into(),
+        table: "Case 1 (Figs. 2-4)".into(),
+        quantity: format!("AT-FDTTA correct rate minus FT-FDTTA's at eps = {eps} (points)"),
+        paper: Some(paper_gain),
+        ours: Some(gain),
+        ranking_agrees: Some(ranking),
+        verdict,
+        reason,
+    }
+}
+
 pub fn run(ctx: &Ctx) -> Result<String> {
     let (c1, c2) = (scenario("004-case1")?, scenario("004-case2")?);
     let runs = ctx.runs_or(PAPER_RUNS);
@@ -328,6 +368,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
                 format!("{gain:+.2}"),
                 rel(gain, Some(paper_gain)),
             ]);
+            ctx.verdict(gain_line(eps, paper_gain, gain))?;
             checks.push(vec![
                 format!("AT-FDTTA correct rate above FT-FDTTA's at {eps}"),
                 "yes".into(),
@@ -627,4 +668,20 @@ pub fn run(ctx: &Ctx) -> Result<String> {
          one), and they are nearly the same for every variant that goes down to 0.5.\n",
     );
     Ok(md)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gain_line_verdicts_follow_the_band_and_the_sign() {
+        assert_eq!(gain_line(0.6, 5.0, 4.0).verdict, Verdict::Matches);
+        assert_eq!(gain_line(0.6, 5.0, 11.0).verdict, Verdict::SameRankingOff);
+        assert_eq!(gain_line(0.6, 5.0, 1.0).verdict, Verdict::SameRankingOff);
+        let l = gain_line(0.8, 25.0, -3.0);
+        assert_eq!(l.verdict, Verdict::Differs);
+        assert_eq!(l.ranking_agrees, Some(false));
+        assert_eq!(l.ratio(), Some(-3.0 / 25.0));
+    }
 }
