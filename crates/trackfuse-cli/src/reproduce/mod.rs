@@ -126,18 +126,23 @@ impl Ctx {
 
     /// A progress bar for `n` steps (hidden with --quiet).
     pub fn bar(&self, n: u64, label: &str) -> ProgressBar {
-        let bar = if self.quiet {
-            ProgressBar::hidden()
-        } else {
-            ProgressBar::new(n)
-        };
-        bar.set_style(
-            ProgressStyle::with_template("{msg:30} {bar:30} {pos}/{len} {elapsed}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
+        let bar = progress_bar(n, self.quiet, "{msg:30} {bar:30} {pos}/{len} {elapsed}");
         bar.set_message(label.to_string());
         bar
     }
+}
+
+/// A progress bar for `n` steps drawn with `template` (hidden when `quiet`).
+fn progress_bar(n: u64, quiet: bool, template: &str) -> ProgressBar {
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(n)
+    };
+    bar.set_style(
+        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
 }
 
 /// A reproduction: its name (as `trackfuse reproduce NAME` takes it), a one-line
@@ -331,14 +336,10 @@ fn run_all(args: &ReproduceArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("docs/reproduction"));
     let t0 = std::time::Instant::now();
-    let overall = if args.quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(REPRODUCTIONS.len() as u64)
-    };
-    overall.set_style(
-        ProgressStyle::with_template("reproduce --all {bar:30} {pos}/{len} {msg} {elapsed}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    let overall = progress_bar(
+        REPRODUCTIONS.len() as u64,
+        args.quiet,
+        "reproduce --all {bar:30} {pos}/{len} {msg} {elapsed}",
     );
     let mut lines = Vec::new();
     let mut times = Vec::new();
