@@ -5,7 +5,7 @@
 
 use crate::center::{CenterError, FusedRun, FusionConfig};
 use crate::config::RunConfig;
-use crate::local::{track_sensors, KnownTarget, TrackerConfig, TrackerError};
+use crate::local::{track_sensors_timed, KnownTarget, TrackerConfig, TrackerError};
 use crate::metrics::{evaluate_run, label_local_tracks, EvalInput, RunMetrics};
 use crate::scenario::Scenario;
 use crate::sim::{try_simulate, SimError, SimulationOutput};
@@ -33,6 +33,8 @@ pub enum PipelineError {
 pub struct StageTimes {
     pub simulate: Duration,
     pub track: Duration,
+    /// The part of `track` spent in the data associators alone (summed over sensors).
+    pub associate: Duration,
     pub fuse: Duration,
     pub evaluate: Duration,
 }
@@ -67,8 +69,19 @@ pub fn track_run(
     sim: &SimulationOutput,
     run: u64,
 ) -> Result<Vec<LocalTrack>, TrackerError> {
+    track_run_timed(sc, cfg, sim, run).map(|(tracks, _)| tracks)
+}
+
+/// [`track_run`], also returning the time spent in the data associators alone
+/// ([`crate::local::track_sensors_timed`]).
+pub fn track_run_timed(
+    sc: &Scenario,
+    cfg: &TrackerConfig,
+    sim: &SimulationOutput,
+    run: u64,
+) -> Result<(Vec<LocalTrack>, Duration), TrackerError> {
     let known = known_targets(&sim.truth);
-    track_sensors(
+    track_sensors_timed(
         &sim.sensors,
         &sim.measurements,
         cfg,
@@ -111,8 +124,9 @@ pub fn run_with(
     let sim = try_simulate(&sc.scenario, run)?;
     times.simulate = t0.elapsed();
     let t0 = Instant::now();
-    let local = track_run(&sc.scenario, tracker, &sim, run)?;
+    let (local, associate) = track_run_timed(&sc.scenario, tracker, &sim, run)?;
     times.track = t0.elapsed();
+    times.associate = associate;
     let t0 = Instant::now();
     // the truth labels go to the `truth` associator only (rule `mmse`, method `truth`)
     let labels = crate::center::needs_truth(fusion)?

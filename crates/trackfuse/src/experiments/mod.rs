@@ -60,6 +60,114 @@ impl IndexLine {
     }
 }
 
+/// The mean of the values present (`None` when none is).
+pub fn mean_present(v: &[Option<f64>]) -> Option<f64> {
+    let (sum, n) = v
+        .iter()
+        .flatten()
+        .fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    (n > 0).then(|| sum / n as f64)
+}
+
+/// The names ordered by value, smallest (best) first; equal values keep name order.
+pub fn order<'a>(values: &[(&'a str, f64)]) -> Vec<&'a str> {
+    let mut v: Vec<(&str, f64)> = values.to_vec();
+    v.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(b.0)));
+    v.into_iter().map(|(n, _)| n).collect()
+}
+
+/// `a (1.0) < b (2.5) < ...`: the values in ascending order, one decimal.
+pub fn order_text(values: &[(&str, f64)]) -> String {
+    let mut v: Vec<(&str, f64)> = values.to_vec();
+    v.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(b.0)));
+    v.iter()
+        .map(|(n, x)| format!("{n} ({x:.1})"))
+        .collect::<Vec<_>>()
+        .join(" < ")
+}
+
+/// Whether the methods both lists hold come in the same order (ascending by value).
+pub fn same_order(paper: &[(&str, f64)], ours: &[(&str, f64)]) -> bool {
+    let common = |v: &[(&str, f64)], other: &[(&str, f64)]| -> Vec<String> {
+        order(v)
+            .into_iter()
+            .filter(|n| other.iter().any(|(m, _)| m == n))
+            .map(str::to_string)
+            .collect()
+    };
+    common(paper, ours) == common(ours, paper)
+}
+
+/// (method, value) pairs: the paper's and ours, for a ranking.
+pub type Ranked<'a> = &'a [(&'a str, f64)];
+
+/// One index line for a table whose headline is a value (an RMSE, a rate) and, when
+/// `methods` gives the paper's and our values per method, a ranking (smaller first).
+///
+/// The verdict: the ranking differs -> [`Verdict::Differs`]; else `ours` within the
+/// relative `band` of the paper's value (`|ours / paper - 1| <= band`) ->
+/// [`Verdict::Matches`]; else [`Verdict::SameRankingOff`]. The reason names the rankings
+/// when they differ, and how far off the value is otherwise.
+pub fn compare_line(
+    (reproduction, table, quantity): (&str, &str, &str),
+    paper: f64,
+    ours: f64,
+    band: f64,
+    methods: Option<(Ranked<'_>, Ranked<'_>)>,
+) -> IndexLine {
+    let ranking_agrees = methods.map(|(p, o)| same_order(p, o));
+    let off = ours / paper - 1.0;
+    let (verdict, reason) = if ranking_agrees == Some(false) {
+        let (p, o) = methods.unwrap_or_default();
+        (
+            Verdict::Differs,
+            format!(
+                "the ranking differs: paper {}, ours {}",
+                order(p).join(" < "),
+                order(o).join(" < ")
+            ),
+        )
+    } else if off.is_finite() && off.abs() <= band {
+        (
+            Verdict::Matches,
+            format!(
+                "within {:.0} % of the paper's ({:+.0} %){}",
+                band * 100.0,
+                off * 100.0,
+                if ranking_agrees == Some(true) {
+                    ", same ranking"
+                } else {
+                    ""
+                }
+            ),
+        )
+    } else {
+        (
+            Verdict::SameRankingOff,
+            format!(
+                "{}{:+.0} % from the paper's (band {:.0} %)",
+                if ranking_agrees == Some(true) {
+                    "same ranking, the value "
+                } else {
+                    ""
+                },
+                off * 100.0,
+                band * 100.0
+            ),
+        )
+    };
+    IndexLine {
+        reproduction: reproduction.into(),
+        table: table.into(),
+        quantity: quantity.into(),
+        paper: Some(paper),
+        ours: Some(ours),
+        ranking_agrees,
+        verdict,
+        reason,
+    }
+}
+
 /// The Markdown table of `lines` (index.md's body): reproduction, table, quantity, paper,
 /// ours, ratio, ranking agrees, verdict, reason.
 pub fn index_table(lines: &[IndexLine]) -> String {
@@ -97,6 +205,37 @@ pub fn index_table(lines: &[IndexLine]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn compare_line_verdicts() {
+        let paper = [("a", 1.0), ("b", 2.0), ("c", 3.0)];
+        let same = [("a", 10.0), ("b", 20.0), ("c", 30.0), ("ours-only", 0.5)];
+        let swapped = [("a", 20.0), ("b", 10.0), ("c", 30.0)];
+        let k = ("001", "Table 1", "mean RMSE (m)");
+        let l = compare_line(k, 20.0, 22.0, 0.25, Some((&paper, &same)));
+        assert_eq!(
+            (l.verdict, l.ranking_agrees),
+            (Verdict::Matches, Some(true))
+        );
+        let l = compare_line(k, 20.0, 40.0, 0.25, Some((&paper, &same)));
+        assert_eq!(l.verdict, Verdict::SameRankingOff, "{}", l.reason);
+        assert!(l.reason.contains("+100 %"), "{}", l.reason);
+        let l = compare_line(k, 20.0, 21.0, 0.25, Some((&paper, &swapped)));
+        assert_eq!(l.verdict, Verdict::Differs);
+        assert!(
+            l.reason.contains("paper a < b < c, ours b < a < c"),
+            "{}",
+            l.reason
+        );
+        let l = compare_line(k, 20.0, 30.0, 0.25, None);
+        assert_eq!(
+            (l.verdict, l.ranking_agrees),
+            (Verdict::SameRankingOff, None)
+        );
+        assert_eq!(mean_present(&[Some(1.0), None, Some(3.0)]), Some(2.0));
+        assert_eq!(mean_present(&[None]), None);
+        assert_eq!(order_text(&[("b", 2.0), ("a", 1.0)]), "a (1.0) < b (2.0)");
+    }
 
     #[test]
     fn index_table_has_ratio_and_verdict() {

@@ -33,7 +33,7 @@ use super::filter::common::log_likelihood;
 use super::filter::{Filter, FilterState, PredictedMeasurement};
 use super::gating::{gate_threshold, GateGrid, Gates};
 use super::registry::{AssociatorContext, AssociatorSettings, FilterSettings, LocalRegistry};
-use super::{InitiationMethod, TrackerConfig, DEFAULT_PROCESS_NOISE};
+use super::{InitiationMethod, KnownStart, TrackerConfig, DEFAULT_PROCESS_NOISE};
 use crate::clock::{ReportClock, ReportTimes};
 use crate::models::range_bearing_to_position;
 use crate::params::ParamError;
@@ -41,8 +41,10 @@ use crate::spatial::{BoxGrid, SweepIndex};
 use crate::types::{
     Id, LocalTrack, Mat2, Measurement, Sensor, SensorKind, StateCov, StateVec, Vec2,
 };
+use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 use std::collections::{BTreeMap, HashMap};
+use std::time::{Duration, Instant};
 
 /// A local-tracking problem: a configuration the registry cannot build, or input the
 /// tracker cannot process. Each variant is one situation, with the ids that locate it.
@@ -190,6 +192,11 @@ pub struct SensorTracker {
     /// Clutter density per m^2 (0 = unknown).
     clutter_per_m2: f64,
     known: Vec<KnownTarget>,
+    /// (seed, run, sensor index) of the `known_start = "drawn"` draws.
+    start_stream: (u64, u64, u64),
+    /// Wall time spent in the associator so far (step 3 alone; two clock reads per
+    /// scan, so it costs nothing measurable).
+    association_time: Duration,
     tracks: Vec<Track>,
     seeds: Vec<Seed>,
     next_id: Id,
@@ -307,7 +314,9 @@ impl SensorTracker {
                 params: &cfg.params,
             },
         )?;
-        Self::with_parts(&sensor, cfg, filter, associator, known)
+        let mut tracker = Self::with_parts(&sensor, cfg, filter, associator, known)?;
+        tracker.start_stream = (seed, run, sensor_index);
+        Ok(tracker)
     }
 
     /// A tracker for `sensor` built from parts: a filter and a data associator of your
@@ -353,6 +362,8 @@ impl SensorTracker {
             pg: cfg.gate_probability,
             clutter_per_m2: clutter_km2 * 1e-6,
             known: known.to_vec(),
+            start_stream: (0, 0, 0),
+            association_time: Duration::ZERO,
             cfg: cfg.clone(),
             tracks: Vec::new(),
             seeds: Vec::new(),
@@ -379,6 +390,12 @@ impl SensorTracker {
                 f64::NEG_INFINITY,
             ],
         })
+    }
+
+    /// Wall time this tracker's data associator has spent so far (step 3 of each scan
+    /// alone, without the sorting, indexing and filtering every associator shares).
+    pub fn association_time(&self) -> Duration {
+        self.association_time
     }
 
     /// The sensor this tracker serves (true biases zeroed).
@@ -531,7 +548,9 @@ impl SensorTracker {
             gate_probability: self.pg,
             pd: self.sensor.pd,
         };
+        let t0 = Instant::now();
         self.associator.associate(&problem, &mut self.weights);
+        self.association_time += t0.elapsed();
         if self.weights.tracks() != self.predictions.len() {
             return Err(TrackerError::WeightCount {
                 associator: self.associator.name(),
@@ -640,10 +659,23 @@ impl SensorTracker {
         let i = &self.cfg.initiation;
         let (sp, sv) = (i.known_position_std, i.known_velocity_std);
         let cov = StateCov::from_diagonal(&StateVec::new(sp * sp, sv * sv, sp * sp, sv * sv));
-        for k in &self.known {
+        let (seed, run, sensor_index) = self.start_stream;
+        for (ki, k) in self.known.iter().enumerate() {
             if k.start_scan == scan {
+                let mut start = k.state;
+                if i.known_start == KnownStart::Drawn {
+                    // one stream per (run, sensor, known target): reproducible, and
+                    // independent of the other targets and of the thread count
+                    let index = (sensor_index << 32) | ki as u64;
+                    let mut rng = crate::rng::stream(seed, run, "known-start", index);
+                    let sd = [sp, sv, sp, sv];
+                    for (x, s) in start.iter_mut().zip(sd) {
+                        let z: f64 = StandardNormal.sample(&mut rng);
+                        *x += s * z;
+                    }
+                }
                 self.tracks.push(Track {
-                    state: self.filter.init(k.state, cov),
+                    state: self.filter.init(start, cov),
                     id: None,
                     age: 0,
                     hits: 0,
@@ -992,6 +1024,15 @@ impl MultiSensorTracker {
         self.clocked = true;
     }
 
+    /// Wall time the sensors' data associators have spent so far, summed over the
+    /// sensors ([`SensorTracker::association_time`]).
+    pub fn association_time(&self) -> Duration {
+        self.trackers
+            .iter()
+            .map(SensorTracker::association_time)
+            .sum()
+    }
+
     /// Process scan `scan`: `measurements` are all of its measurements, of any sensor,
     /// in any order (each with `scan` as its scan index). Appends the confirmed local
     /// tracks after the scan to `out`, sorted by `(sensor_id, track_id)`. A scan without
@@ -1091,6 +1132,31 @@ pub fn track_sensors(
     seed: u64,
     run: u64,
 ) -> Result<Vec<LocalTrack>, TrackerError> {
+    track_sensors_timed(
+        sensors,
+        measurements,
+        cfg,
+        scenario_process_noise,
+        known,
+        seed,
+        run,
+    )
+    .map(|(tracks, _)| tracks)
+}
+
+/// [`track_sensors`], also returning the wall time spent in the data associators alone
+/// (summed over the sensors; [`MultiSensorTracker::association_time`]): what a
+/// comparison of associators times (paper 001's Table 6), without the sorting,
+/// indexing and filtering every associator shares.
+pub fn track_sensors_timed(
+    sensors: &[Sensor],
+    measurements: &[Measurement],
+    cfg: &TrackerConfig,
+    scenario_process_noise: Option<[f64; 2]>,
+    known: &[KnownTarget],
+    seed: u64,
+    run: u64,
+) -> Result<(Vec<LocalTrack>, Duration), TrackerError> {
     let mut by_scan: BTreeMap<u32, Vec<Measurement>> = BTreeMap::new();
     for m in measurements {
         let Some(s) = sensors.iter().find(|s| s.id == m.sensor_id) else {
@@ -1122,7 +1188,7 @@ pub fn track_sensors(
     for (&scan, ms) in &by_scan {
         tracker.process_scan(scan, ms, &mut all)?;
     }
-    Ok(all)
+    Ok((all, tracker.association_time()))
 }
 
 #[cfg(test)]
@@ -1387,6 +1453,33 @@ max_range = 60000.0
             track_sensors(&sim.sensors, &sim.measurements, &cfg, None, &[], 1, 0),
             Err(TrackerError::NeedsKnownTargets)
         ));
+    }
+
+    #[test]
+    fn a_drawn_known_start_is_reproducible_and_off_the_truth() {
+        let sc = Scenario::from_toml(TWO_TARGETS, "t").expect("scenario");
+        let sim = simulate(&sc, 0);
+        let known = crate::pipeline::known_targets(&sim.truth);
+        let mut cfg = TrackerConfig::default();
+        cfg.initiation.method = InitiationMethod::Known;
+        cfg.initiation.known_velocity_std = 50.0;
+        let first = |cfg: &TrackerConfig, run: u64| {
+            let local = track_sensors(&sim.sensors, &sim.measurements, cfg, None, &known, 1, run)
+                .expect("tracking");
+            local
+                .iter()
+                .find(|l| l.sensor_id == 0)
+                .expect("track")
+                .state
+        };
+        let exact = first(&cfg, 0);
+        cfg.initiation.known_start = KnownStart::Drawn;
+        let drawn = first(&cfg, 0);
+        assert_eq!(drawn, first(&cfg, 0), "the same draw for the same run");
+        assert_ne!(drawn, first(&cfg, 1), "another run, another draw");
+        // the velocity (barely touched by one position update) carries the draw
+        let dv = ((drawn[1] - exact[1]).powi(2) + (drawn[3] - exact[3]).powi(2)).sqrt();
+        assert!(dv > 1.0, "drawn start {dv} m/s from the exact one");
     }
 
     #[test]
