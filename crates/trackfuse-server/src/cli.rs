@@ -53,6 +53,23 @@ pub fn serve(args: &ServeArgs) -> Result<()> {
         record: args.record.clone(),
         output: args.output.clone(),
     };
+    if let Some(n) = cfg.nats.clone() {
+        return runtime()?.block_on(async move {
+            let service = crate::nats::start_nats(&cfg, outputs).await?;
+            eprintln!(
+                "trackfuse serve: input stream {} ({}.<sensor_id>) on {}, output stream {} ({}), http on {}",
+                n.input_stream, n.subject_prefix, n.url, n.output_stream, n.output_subject, service.http_addr
+            );
+            wait_for_signal().await?;
+            eprintln!("trackfuse serve: stopping (releasing what is held through the stream)");
+            let stats = service.shutdown().await?;
+            eprintln!(
+                "trackfuse serve: {} reports accepted, {} late, {} instants fused",
+                stats.accepted, stats.late, stats.instants_fused
+            );
+            Ok(())
+        });
+    }
     runtime()?.block_on(async move {
         let service = start(&cfg, outputs).await?;
         eprintln!(

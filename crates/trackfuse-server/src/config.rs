@@ -39,6 +39,66 @@ pub struct ServiceConfig {
     /// The fusion center, as in a scenario file's `[fusion]` table.
     #[serde(default)]
     pub fusion: FusionConfig,
+    /// With a `[nats]` table the center takes its input from a NATS JetStream stream and
+    /// publishes the fused stream to another, instead of the TCP ports (`sensor_addr` and
+    /// `subscriber_addr` are then not opened; `http_addr` is).
+    #[serde(default)]
+    pub nats: Option<NatsConfig>,
+}
+
+/// `[nats]`: the JetStream deployment ([`crate::nats`]).
+///
+/// ```toml
+/// [nats]
+/// url = "nats://127.0.0.1:4222"
+/// input_stream = "TRACKS"      # subjects "tracks.>": sensors publish on tracks.<sensor_id>
+/// subject_prefix = "tracks"
+/// output_stream = "FUSED"
+/// output_subject = "fused"
+/// ```
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NatsConfig {
+    /// The server (default `nats://127.0.0.1:4222`).
+    pub url: String,
+    /// The input stream, the journal (default `TRACKS`); created with the subjects
+    /// `<subject_prefix>.>` when missing.
+    pub input_stream: String,
+    /// Sensors publish their reports on `<subject_prefix>.<sensor_id>` (one or more
+    /// NDJSON report lines a message); the centers publish their latency-budget
+    /// releases on `<subject_prefix>.control` (default `tracks`).
+    pub subject_prefix: String,
+    /// The output stream (default `FUSED`); created with the subject `output_subject`
+    /// when missing.
+    pub output_stream: String,
+    /// Where each fused instant is published (default `fused`): its NDJSON lines, in
+    /// messages of at most half the server's max_payload, with the headers
+    /// `Nats-Msg-Id: <output_subject>.<instant>.<part>` and
+    /// `Trackfuse-Instant: <instant> <part> <parts>`.
+    pub output_subject: String,
+}
+
+impl Default for NatsConfig {
+    fn default() -> Self {
+        NatsConfig {
+            url: "nats://127.0.0.1:4222".into(),
+            input_stream: "TRACKS".into(),
+            subject_prefix: "tracks".into(),
+            output_stream: "FUSED".into(),
+            output_subject: "fused".into(),
+        }
+    }
+}
+
+impl NatsConfig {
+    /// The subject sensor `id` publishes on.
+    pub fn sensor_subject(&self, id: Id) -> String {
+        format!("{}.{id}", self.subject_prefix)
+    }
+    /// The subject of the centers' release messages.
+    pub fn control_subject(&self) -> String {
+        format!("{}.control", self.subject_prefix)
+    }
 }
 
 /// One expected sensor.
@@ -195,6 +255,30 @@ impl ServiceConfig {
         }
         if l.max_pending_reports == 0 {
             bail!("limits.max_pending_reports: must be at least 1");
+        }
+        if let Some(n) = &self.nats {
+            let token = |s: &str| {
+                !s.is_empty()
+                    && !s
+                        .chars()
+                        .any(|c| c.is_whitespace() || matches!(c, '*' | '>' | '.'))
+            };
+            if !(token(&n.input_stream) && token(&n.output_stream)) {
+                bail!("nats: stream names must be non-empty, without spaces, '.', '*' or '>'");
+            }
+            if n.input_stream == n.output_stream {
+                bail!("nats: input_stream and output_stream must differ");
+            }
+            let subject = |s: &str| !s.is_empty() && s.split('.').all(token);
+            if !(subject(&n.subject_prefix) && subject(&n.output_subject)) {
+                bail!("nats: subject_prefix and output_subject must be subjects without wildcards");
+            }
+            if n.output_subject == n.subject_prefix
+                || n.output_subject
+                    .starts_with(&format!("{}.", n.subject_prefix))
+            {
+                bail!("nats: output_subject may not be under subject_prefix (the input stream's subjects)");
+            }
         }
         self.fusion.validate()?;
         Ok(())

@@ -96,10 +96,12 @@ pub struct EngineStats {
     pub center_errors: u64,
 }
 
-/// A journal line that is not a report: a release the server's timer made.
-#[derive(Debug, Serialize, Deserialize)]
-struct ReleaseLine {
-    release_through: f64,
+/// A journal line that is not a report: a release the server's timer made (over NATS
+/// also the message a center publishes on the input stream's control subject, so that
+/// every center reading the stream applies it at the same place).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+pub struct ReleaseLine {
+    pub release_through: f64,
 }
 
 /// The journal's first line: everything that decides the output.
@@ -262,6 +264,11 @@ impl Engine {
             .map(|(k, b)| (k.0, b.first_arrival))
     }
 
+    /// The time of the newest batch not yet fused.
+    pub fn newest_pending(&self) -> Option<f64> {
+        self.pending.last_key_value().map(|(k, _)| k.0)
+    }
+
     /// The earliest first-arrival among the batches not yet fused.
     pub fn earliest_arrival(&self) -> Option<(f64, Instant)> {
         self.pending
@@ -402,4 +409,82 @@ pub fn replay(journal: &std::path::Path, out: &mut dyn Write) -> Result<EngineSt
         eprintln!("warning: {e}");
     }
     Ok(engine.stats.clone())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::ServiceConfig;
+    use trackfuse::types::{StateCov, StateVec};
+
+    fn engine() -> Engine {
+        let cfg = ServiceConfig::from_toml(
+            "[[sensors]]\nid = 0\nperiod = 1.0\n[[sensors]]\nid = 1\nperiod = 2.0\n\
+             [fusion]\nmethod = \"chi2-gnn\"\nrule = \"bc\"\nbias = \"none\"\n",
+        )
+        .expect("config");
+        Engine::new(&cfg.center_setup().expect("setup"), None).expect("engine")
+    }
+
+    fn report(sensor: Id, k: u32) -> LocalTrack {
+        LocalTrack {
+            scan: k,
+            time: f64::from(k),
+            sensor_id: sensor,
+            track_id: 1,
+            state: StateVec::new(10.0 * f64::from(k), 10.0, 0.0, 0.0),
+            cov: StateCov::identity() * 25.0,
+        }
+    }
+
+    #[test]
+    fn a_sensor_never_heard_from_holds_every_instant_until_the_budget_runs_out() {
+        let mut e = engine();
+        let now = Instant::now();
+        for k in 0..6 {
+            assert_eq!(
+                e.accept(report(0, k), now).expect("accept"),
+                Verdict::Accepted
+            );
+        }
+        // sensor 1 has not reported: not past any time, whatever its period says
+        assert_eq!(e.stats.instants_fused, 0);
+        assert_eq!(e.pending_reports(), 6);
+        // the budget ran out for time 2: those batches are fused, the rest still wait
+        e.release_through(2.0).expect("release");
+        assert_eq!(e.stats.batches_released, 3);
+        assert_eq!(e.pending_reports(), 3);
+    }
+
+    #[test]
+    fn after_a_budget_release_a_sensor_is_past_the_times_before_its_next_report() {
+        let mut e = engine();
+        let now = Instant::now();
+        let at = |sensor, k, time| LocalTrack {
+            time,
+            ..report(sensor, k)
+        };
+        // sensor 1 (period 2) at 0.5, sensor 0 (period 1) at 0, 1, 2
+        e.accept(at(1, 0, 0.5), now).expect("accept");
+        for k in 0..3 {
+            e.accept(report(0, k), now).expect("accept");
+        }
+        // time 0 is past for both; 0.5 is sensor 1's latest: it may still be sending it
+        assert_eq!(e.stats.batches_released, 1);
+        // the budget runs out for 0.5; then 1 is past for sensor 1 too (its next report
+        // is due at 2.5), 2 waits for sensor 0's next report
+        e.release_through(0.5).expect("release");
+        assert_eq!(e.stats.batches_released, 3);
+        e.accept(report(0, 3), now).expect("accept");
+        assert_eq!(e.stats.batches_released, 4);
+        // time 3 is after sensor 1's due report (2.5): it waits for it
+        e.accept(report(0, 4), now).expect("accept");
+        assert_eq!(e.stats.batches_released, 4);
+        e.accept(at(1, 2, 2.5), now).expect("accept");
+        assert_eq!(e.stats.batches_released, 4, "2.5 is sensor 1's latest");
+        e.accept(at(1, 4, 4.5), now).expect("accept");
+        // 2.5 and 3 are past; 4 is sensor 0's latest
+        assert_eq!(e.stats.batches_released, 6);
+        assert_eq!(e.stats.late, 0);
+    }
 }

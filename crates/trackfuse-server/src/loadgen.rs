@@ -52,6 +52,18 @@ pub struct LoadgenArgs {
     /// The service's process id: sample its resident memory every 10 s.
     #[arg(long)]
     pub server_pid: Option<u32>,
+    /// Send through NATS JetStream instead of TCP: the server's URL (the center runs with
+    /// a `[nats]` table). Each sensor publishes its scans on `<subject-prefix>.<id>`, in
+    /// messages of up to 64 KiB of report lines; the latency is read from a subscription
+    /// to `--output-subject`. `--sensor-addr` and `--subscriber-addr` are then unused.
+    #[arg(long, value_name = "URL")]
+    pub nats: Option<String>,
+    /// With `--nats`: the sensors' subject prefix (the center's `[nats] subject_prefix`).
+    #[arg(long, default_value = "tracks")]
+    pub subject_prefix: String,
+    /// With `--nats`: the center's `[nats] output_subject`.
+    #[arg(long, default_value = "fused")]
+    pub output_subject: String,
 }
 
 /// A 64-bit mix (splitmix64's finaliser): the deterministic noise of the synthetic
@@ -144,6 +156,9 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
     let max_scans = args.max_messages.map_or(u32::MAX, |m| {
         (m / u64::from(args.sensors * args.targets)).min(u64::from(u32::MAX)) as u32
     });
+    if let Some(url) = &args.nats {
+        return run_nats(args, url, max_scans, scan_wall);
+    }
     let stop = Arc::new(AtomicBool::new(false));
     let sent = Arc::new(AtomicU64::new(0));
     // per scan: the latest among the sensors of the time it sent its first report
@@ -165,13 +180,7 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
                 if let Some(k) = scan_of(&line) {
                     if last_scan != Some(k) {
                         last_scan = Some(k);
-                        let now = Instant::now();
-                        let mut v = received.lock().unwrap_or_else(|e| e.into_inner());
-                        let i = k as usize;
-                        if v.len() <= i {
-                            v.resize(i + 1, None);
-                        }
-                        v[i].get_or_insert(now);
+                        note(&received, k, Instant::now(), true);
                     }
                 }
                 line.clear();
@@ -205,13 +214,7 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
                     buf.push(b'\n');
                     if buf.len() >= 1 << 16 || target + 1 == targets {
                         if first {
-                            let now = Instant::now();
-                            let mut v = first_sent.lock().unwrap_or_else(|e| e.into_inner());
-                            let i = k as usize;
-                            if v.len() <= i {
-                                v.resize(i + 1, None);
-                            }
-                            v[i] = Some(v[i].map_or(now, |t| t.max(now)));
+                            note(&first_sent, k, Instant::now(), false);
                             first = false;
                         }
                         conn.write_all(&buf)?;
@@ -249,6 +252,44 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
     let total = sent.load(Ordering::Relaxed);
     let first_sent = first_sent.lock().unwrap_or_else(|e| e.into_inner()).clone();
     let received = received.lock().unwrap_or_else(|e| e.into_inner()).clone();
+    report(
+        args,
+        total,
+        send_time,
+        &first_sent,
+        &received,
+        recv_lines.load(Ordering::Relaxed),
+        &rss,
+    );
+    drop(reader); // the reader thread ends with the service's stream
+    Ok(())
+}
+
+/// Note `now` as the latest first-report time of scan `k` (`first_sent`) or, with
+/// `keep_first`, as its first output (`received`).
+fn note(v: &Mutex<Vec<Option<Instant>>>, k: u32, now: Instant, keep_first: bool) {
+    let mut v = v.lock().unwrap_or_else(|e| e.into_inner());
+    let i = k as usize;
+    if v.len() <= i {
+        v.resize(i + 1, None);
+    }
+    if keep_first {
+        v[i].get_or_insert(now);
+    } else {
+        v[i] = Some(v[i].map_or(now, |t| t.max(now)));
+    }
+}
+
+/// Print the run's report (module docs).
+fn report(
+    args: &LoadgenArgs,
+    total: u64,
+    send_time: f64,
+    first_sent: &[Option<Instant>],
+    received: &[Option<Instant>],
+    recv_lines: u64,
+    rss: &[(f64, u64)],
+) {
     let mut lat: Vec<f64> = received
         .iter()
         .enumerate()
@@ -259,17 +300,17 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
         })
         .collect();
     lat.sort_by(f64::total_cmp);
+    let via = if args.nats.is_some() { "NATS" } else { "TCP" };
     println!(
-        "sent {total} local-track messages from {} connections in {send_time:.1} s: {:.0} messages/s (asked {:.0})",
+        "sent {total} local-track messages from {} sensors over {via} in {send_time:.1} s: {:.0} messages/s (asked {:.0})",
         args.sensors,
         total as f64 / send_time,
         args.rate
     );
     println!(
-        "instants with output: {} of {} scans sent; output lines received: {}",
+        "instants with output: {} of {} scans sent; output lines received: {recv_lines}",
         lat.len(),
         first_sent.len(),
-        recv_lines.load(Ordering::Relaxed)
     );
     println!(
         "latency beyond the assembly wait (last sensor's first report of scan k+1 -> first fused line of instant k): p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms",
@@ -302,8 +343,117 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
         }
         Err(e) => println!("service metrics: not read ({e:#})"),
     }
-    drop(reader); // the reader thread ends with the service's stream
-    Ok(())
+}
+
+/// [`run`] through NATS JetStream (`--nats`).
+fn run_nats(args: &LoadgenArgs, url: &str, max_scans: u32, scan_wall: f64) -> Result<()> {
+    use futures_util::StreamExt;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    rt.block_on(async {
+        let client = async_nats::connect(url)
+            .await
+            .map_err(|e| anyhow::anyhow!("connecting to {url}: {e}"))?;
+        let received: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(Vec::new()));
+        let first_sent: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(Vec::new()));
+        let recv_lines = Arc::new(AtomicU64::new(0));
+        let mut sub = client
+            .subscribe(args.output_subject.clone())
+            .await
+            .map_err(|e| anyhow::anyhow!("subscribing to {}: {e}", args.output_subject))?;
+        let reader = {
+            let (received, recv_lines) = (received.clone(), recv_lines.clone());
+            tokio::spawn(async move {
+                while let Some(m) = sub.next().await {
+                    let text = String::from_utf8_lossy(&m.payload);
+                    recv_lines.fetch_add(text.lines().count() as u64, Ordering::Relaxed);
+                    if let Some(k) = text.lines().next().and_then(scan_of) {
+                        note(&received, k, Instant::now(), true);
+                    }
+                }
+            })
+        };
+        let start = Instant::now();
+        let sent = Arc::new(AtomicU64::new(0));
+        let mut senders = Vec::new();
+        for sensor in 0..args.sensors {
+            let js = async_nats::jetstream::new(client.clone());
+            let subject = format!("{}.{sensor}", args.subject_prefix);
+            let (sent, first_sent) = (sent.clone(), first_sent.clone());
+            let (targets, period, duration) = (args.targets, args.period, args.duration);
+            senders.push(tokio::spawn(async move {
+                let mut buf = Vec::with_capacity(1 << 17);
+                for k in 0..max_scans {
+                    let due = start + Duration::from_secs_f64(scan_wall * f64::from(k));
+                    tokio::time::sleep_until(tokio::time::Instant::from_std(due)).await;
+                    if start.elapsed().as_secs_f64() >= duration {
+                        break;
+                    }
+                    let mut acks = Vec::new();
+                    let mut first = true;
+                    for target in 0..targets {
+                        crate::message::encode_report(
+                            &synthetic(sensor, target, k, period),
+                            &mut buf,
+                        );
+                        buf.push(b'\n');
+                        if buf.len() >= 1 << 16 || target + 1 == targets {
+                            if first {
+                                note(&first_sent, k, Instant::now(), false);
+                                first = false;
+                            }
+                            let payload = std::mem::take(&mut buf);
+                            let ack = js
+                                .publish(subject.clone(), payload.into())
+                                .await
+                                .map_err(|e| anyhow::anyhow!("publishing: {e}"))?;
+                            acks.push(ack);
+                        }
+                    }
+                    for a in acks {
+                        a.await.map_err(|e| {
+                            anyhow::anyhow!("the stream did not take a message: {e}")
+                        })?;
+                    }
+                    sent.fetch_add(u64::from(targets), Ordering::Relaxed);
+                }
+                Ok::<(), anyhow::Error>(())
+            }));
+        }
+        let mut rss = Vec::new();
+        let mut next_sample = Instant::now();
+        while senders.iter().any(|h| !h.is_finished()) {
+            if let Some(pid) = args.server_pid {
+                if Instant::now() >= next_sample {
+                    if let Some(r) = rss_kib(pid) {
+                        rss.push((start.elapsed().as_secs_f64(), r));
+                    }
+                    next_sample += Duration::from_secs(10);
+                }
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        let send_time = start.elapsed().as_secs_f64();
+        for h in senders {
+            h.await.context("a sender task")??;
+        }
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        reader.abort();
+        let first_sent = first_sent.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        let received = received.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        report(
+            args,
+            sent.load(Ordering::Relaxed),
+            send_time,
+            &first_sent,
+            &received,
+            recv_lines.load(Ordering::Relaxed),
+            &rss,
+        );
+        Ok(())
+    })
 }
 
 #[cfg(test)]

@@ -15,7 +15,8 @@
 //!   and when it reads again it first gets a `{"kind":"gap","missed":N}` line.
 //! - Shutdown (SIGTERM / SIGINT for `serve`, [`Service::shutdown`] for a library user):
 //!   the listeners stop, the queue is drained, every batch held is fused, the journal and
-//!   the output file are flushed, the subscribers get the last lines and EOF.
+//!   the output file are flushed, the subscribers get the last lines and EOF (shutdown
+//!   waits for their writers, at most [`SUBSCRIBER_FLUSH`]).
 
 use crate::config::{CenterSetup, ServiceConfig};
 use crate::engine::{Engine, EngineStats, Verdict};
@@ -32,7 +33,7 @@ use std::time::{Duration, Instant};
 use tokio::io::AsyncWriteExt;
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{mpsc, watch};
-use tokio::task::JoinHandle;
+use tokio::task::{JoinHandle, JoinSet};
 use tokio_util::bytes::{Bytes, BytesMut};
 use tokio_util::codec::{AnyDelimiterCodec, AnyDelimiterCodecError, Decoder, FramedRead};
 use trackfuse::types::{Id, LocalTrack};
@@ -61,8 +62,13 @@ pub struct Service {
     pub metrics: Arc<Metrics>,
     stop: watch::Sender<bool>,
     center: JoinHandle<Result<EngineStats>>,
+    subscribers: JoinHandle<JoinSet<()>>,
     tasks: Vec<JoinHandle<()>>,
 }
+
+/// How long shutdown waits for the subscribers to take their last lines: a subscriber
+/// that has stopped reading is cut off then (its socket closed).
+const SUBSCRIBER_FLUSH: Duration = Duration::from_secs(5);
 
 impl Service {
     /// Stop (module docs) and wait for the center to finish; its totals.
@@ -71,6 +77,18 @@ impl Service {
         let stats = self.center.await.context("center task")??;
         for t in self.tasks {
             t.abort();
+        }
+        // the center has dropped the subscriber queues: each writer ends once it has
+        // written what its queue holds. Returning earlier would let the runtime's end
+        // cancel them mid-stream and cut the last instants off the subscribers' streams.
+        let mut writers = self.subscribers.await.context("subscriber task")?;
+        let all = async { while writers.join_next().await.is_some() {} };
+        if tokio::time::timeout(SUBSCRIBER_FLUSH, all).await.is_err() {
+            eprintln!(
+                "trackfuse serve: {} subscriber(s) not reading after {SUBSCRIBER_FLUSH:?}: cut off",
+                writers.len()
+            );
+            writers.shutdown().await;
         }
         Ok(stats)
     }
@@ -166,15 +184,15 @@ pub async fn start(cfg: &ServiceConfig, outputs: Outputs) -> Result<Service> {
         subscriber_listener.local_addr()?,
         http_listener.local_addr()?,
     );
+    let subscribers = tokio::spawn(accept_subscribers(
+        subscriber_listener,
+        new_subs,
+        cfg.limits.subscriber_buffer,
+        metrics.clone(),
+        stop_rx.clone(),
+    ));
     let tasks = vec![
         tokio::spawn(accept_sensors(sensor_listener, ingress, stop_rx.clone())),
-        tokio::spawn(accept_subscribers(
-            subscriber_listener,
-            new_subs,
-            cfg.limits.subscriber_buffer,
-            metrics.clone(),
-            stop_rx.clone(),
-        )),
         tokio::spawn(crate::http::serve(
             http_listener,
             metrics.clone(),
@@ -198,6 +216,7 @@ pub async fn start(cfg: &ServiceConfig, outputs: Outputs) -> Result<Service> {
         metrics,
         stop,
         center,
+        subscribers,
         tasks,
     })
 }
@@ -350,25 +369,33 @@ async fn sensor_connection(
     }
 }
 
+/// Accept subscribers until the service stops; their writer tasks are returned, still
+/// running (they end when the center drops their queues), so that shutdown can wait
+/// for the last lines to be written ([`Service::shutdown`]).
 async fn accept_subscribers(
     listener: TcpListener,
     new_subs: mpsc::Sender<mpsc::Sender<Bytes>>,
     buffer: usize,
     metrics: Arc<Metrics>,
     mut stop: watch::Receiver<bool>,
-) {
+) -> JoinSet<()> {
+    let mut writers = JoinSet::new();
     loop {
+        // reap the writers of subscribers that have gone
+        while writers.try_join_next().is_some() {}
         tokio::select! {
-            _ = stop.changed() => return,
+            _ = stop.changed() => return writers,
             conn = listener.accept() => match conn {
                 Ok((sock, _)) => {
                     let (tx, rx) = mpsc::channel(buffer);
                     if new_subs.send(tx).await.is_err() {
-                        return;
+                        return writers;
                     }
                     let metrics = metrics.clone();
-                    tokio::spawn(async move {
-                        metrics.subscribers.inc();
+                    // counted once the center has the queue: a client that sees the
+                    // gauge up gets every instant fused from then on
+                    metrics.subscribers.inc();
+                    writers.spawn(async move {
                         subscriber(sock, rx).await;
                         metrics.subscribers.dec();
                     });
@@ -434,6 +461,53 @@ fn fan_out(subs: &mut Vec<Subscriber>, chunk: &Bytes, metrics: &Metrics) {
     });
 }
 
+/// Count what the engine did with `track` (and log a late or refused report);
+/// `accepted` caches each sensor's accepted counter.
+pub(crate) fn count_verdict(
+    metrics: &Metrics,
+    accepted: &mut HashMap<Id, prometheus_client::metrics::counter::Counter>,
+    track: &LocalTrack,
+    verdict: Verdict,
+) {
+    let sensor = track.sensor_id;
+    match verdict {
+        Verdict::Accepted => {
+            accepted
+                .entry(sensor)
+                .or_insert_with(|| {
+                    metrics
+                        .accepted
+                        .get_or_create(&SensorLabel {
+                            sensor: sensor_label(Some(sensor)),
+                        })
+                        .clone()
+                })
+                .inc();
+        }
+        Verdict::Late => {
+            metrics
+                .late
+                .get_or_create(&SensorLabel {
+                    sensor: sensor_label(Some(sensor)),
+                })
+                .inc();
+            metrics.log("late", || {
+                format!(
+                    "late report from sensor {sensor} (track {}, time {}): its instant is fused; counted, not fused",
+                    track.track_id, track.time
+                )
+            });
+        }
+        Verdict::Rejected(reason) => {
+            metrics.reject(
+                reason,
+                Some(sensor),
+                &format!("track {} at time {}", track.track_id, track.time),
+            );
+        }
+    }
+}
+
 /// The center task (module docs).
 #[allow(clippy::too_many_arguments)]
 async fn run_center(
@@ -452,43 +526,8 @@ async fn run_center(
     let mut accepted: HashMap<Id, prometheus_client::metrics::counter::Counter> = HashMap::new();
     let mut handle = |engine: &mut Engine, item: Ingest| -> Result<()> {
         let (track, arrival) = item;
-        let sensor = track.sensor_id;
-        match engine.accept(track, arrival)? {
-            Verdict::Accepted => {
-                accepted
-                    .entry(sensor)
-                    .or_insert_with(|| {
-                        metrics
-                            .accepted
-                            .get_or_create(&SensorLabel {
-                                sensor: sensor_label(Some(sensor)),
-                            })
-                            .clone()
-                    })
-                    .inc();
-            }
-            Verdict::Late => {
-                metrics
-                    .late
-                    .get_or_create(&SensorLabel {
-                        sensor: sensor_label(Some(sensor)),
-                    })
-                    .inc();
-                metrics.log("late", || {
-                    format!(
-                        "late report from sensor {sensor} (track {}, time {}): its instant is fused; counted, not fused",
-                        track.track_id, track.time
-                    )
-                });
-            }
-            Verdict::Rejected(reason) => {
-                metrics.reject(
-                    reason,
-                    Some(sensor),
-                    &format!("track {} at time {}", track.track_id, track.time),
-                );
-            }
-        }
+        let verdict = engine.accept(track, arrival)?;
+        count_verdict(&metrics, &mut accepted, &track, verdict);
         Ok(())
     };
     loop {
@@ -551,15 +590,9 @@ async fn run_center(
     Ok(engine.stats.clone())
 }
 
-/// Publish the engine's new output lines and bring the metrics up to date.
-fn publish_output(
-    engine: &mut Engine,
-    subs: &mut Vec<Subscriber>,
-    output: &mut Option<std::io::BufWriter<std::fs::File>>,
-    metrics: &Metrics,
-    last: &mut EngineStats,
-) -> Result<()> {
-    let lines = engine.take_output();
+/// Bring the metrics up to date with the engine after a step; the output lines are
+/// left in the engine.
+pub(crate) fn update_metrics(engine: &mut Engine, metrics: &Metrics, last: &mut EngineStats) {
     let now = Instant::now();
     for a in engine.released_arrivals.drain(..) {
         metrics
@@ -587,6 +620,18 @@ fn publish_output(
         .live_global_tracks
         .set(engine.live_global_tracks() as i64);
     metrics.pending_reports.set(engine.pending_reports() as i64);
+}
+
+/// Publish the engine's new output lines and bring the metrics up to date.
+fn publish_output(
+    engine: &mut Engine,
+    subs: &mut Vec<Subscriber>,
+    output: &mut Option<std::io::BufWriter<std::fs::File>>,
+    metrics: &Metrics,
+    last: &mut EngineStats,
+) -> Result<()> {
+    let lines = engine.take_output();
+    update_metrics(engine, metrics, last);
     for chunk in lines {
         if let Some(o) = output.as_mut() {
             o.write_all(&chunk).context("writing the output")?;

@@ -1,0 +1,439 @@
+//! Issue 15, "Done when", over NATS: a real `nats-server -js` (Debian's package) on a
+//! free loopback port with a temporary store; `trackfuse serve` with a `[nats]` table
+//! takes a scenario's local tracks (scenarios/async-radars.toml, radars at 4, 5 and
+//! 10 s periods) from the JetStream input stream, each sensor on `tracks.<sensor_id>`
+//! with bad lines interleaved. The first center is killed (SIGKILL) mid-run, after it
+//! has published some instants; a second one, started on the same streams, rebuilds its
+//! state from the input stream, publishes only what the output stream lacks, and
+//! finishes. The output stream then holds every instant once, in order, and is exactly
+//! what `trackfuse fuse` writes for the same local_tracks.csv; every bad message was
+//! counted by the center that finished.
+//!
+//! Ignored in the default run (it needs the external `nats-server`); `.ci/run` installs
+//! it and runs `cargo test --release -p trackfuse-cli --test serve_nats -- --ignored`.
+
+use assert_cmd::cargo::CommandCargoExt;
+use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+use trackfuse::clock::ReportTimes;
+use trackfuse::io::{read_local_tracks, AssociationWriter, FusedTrackWriter};
+use trackfuse::LocalTrack;
+use trackfuse_server::async_nats;
+use trackfuse_server::message::{decode_output, encode_report, Output};
+use trackfuse_server::nats::instant_of;
+
+fn s(p: &Path) -> String {
+    p.display().to_string()
+}
+
+fn trackfuse(args: &[&str]) {
+    let out = Command::cargo_bin("trackfuse")
+        .expect("binary")
+        .args(args)
+        .output()
+        .expect("run");
+    assert!(
+        out.status.success(),
+        "trackfuse {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// `GET path` on the HTTP endpoint: the body.
+fn http_get(addr: &str, path: &str) -> String {
+    let mut c = TcpStream::connect(addr).expect("http connect");
+    write!(
+        c,
+        "GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n"
+    )
+    .expect("http write");
+    let mut text = String::new();
+    c.read_to_string(&mut text).expect("http read");
+    assert!(text.starts_with("HTTP/1.1 200"), "{text}");
+    text.split_once("\r\n\r\n")
+        .map(|x| x.1.to_string())
+        .unwrap_or_default()
+}
+
+/// The sum of a metric's rows whose labels contain every one of `labels`.
+fn metric(text: &str, name: &str, labels: &[&str]) -> u64 {
+    text.lines()
+        .filter(|l| l.starts_with(name) && labels.iter().all(|x| l.contains(x)))
+        .filter_map(|l| l.rsplit(' ').next()?.parse::<u64>().ok())
+        .sum()
+}
+
+fn line_of(t: &LocalTrack) -> String {
+    let mut v = Vec::new();
+    encode_report(t, &mut v);
+    v.push(b'\n');
+    String::from_utf8(v).expect("utf8")
+}
+
+/// The bad lines of kind `k` (a rotation) next to report `t`: (line, reason).
+fn bad_line(k: usize, t: &LocalTrack) -> (String, &'static str) {
+    let good = line_of(t);
+    match k % 6 {
+        0 => ("{\"scan\": 3, \"time\":\n".into(), "malformed_json"),
+        1 => (
+            good.replacen("\"track_id\":", "\"track_id\":\"x\",\"o\":", 1),
+            "wrong_type",
+        ),
+        2 => (
+            good.replacen("\"state\":[", "\"state\":[NaN,", 1),
+            "non_finite",
+        ),
+        3 => {
+            let mut b = *t;
+            b.cov[(0, 1)] += 1e3 * (1.0 + b.cov[(0, 0)].abs());
+            (line_of(&b), "invalid_covariance")
+        }
+        4 => {
+            let mut b = *t;
+            b.sensor_id = 99;
+            (line_of(&b), "unknown_sensor")
+        }
+        _ => (good, "duplicate"),
+    }
+}
+
+/// A process killed when the test ends, however it ends.
+struct KillOnDrop(Child);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        if matches!(self.0.try_wait(), Ok(None)) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+}
+
+/// A port nobody listens on now.
+fn free_port() -> u16 {
+    let l = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
+    l.local_addr().expect("addr").port()
+}
+
+/// `trackfuse serve --config cfg` and its HTTP address (from its first log line); the
+/// log is collected by a thread.
+fn start_center(cfg: &Path) -> (KillOnDrop, String, std::thread::JoinHandle<String>) {
+    let mut child = Command::cargo_bin("trackfuse")
+        .expect("binary")
+        .args(["serve", "--config", &s(cfg)])
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("serve");
+    let stderr = child.stderr.take().expect("stderr");
+    let child = KillOnDrop(child);
+    let (tx, rx) = std::sync::mpsc::channel();
+    let log = std::thread::spawn(move || {
+        let mut all = String::new();
+        for line in BufReader::new(stderr).lines() {
+            let line = line.unwrap_or_default();
+            if line.starts_with("trackfuse serve: input stream ") {
+                let _ = tx.send(line.rsplit(' ').next().unwrap_or("").to_string());
+            }
+            all.push_str(&line);
+            all.push('\n');
+        }
+        all
+    });
+    let http = rx.recv_timeout(Duration::from_secs(30));
+    match http {
+        Ok(h) => (child, h, log),
+        Err(_) => {
+            drop(child);
+            panic!(
+                "the center did not start: {}",
+                log.join().unwrap_or_default()
+            );
+        }
+    }
+}
+
+/// Wait until `cond` holds for the center's metrics (at most 60 s); the metrics then.
+fn until(http: &str, what: &str, cond: impl Fn(&str) -> bool) -> String {
+    let t0 = Instant::now();
+    loop {
+        let m = http_get(http, "/metrics");
+        if cond(&m) {
+            return m;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(60), "{what}: {m}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Every message of the output stream, in order: (instant, part) and payload.
+async fn output_messages(js: &async_nats::jetstream::Context) -> Vec<((u64, u64), Vec<u8>)> {
+    let mut stream = js.get_stream("FUSED").await.expect("output stream");
+    let last = stream.info().await.expect("info").state.last_sequence;
+    let mut out = Vec::new();
+    for seq in 1..=last {
+        let m = stream.get_raw_message(seq).await.expect("message");
+        let id = instant_of(Some(&m.headers)).expect("instant header");
+        out.push((id, m.payload.to_vec()));
+    }
+    out
+}
+
+#[test]
+#[ignore = "needs nats-server (Debian package nats-server) on the PATH; run with -- --ignored (.ci/run does)"]
+fn over_nats_a_center_killed_mid_run_is_replaced_and_the_output_equals_fuse() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path();
+    let sc = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/async-radars.toml");
+    let sim = d.join("sim");
+    trackfuse(&["simulate", &s(&sc), "--out", &s(&sim)]);
+    let track = d.join("track");
+    trackfuse(&[
+        "track",
+        "--data",
+        &s(&sim),
+        "--scenario",
+        &s(&sc),
+        "--out",
+        &s(&track),
+    ]);
+    let local = track.join("local_tracks.csv");
+    let sensors = sim.join("sensors.csv");
+    let fused_dir = d.join("fused");
+    trackfuse(&[
+        "fuse",
+        "--local-tracks",
+        &s(&local),
+        "--sensors",
+        &s(&sensors),
+        "--out",
+        &s(&fused_dir),
+    ]);
+
+    // nats-server with JetStream on a free port, its store in the temp dir
+    let port = free_port();
+    let url = format!("nats://127.0.0.1:{port}");
+    let server = Command::new("nats-server")
+        .args([
+            "-js",
+            "-a",
+            "127.0.0.1",
+            "-p",
+            &port.to_string(),
+            "-sd",
+            &s(&d.join("js")),
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("nats-server (apt-get install nats-server)");
+    let _server = KillOnDrop(server);
+    let t0 = Instant::now();
+    while TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "nats-server did not start"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let rt = tokio::runtime::Runtime::new().expect("runtime");
+    let js = rt.block_on(async {
+        let c = async_nats::connect(&url).await.expect("connect");
+        async_nats::jetstream::new(c)
+    });
+
+    // the config: each sensor's period as `fuse` learns it from the file
+    let rows = read_local_tracks(&local).expect("local tracks");
+    let mut times = ReportTimes::default();
+    for r in &rows {
+        times.add(r.sensor_id, r.time);
+    }
+    let clocks = times.clocks();
+    assert_eq!(clocks.len(), 3);
+    let mut cfg = format!(
+        "http_addr = \"127.0.0.1:0\"\nlatency_budget = 120.0\nsensors_csv = \"{}\"\n\
+         [nats]\nurl = \"{url}\"\n",
+        s(&sensors)
+    );
+    for (id, c) in &clocks {
+        cfg.push_str(&format!(
+            "[[sensors]]\nid = {id}\nperiod = {:?}\n",
+            c.period
+        ));
+    }
+    let cfg_path = d.join("center.toml");
+    std::fs::write(&cfg_path, cfg).expect("config");
+
+    // each sensor's rows as messages of one report time each (a scan), a bad line in
+    // every 8th message; the first half of each sensor's messages, then the rest
+    let mut by_sensor: BTreeMap<i64, Vec<Vec<LocalTrack>>> = BTreeMap::new();
+    for r in &rows {
+        let scans = by_sensor.entry(r.sensor_id).or_default();
+        match scans.last_mut() {
+            Some(last) if last[0].time == r.time => last.push(*r),
+            _ => scans.push(vec![*r]),
+        }
+    }
+    let mut want_bad: BTreeMap<(String, &'static str), u64> = BTreeMap::new();
+    let mut halves: [Vec<(f64, String, String)>; 2] = [Vec::new(), Vec::new()];
+    let mut k = 0;
+    for (&sensor, scans) in &by_sensor {
+        let half = scans.len() / 2;
+        for (i, scan) in scans.iter().enumerate() {
+            let mut text: String = scan.iter().map(line_of).collect();
+            if i % 8 == 7 {
+                let (line, reason) = bad_line(k, &scan[0]);
+                k += 1;
+                let label = if reason == "unknown_sensor" {
+                    99
+                } else {
+                    sensor
+                };
+                *want_bad.entry((label.to_string(), reason)).or_default() += 1;
+                text.push_str(&line);
+            }
+            halves[usize::from(i >= half)].push((scan[0].time, format!("tracks.{sensor}"), text));
+        }
+    }
+    // the sensors interleaved by time, as live sensors send
+    for h in &mut halves {
+        h.sort_by(|x, y| x.0.total_cmp(&y.0));
+    }
+    let n_bad: u64 = want_bad.values().sum();
+    assert!(n_bad >= 6 * 3, "every kind of bad line, {n_bad}");
+    let publish = |msgs: &[(f64, String, String)]| {
+        rt.block_on(async {
+            let mut acks = Vec::new();
+            for (_, subject, text) in msgs {
+                let ack = js
+                    .publish(subject.clone(), text.clone().into())
+                    .await
+                    .expect("publish");
+                acks.push(ack);
+            }
+            for a in acks {
+                a.await.expect("ack");
+            }
+        })
+    };
+    let lines_in = |msgs: &[(f64, String, String)]| -> u64 {
+        msgs.iter()
+            .map(|(_, _, t)| t.lines().filter(|l| !l.is_empty()).count() as u64)
+            .sum()
+    };
+
+    // the first center, the first half, then killed once it has published output
+    let (mut a, a_http, a_log) = start_center(&cfg_path);
+    publish(&halves[0]);
+    let lines_first = lines_in(&halves[0]);
+    let m = until(&a_http, "the first center takes the first half", |m| {
+        metric(m, "trackfuse_accepted_total", &[])
+            + metric(m, "trackfuse_late_total", &[])
+            + metric(m, "trackfuse_rejected_total", &[])
+            >= lines_first
+    });
+    assert!(
+        metric(&m, "trackfuse_instants_fused_total", &[]) > 10,
+        "{m}"
+    );
+    let published_by_a = rt.block_on(output_messages(&js));
+    assert!(
+        !published_by_a.is_empty(),
+        "the first center published nothing before the kill"
+    );
+    a.0.kill().expect("kill");
+    a.0.wait().expect("wait");
+    drop(a);
+    let _ = a_log.join();
+
+    // the second center: rebuilds from the stream, takes the rest, stops gracefully
+    let (mut b, b_http, b_log) = start_center(&cfg_path);
+    publish(&halves[1]);
+    let metrics = until(&b_http, "the second center takes everything", |m| {
+        metric(m, "trackfuse_accepted_total", &[]) + metric(m, "trackfuse_late_total", &[])
+            == rows.len() as u64
+            && metric(m, "trackfuse_rejected_total", &[]) == n_bad
+    });
+    for ((sensor, reason), n) in &want_bad {
+        let got = metric(
+            &metrics,
+            "trackfuse_rejected_total",
+            &[
+                &format!("sensor=\"{sensor}\""),
+                &format!("reason=\"{reason}\""),
+            ],
+        );
+        assert_eq!(got, *n, "{reason} of sensor {sensor}");
+    }
+    assert_eq!(metric(&metrics, "trackfuse_late_total", &[]), 0);
+    let st = Command::new("kill")
+        .args(["-TERM", &b.0.id().to_string()])
+        .status()
+        .expect("kill");
+    assert!(st.success());
+    let status = b.0.wait().expect("wait");
+    let log = b_log.join().expect("log");
+    assert!(status.success(), "the second center failed: {log}");
+    assert!(
+        log.contains("the output stream has instants up to"),
+        "the second center did not resume after the first one's output: {log}"
+    );
+
+    // the output stream: every (instant, part) once, in order, from 0
+    let all = rt.block_on(output_messages(&js));
+    assert!(
+        all.len() > published_by_a.len(),
+        "the second center published nothing"
+    );
+    assert_eq!(
+        all[..published_by_a.len()],
+        published_by_a[..],
+        "the first center's messages changed"
+    );
+    let mut prev: Option<(u64, u64)> = None;
+    let mut streamed = Vec::new();
+    for (id, payload) in &all {
+        // the first is part 0 of instant 0; then the next part, or part 0 of the next
+        let ok = match prev {
+            None => *id == (0, 0),
+            Some((i, p)) => *id == (i, p + 1) || *id == (i + 1, 0),
+        };
+        assert!(
+            ok,
+            "output message {id:?} after {prev:?}: a gap or a duplicate"
+        );
+        prev = Some(*id);
+        streamed.extend_from_slice(payload);
+    }
+    let streamed = String::from_utf8(streamed).expect("utf8");
+
+    // written as fuse writes its files, it is fuse's files byte for byte
+    let mut fw = FusedTrackWriter::new(Vec::new()).expect("writer");
+    let mut aw = AssociationWriter::new(Vec::new()).expect("writer");
+    let mut n_fused = 0;
+    for line in streamed.lines() {
+        match decode_output(line)
+            .unwrap_or_else(|| panic!("not a fused or association line: {line}"))
+        {
+            Output::Fused(f) => {
+                n_fused += 1;
+                fw.write(&f).expect("write")
+            }
+            Output::Association(a) => aw.write(&a).expect("write"),
+        }
+    }
+    assert!(n_fused > 100, "{n_fused} fused rows");
+    let want_fused = std::fs::read(fused_dir.join("fused_tracks.csv")).expect("fuse output");
+    let want_assoc = std::fs::read(fused_dir.join("associations.csv")).expect("fuse output");
+    assert!(
+        fw.finish().expect("finish") == want_fused,
+        "fused tracks differ from trackfuse fuse"
+    );
+    assert!(
+        aw.finish().expect("finish") == want_assoc,
+        "associations differ from trackfuse fuse"
+    );
+}
