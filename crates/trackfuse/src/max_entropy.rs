@@ -459,11 +459,32 @@ mod tests {
         let mut a = [0.0; 4];
         let mut me = MaxEntropy::default();
         let l = -EPSILON.ln();
-        me.memberships(&p, DMin::PerPoint, EPSILON, Normalise::OverClusters, &mut out, Some(&mut a));
+        me.memberships(
+            &p,
+            DMin::PerPoint,
+            EPSILON,
+            Normalise::OverClusters,
+            &mut out,
+            Some(&mut a),
+        );
         assert_eq!(a, [l, l, l / 3.0, l / 3.0]);
-        me.memberships(&p, DMin::PerCluster, EPSILON, Normalise::OverClusters, &mut out, Some(&mut a));
+        me.memberships(
+            &p,
+            DMin::PerCluster,
+            EPSILON,
+            Normalise::OverClusters,
+            &mut out,
+            Some(&mut a),
+        );
         assert_eq!(a, [l, l / 2.0, l, l / 2.0]);
-        me.memberships(&p, DMin::ScanWide, EPSILON, Normalise::OverClusters, &mut out, Some(&mut a));
+        me.memberships(
+            &p,
+            DMin::ScanWide,
+            EPSILON,
+            Normalise::OverClusters,
+            &mut out,
+            Some(&mut a),
+        );
         assert_eq!(a, [l; 4]);
     }
 

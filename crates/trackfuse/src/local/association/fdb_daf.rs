@@ -502,7 +502,10 @@ mod tests {
         for t in 0..2 {
             let n: f64 = (0..3).map(|j| u[j][t]).sum();
             for j in 0..3 {
-                assert!(close(weight(&out, t, j as u32), u[j][t] / n, 1e-9), "t{t} z{j}");
+                assert!(
+                    close(weight(&out, t, j as u32), u[j][t] / n, 1e-9),
+                    "t{t} z{j}"
+                );
             }
         }
     }
