@@ -18,6 +18,7 @@ pub mod covariance;
 pub mod experiments;
 pub mod io;
 pub mod local;
+pub mod max_entropy;
 pub mod metrics;
 pub mod models;
 pub mod montecarlo;

@@ -21,6 +21,7 @@ use trackfuse::pipeline::{run_with, RunOutput};
 use trackfuse::RunConfig;
 
 mod bias;
+mod dmin;
 mod p000;
 mod p000_s2;
 mod p001;

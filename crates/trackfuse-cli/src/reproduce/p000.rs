@@ -503,6 +503,13 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     let s3 = scenario("000-s3")?;
     table6(ctx, &s3, runs, &mut md)?;
     figs56(ctx, &s3, runs, &mut md)?;
+    // issue 14 point 3: the d_min readings side by side (reproduce/dmin.rs)
+    md.push_str(&super::dmin::section_000(
+        ctx,
+        runs,
+        TABLE2_FDBSC,
+        TABLE2_FTF,
+    )?);
     Ok(md)
 }
 

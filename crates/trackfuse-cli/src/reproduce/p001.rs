@@ -1736,6 +1736,19 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     )?;
     // ---- index lines ----
     index_lines(ctx, &all_rows, [&r1, &r2], [&f1, &f2], &timed, &timing)?;
+    // issue 14 point 3: the d_min readings side by side (reproduce/dmin.rs)
+    let s2_fdb = [
+        TABLE5[10][2].unwrap_or(f64::NAN),
+        TABLE5[10][3].unwrap_or(f64::NAN),
+    ];
+    md.push_str(&super::dmin::section_001(
+        ctx,
+        runs,
+        &[
+            ("001-s1", "Tables 1-2", &TABLE2[10], &TABLE1[4].2),
+            ("001-s2-l2", "Tables 4-5", &s2_fdb, &TABLE4[5].2),
+        ],
+    )?);
     Ok(md)
 }
 

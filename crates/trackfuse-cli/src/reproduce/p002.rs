@@ -620,6 +620,8 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         &rules,
         &rules_gated,
     ));
+    // issue 14 point 3: the d_min readings side by side (reproduce/dmin.rs)
+    md.push_str(&super::dmin::section_002(ctx, runs)?);
     Ok(md)
 }
 

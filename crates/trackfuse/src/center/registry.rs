@@ -94,7 +94,7 @@ fn bias<P: DeserializeOwned, B: BiasEstimator + 'static>(
 pub const METHODS: &[MethodInfo] = &[
     MethodInfo {
         name: fdbsc::NAME,
-        summary: "FDBSC-TA (000 Alg. 1): Eps-neighbourhood clustering, maximum-entropy memberships, adaptive Eps",
+        summary: "FDBSC-TA (000 Alg. 1): Eps-neighbourhood clustering, maximum-entropy memberships (d_min = per-point, 002 eq. 15 | per-cluster | scan-wide), adaptive Eps",
         make: |p| method(p, fdbsc::NAME, fdbsc::FdbscTa::new),
     },
     MethodInfo {
@@ -114,7 +114,7 @@ pub const METHODS: &[MethodInfo] = &[
     },
     MethodInfo {
         name: ht_t2gt::NAME,
-        summary: "002: tracklets mapped to Hough space, maximum-entropy fuzzy c-means against the global tracks",
+        summary: "002: tracklets mapped to Hough space, maximum-entropy fuzzy c-means against the global tracks (d_min = per-point, eq. 15 | per-cluster | scan-wide)",
         make: |p| method(p, ht_t2gt::NAME, ht_t2gt::HtT2gt::new),
     },
     MethodInfo {

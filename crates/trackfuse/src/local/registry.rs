@@ -123,8 +123,9 @@ pub const ASSOCIATORS: &[AssociatorInfo] = &[
     AssociatorInfo {
         name: fdb_daf::NAME,
         summary: "fuzzy density-based data association (001): density clustering seeded at \
-                  the predictions, maximum-entropy memberships; selection = all | top-k (k, \
-                  eq. 14) | threshold (xi, eq. 15)",
+                  the predictions, maximum-entropy memberships (d_min = per-point, 002 eq. 15 \
+                  | per-cluster | scan-wide); selection = all | top-k (k, eq. 14) | threshold \
+                  (xi, eq. 15)",
         make: |s| associator(s, fdb_daf::NAME, |p, _| fdb_daf::FdbDaf::new(p)),
     },
     AssociatorInfo {
@@ -136,7 +137,8 @@ pub const ASSOCIATORS: &[AssociatorInfo] = &[
     AssociatorInfo {
         name: mef_jpda::NAME,
         summary: "maximum-entropy fuzzy JPDA (Liangqun et al. 2006): memberships replace the \
-                  joint association probabilities",
+                  joint association probabilities (d_min = per-point, 002 eq. 15 | per-cluster \
+                  | scan-wide)",
         make: |s| associator(s, mef_jpda::NAME, |p, _| mef_jpda::MefJpda::new(p)),
     },
     AssociatorInfo {

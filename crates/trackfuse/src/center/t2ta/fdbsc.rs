@@ -71,16 +71,23 @@
 //!
 //! # Memberships (eq. 6-8)
 //! `u_i = exp(-alpha d_i) / sum_j exp(-alpha d_j)`, `alpha = -ln(epsilon) / d_min`,
-//! `epsilon = 1e-6` (eq. 8; [`FdbscParams::membership_epsilon`]), computed in the
-//! equivalent shifted form `exp(-alpha (d_i - d_min))` so that no term underflows to a
-//! 0 / 0. When `d_min = 0` (a track exactly on the centre; coincident tracks) alpha is
-//! infinite and eq. 6 has the limit `u_i = 1 / (number of tracks at d_min)` for the tracks
-//! at `d_min` and 0 for the others; that limit is used whenever `d_min < 1e-9` m.
+//! `epsilon = 1e-6` (eq. 8; [`FdbscParams::membership_epsilon`]), computed by
+//! [`crate::max_entropy`] (shifted, no 0 / 0; `d_min = 0` is the `alpha -> infinity`
+//! limit). 000 does not index `d_min`; parameter `d_min` names the readings:
+//! - `"per-point"` (the default): the definition of 002 eq. 15, the only paper of the set
+//!   that defines it, `d_min` of a track = its distance to its nearest cluster centre.
+//!   Each track belongs to one cluster, so `alpha_i d_i = -ln(epsilon)` for every member
+//!   and eq. 6 gives every member of a cluster the weight `1 / n^t`: the `fuzzy` rule's
+//!   fused estimate is the members' mean.
+//! - `"per-cluster"` (this method's reading before the option): the cluster's nearest
+//!   member ("calculated separately for each cluster", Sec. IV-A). The memberships are
+//!   sharp: a member 10 % farther from the centre than the nearest gets a quarter of its
+//!   weight, one 50 % farther about 1e-3, so the fused estimate stays close to the member
+//!   nearest the prediction.
+//! - `"scan-wide"`: the smallest member-to-centre distance of the whole scan, sharper
+//!   still.
 //!
-//! With the paper's `epsilon = 1e-6` the memberships are sharp: a member 10 % farther
-//! from the centre than the nearest one gets a quarter of its weight, one 50 % farther
-//! about 1e-3, so the fused estimate stays close to the member nearest the prediction.
-//! That is the paper's choice and the default; `membership_epsilon` closer to 1 softens it.
+//! `membership_epsilon` closer to 1 softens the last two.
 //!
 //! # Adaptive Eps
 //! Eq. 12 sets Eps to the largest distance between a target's fused position and the
@@ -119,6 +126,7 @@
 //! eq. 6-8 and 12.
 
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
+use crate::max_entropy::{DMin, MaxEntropy, MePair, Normalise};
 use crate::params::{in_range, positive, ParamError};
 use crate::spatial::{squared_distance, EpsComponents, EpsGrid};
 use crate::types::{position_of, Id, LocalTrack, Vec2};
@@ -127,9 +135,6 @@ use std::cmp::Ordering;
 
 /// The ALGORITHMS.md name.
 pub const NAME: &str = "fdbsc-ta";
-
-/// `d_min` below this (metres) is treated as zero in eq. 8 (the `alpha -> infinity` limit).
-pub const D_MIN_ZERO: f64 = 1e-9;
 
 const NONE: u32 = u32::MAX;
 
@@ -151,6 +156,8 @@ const OFFSET_PENALTY: f64 = 0.01;
 /// - `eps_scale = 3`, `eps_quantile = 0.5`, `eps_min = 100` m, `eps_max = 5000` m: the
 ///   eq. 12 adaptation (see the module doc for why).
 /// - `membership_epsilon = 1e-6`: the epsilon of eq. 8.
+/// - `d_min = "per-point"`: the `d_min` of eq. 8 as 002 eq. 15 defines it (equal weights
+///   within a cluster; see the module doc for `"per-cluster"` and `"scan-wide"`).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FdbscParams {
@@ -168,6 +175,9 @@ pub struct FdbscParams {
     pub eps_max: f64,
     /// The epsilon of eq. 8, in (0, 1): `alpha = -ln(epsilon) / d_min`.
     pub membership_epsilon: f64,
+    /// The reading of eq. 8's `d_min`: `"per-point"` (002 eq. 15, default),
+    /// `"per-cluster"` or `"scan-wide"`.
+    pub d_min: DMin,
 }
 
 impl Default for FdbscParams {
@@ -180,6 +190,7 @@ impl Default for FdbscParams {
             eps_min: 100.0,
             eps_max: 5000.0,
             membership_epsilon: 1e-6,
+            d_min: DMin::PerPoint,
         }
     }
 }
@@ -213,46 +224,6 @@ impl FdbscParams {
     }
 }
 
-/// Maximum-entropy memberships of 000 eq. 6 with the discriminating factor of eq. 8,
-/// `alpha = -ln(epsilon) / d_min`, written into `out` (same length as `distances`).
-///
-/// Computed as `exp(-alpha (d_i - d_min)) / sum_j exp(-alpha (d_j - d_min))`, which equals
-/// eq. 6 and never divides 0 by 0. When `d_min < D_MIN_ZERO` (a member on the centre) the
-/// `alpha -> infinity` limit is used: equal shares among the members within `D_MIN_ZERO`
-/// of `d_min`, zero for the others. Distances must be finite and non-negative.
-pub fn max_entropy_memberships(distances: &[f64], epsilon: f64, out: &mut [f64]) {
-    debug_assert_eq!(distances.len(), out.len());
-    if distances.is_empty() {
-        return;
-    }
-    let d_min = distances.iter().copied().fold(f64::INFINITY, f64::min);
-    let alpha = -epsilon.ln() / d_min;
-    if d_min < D_MIN_ZERO || !alpha.is_finite() {
-        let ties = distances
-            .iter()
-            .filter(|&&d| d <= d_min + D_MIN_ZERO)
-            .count()
-            .max(1) as f64;
-        for (u, &d) in out.iter_mut().zip(distances) {
-            *u = if d <= d_min + D_MIN_ZERO {
-                1.0 / ties
-            } else {
-                0.0
-            };
-        }
-        return;
-    }
-    let mut sum = 0.0;
-    for (u, &d) in out.iter_mut().zip(distances) {
-        *u = (-alpha * (d - d_min)).exp();
-        sum += *u;
-    }
-    // sum >= 1: the member at d_min contributes exp(0)
-    for u in out.iter_mut() {
-        *u /= sum;
-    }
-}
-
 /// Order candidate pairs `(squared distance, a, b)` by distance, then indices.
 fn by_distance(x: &(f64, u32, u32), y: &(f64, u32, u32)) -> Ordering {
     x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2))
@@ -274,7 +245,8 @@ pub struct FdbscTa {
     group_start: Vec<usize>,
     group_global: Vec<u32>,
     weights: Vec<f64>,
-    distances: Vec<f64>,
+    me: MaxEntropy,
+    me_pairs: Vec<MePair>,
     // splitting
     sensor_of: Vec<Id>,
     by_sensor: Vec<(Id, u32)>,
@@ -312,7 +284,8 @@ impl FdbscTa {
             group_start: Vec::new(),
             group_global: Vec::new(),
             weights: Vec::new(),
-            distances: Vec::new(),
+            me: MaxEntropy::default(),
+            me_pairs: Vec::new(),
             sensor_of: Vec::new(),
             by_sensor: Vec::new(),
             cluster_globals: Vec::new(),
@@ -579,22 +552,33 @@ impl FdbscTa {
         self.weights.clear();
         self.weights.resize(self.group_members.len(), 0.0);
         self.spreads.clear();
+        self.me_pairs.clear();
         for g in 0..n_groups {
             let range = self.group_start[g]..self.group_start[g + 1];
             let centre = match self.group_global[g] {
                 NONE => self.group_mean[g],
                 k => self.global_grid.point(k as usize),
             };
-            self.distances.clear();
-            for &i in &self.group_members[range.clone()] {
+            for slot in range {
+                let i = self.group_members[slot];
                 let d2 = squared_distance(&self.track_grid.point(i as usize), &centre);
-                self.distances.push(d2.sqrt());
+                self.me_pairs.push(MePair {
+                    point: slot as u32,
+                    cluster: g as u32,
+                    d: d2.sqrt(),
+                });
             }
-            max_entropy_memberships(
-                &self.distances,
-                self.params.membership_epsilon,
-                &mut self.weights[range.clone()],
-            );
+        }
+        self.me.memberships(
+            &self.me_pairs,
+            self.params.d_min,
+            self.params.membership_epsilon,
+            Normalise::OverPoints,
+            &mut self.weights,
+            None,
+        );
+        for g in 0..n_groups {
+            let range = self.group_start[g]..self.group_start[g + 1];
             if range.len() >= 2 {
                 // eq. 9 fused position, then eq. 12 spread
                 let mut fused = Vec2::zeros();
@@ -774,10 +758,16 @@ mod tests {
         testing::global(id, StateVec::new(x, 0.0, y, 0.0), StateCov::identity())
     }
 
+    /// Fixed Eps, `d_min = "per-cluster"` (the sharp reading most hand cases test).
     fn fixed(eps: f64) -> FdbscTa {
+        fixed_with(eps, DMin::PerCluster)
+    }
+
+    fn fixed_with(eps: f64, d_min: DMin) -> FdbscTa {
         FdbscTa::new(FdbscParams {
             eps,
             adaptive: false,
+            d_min,
             ..FdbscParams::default()
         })
         .unwrap()
@@ -850,6 +840,27 @@ mod tests {
         }
         assert_relative_eq!(p[(0, 0)], 46173.9409, epsilon = 1e-3);
         assert_relative_eq!(p[(0, 2)], 51566.5147, epsilon = 1e-3);
+        // d_min per point (002 eq. 15, the default): each track's nearest centre is its
+        // cluster's, alpha_i d_i = ln(1e6) for all: e^{-ln 1e6} each, u = 1/3
+        let g = &run(&mut fixed_with(1000.0, DMin::PerPoint), &tracks, &globals)[0];
+        for u in &g.weights {
+            assert_relative_eq!(*u, 1.0 / 3.0, max_relative = 1e-12);
+        }
+        // scan-wide: one cluster, so the same as per cluster
+        let g = &run(&mut fixed_with(1000.0, DMin::ScanWide), &tracks, &globals)[0];
+        assert_relative_eq!(g.weights[0], 0.760870, epsilon = 1e-6);
+        // with a second target whose track is 100 m from its centre, scan-wide takes
+        // d_min = 100: 1 : e^{-ln(1e6) 0.5} : e^{-ln(1e6)} = 1 : 1e-3 : 1e-6
+        let mut more = tracks.to_vec();
+        more.push(local(0, 8, 20100.0, 0.0, 0.0, 0.0, 1.0));
+        let two = [global(4, 0.0, 0.0), global(5, 20000.0, 0.0)];
+        let groups = run(&mut fixed_with(1000.0, DMin::ScanWide), &more, &two);
+        let t = 1.0 + 1e-3 + 1e-6;
+        assert_relative_eq!(groups[0].weights[0], 1.0 / t, max_relative = 1e-9);
+        assert_relative_eq!(groups[0].weights[1], 1e-3 / t, max_relative = 1e-9);
+        assert_relative_eq!(groups[0].weights[2], 1e-6 / t, max_relative = 1e-9);
+        let groups = run(&mut fixed_with(1000.0, DMin::PerCluster), &more, &two);
+        assert_relative_eq!(groups[0].weights[0], 0.760870, epsilon = 1e-6);
     }
 
     /// A new cluster's centre is the member mean: two tracks symmetric about it share
@@ -943,11 +954,12 @@ mod tests {
     #[test]
     fn coincident_tracks_give_finite_memberships() {
         let mut u = [0.0; 3];
-        max_entropy_memberships(&[0.0, 0.0, 5.0], 1e-6, &mut u);
+        let mut me = MaxEntropy::default();
+        me.one_group(&[0.0, 0.0, 5.0], 1e-6, &mut u);
         assert_eq!(u, [0.5, 0.5, 0.0]);
-        max_entropy_memberships(&[0.0, 0.0, 0.0], 1e-6, &mut u);
+        me.one_group(&[0.0, 0.0, 0.0], 1e-6, &mut u);
         assert_eq!(u, [1.0 / 3.0; 3]);
-        max_entropy_memberships(&[1e-300, 3.0, 3.0], 1e-6, &mut u);
+        me.one_group(&[1e-300, 3.0, 3.0], 1e-6, &mut u);
         assert!(u.iter().all(|v| v.is_finite()));
         assert_relative_eq!(u.iter().sum::<f64>(), 1.0, epsilon = 1e-12);
         // three tracks exactly on the predicted global track
@@ -989,7 +1001,11 @@ mod tests {
             local(2, 0, 10000.0, 0.0, 600.0, 0.0, 1.0),
             local(3, 0, 1e6, 0.0, 0.0, 0.0, 1.0), // alone: no spread
         ];
-        let params = FdbscParams::default();
+        // per cluster (per point: u = 1/3 each, same fused position and spreads)
+        let params = FdbscParams {
+            d_min: DMin::PerCluster,
+            ..FdbscParams::default()
+        };
         let mut a = FdbscTa::new(params.clone()).unwrap();
         assert_eq!(a.eps(), 1000.0);
         let groups = run(&mut a, &tracks, &[]);

@@ -19,7 +19,12 @@
 //! 4. **Maximum-entropy memberships** (eq. 9-13): `d_il = |p_i - v_l|^2` (squared
 //!    Euclidean in normalised Hough space) and
 //!    `u_il = exp(-omega_i d_il) / sum_l exp(-omega_i d_il)` over the centres within the
-//!    gate. **Omega by eq. 15**, `omega_i = -ln(epsilon) / d_min,i`: eq. 16 needs each
+//!    gate. **Omega by eq. 15**, `omega_i = -ln(epsilon) / d_min,i` with
+//!    `d_min,i = min_l d_il` the point's distance to its nearest gated centre (parameter
+//!    `d_min = "per-point"`, the default; `"per-cluster"` gives each centre the `omega` of
+//!    its nearest point, `"scan-wide"` one `omega` from the smallest distance of the scan;
+//!    both are the other methods' readings of the same formula, see
+//!    [`crate::max_entropy`], which computes all three): eq. 16 needs each
 //!    sensor's false-alarm rate `xi`, which is zero in the clutter-free 002 scenario (eq. 16
 //!    is then undefined), and eq. 16 equals eq. 15 with `eta / xi = -ln(epsilon)`. With
 //!    eq. 15 the nearest centre's unnormalised membership is exactly `epsilon`.
@@ -28,6 +33,7 @@
 //! 5. **Fuzzy c-means iterations**: the centres start at the global tracks' points (as the
 //!    paper does "to reduce the iteration times") and are updated as the maximum-entropy
 //!    FCM stationarity condition gives, `v_l = sum_i omega_i u_il p_i / sum_i omega_i u_il`
+//!    (`omega` of the pair under the other readings)
 //!    (points taken in their representation nearest `v_l` across the theta seam), then the
 //!    memberships are recomputed, until the largest centre move is below `tolerance` or
 //!    `max_iterations` is reached (0: memberships against the global tracks' points only).
@@ -76,6 +82,7 @@
 use super::grouping::{sensor_blocks, track_position, Candidate, GroupTable};
 use crate::center::hough::{HoughPoint, HoughSpace};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
+use crate::max_entropy::{DMin, MaxEntropy, MePair, Normalise};
 use crate::params::{in_range, positive, ParamError};
 use crate::spatial::SweepIndex;
 use crate::types::{Id, LocalTrack, Vec2};
@@ -105,6 +112,9 @@ pub const NAME: &str = "ht-t2gt";
 /// - `position_gate_tracklets = false`: also gate tracklets by position.
 /// - `max_gap_scans = 5`: the oldest previous estimate (in scans) that still forms a
 ///   tracklet with the current one.
+/// - `d_min = "per-point"`: the `d_min` of eq. 15 as the paper defines it (each point's
+///   nearest centre); `"per-cluster"`, `"scan-wide"` are the other readings
+///   ([`crate::max_entropy`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct HtT2gtParams {
@@ -119,6 +129,7 @@ pub struct HtT2gtParams {
     pub position_gate: f64,
     pub position_gate_tracklets: bool,
     pub max_gap_scans: u32,
+    pub d_min: DMin,
 }
 
 fn default_epsilon() -> f64 {
@@ -163,6 +174,7 @@ impl Default for HtT2gtParams {
             position_gate: default_position_gate(),
             position_gate_tracklets: false,
             max_gap_scans: default_max_gap(),
+            d_min: DMin::PerPoint,
         }
     }
 }
@@ -203,36 +215,6 @@ impl HtT2gtParams {
     }
 }
 
-/// Maximum-entropy memberships of one point (002 eq. 13 with omega by eq. 15):
-/// `u_l = exp(-omega d_l) / sum exp(-omega d_l)`, `omega = -ln(epsilon) / d_min`, over the
-/// squared distances `d2`; writes `out` (same length) and returns omega (infinite when
-/// `d_min = 0`: the centres at distance 0 share membership 1). Empty input: nothing.
-pub fn max_entropy_memberships(d2: &[f64], epsilon: f64, out: &mut [f64]) -> f64 {
-    let d_min = d2.iter().copied().fold(f64::INFINITY, f64::min);
-    if d2.is_empty() || !d_min.is_finite() {
-        out.iter_mut().for_each(|u| *u = 0.0);
-        return 0.0;
-    }
-    if d_min <= 0.0 {
-        let zeros = d2.iter().filter(|&&d| d <= 0.0).count() as f64;
-        for (u, &d) in out.iter_mut().zip(d2) {
-            *u = if d <= 0.0 { 1.0 / zeros } else { 0.0 };
-        }
-        return f64::INFINITY;
-    }
-    let ln_eps = epsilon.ln();
-    // exp(-omega d_l) / exp(-omega d_min) = exp(ln(eps) (d_l / d_min - 1)) <= 1
-    let mut sum = 0.0;
-    for (u, &d) in out.iter_mut().zip(d2) {
-        *u = (ln_eps * (d / d_min - 1.0)).exp();
-        sum += *u;
-    }
-    for u in out.iter_mut() {
-        *u /= sum;
-    }
-    -ln_eps / d_min
-}
-
 /// The last estimate received from one local track.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct LastEstimate {
@@ -247,6 +229,8 @@ struct Link {
     centre: u32,
     d2: f64,
     u: f64,
+    /// `omega` of eq. 15 for this pair (the point's under the default reading).
+    omega: f64,
 }
 
 /// The `ht-t2gt` associator. Keeps each local track's last estimate between scans, and
@@ -262,11 +246,12 @@ pub struct HtT2gt {
     lines: Vec<Option<HoughPoint>>,
     centres: Vec<Option<HoughPoint>>,
     centre_sum: Vec<(f64, f64, f64)>,
-    omega: Vec<f64>,
     link_start: Vec<u32>,
     links: Vec<Link>,
-    d2_buf: Vec<f64>,
+    me: MaxEntropy,
+    me_pairs: Vec<MePair>,
     u_buf: Vec<f64>,
+    omega_buf: Vec<f64>,
     theta_index: SweepIndex,
     theta_of_index: Vec<u32>,
     position_index: SweepIndex,
@@ -287,11 +272,12 @@ impl HtT2gt {
             lines: Vec::new(),
             centres: Vec::new(),
             centre_sum: Vec::new(),
-            omega: Vec::new(),
             link_start: Vec::new(),
             links: Vec::new(),
-            d2_buf: Vec::new(),
+            me: MaxEntropy::default(),
+            me_pairs: Vec::new(),
             u_buf: Vec::new(),
+            omega_buf: Vec::new(),
             theta_index: SweepIndex::default(),
             theta_of_index: Vec::new(),
             position_index: SweepIndex::default(),
@@ -406,6 +392,7 @@ impl HtT2gt {
                         centre: l,
                         d2,
                         u: 0.0,
+                        omega: 0.0,
                     });
                 }
             }
@@ -418,21 +405,39 @@ impl HtT2gt {
         self.link_start[i] as usize..self.link_start[i + 1] as usize
     }
 
-    /// Step 4 (memberships) for every tracklet; fills `omega`.
+    /// Step 4 (memberships, eq. 13 with omega by eq. 15) for every tracklet's links.
     fn memberships(&mut self) {
-        self.omega.clear();
+        self.me_pairs.clear();
         for i in 0..self.points.len() {
-            let r = self.links_of(i);
-            self.d2_buf.clear();
-            self.d2_buf
-                .extend(self.links[r.clone()].iter().map(|k| k.d2));
-            self.u_buf.clear();
-            self.u_buf.resize(self.d2_buf.len(), 0.0);
-            let w = max_entropy_memberships(&self.d2_buf, self.params.epsilon, &mut self.u_buf);
-            for (k, &u) in self.links[r].iter_mut().zip(&self.u_buf) {
-                k.u = u;
+            for j in self.links_of(i) {
+                self.me_pairs.push(MePair {
+                    point: i as u32,
+                    cluster: self.links[j].centre,
+                    d: self.links[j].d2,
+                });
             }
-            self.omega.push(w);
+        }
+        // links are stored point by point, in the order pushed above
+        let n = self.me_pairs.len();
+        self.u_buf.clear();
+        self.u_buf.resize(n, 0.0);
+        self.omega_buf.clear();
+        self.omega_buf.resize(n, 0.0);
+        self.me.memberships(
+            &self.me_pairs,
+            self.params.d_min,
+            self.params.epsilon,
+            Normalise::OverClusters,
+            &mut self.u_buf,
+            Some(&mut self.omega_buf),
+        );
+        let mut k = 0;
+        for i in 0..self.points.len() {
+            for j in self.links_of(i) {
+                self.links[j].u = self.u_buf[k];
+                self.links[j].omega = self.omega_buf[k];
+                k += 1;
+            }
         }
     }
 
@@ -445,8 +450,8 @@ impl HtT2gt {
             self.centre_sum.resize(self.centres.len(), (0.0, 0.0, 0.0));
             for i in 0..self.points.len() {
                 let Some(p) = self.points[i] else { continue };
-                let w_i = self.omega[i].min(omega_cap);
                 for k in &self.links[self.links_of(i)] {
+                    let w_i = k.omega.min(omega_cap);
                     let l = k.centre as usize;
                     let Some(c) = self.centres[l] else { continue };
                     let q = self.space.nearest_representation(&p, &c);
@@ -505,8 +510,6 @@ impl HtT2gt {
                 continue;
             }
             let pos = track_position(track);
-            let first = self.candidates.len();
-            self.d2_buf.clear();
             for &l in self.position_index.range(pos[0] - gate, pos[0] + gate) {
                 let pred = &ctx.predicted[l as usize].0;
                 let d2 = (pos - Vec2::new(pred[0], pred[2])).norm_squared();
@@ -522,16 +525,29 @@ impl HtT2gt {
                         tiebreak: d2,
                         weight: 0.0,
                     });
-                    self.d2_buf.push(d2);
                 }
             }
-            self.u_buf.clear();
-            self.u_buf.resize(self.d2_buf.len(), 0.0);
-            max_entropy_memberships(&self.d2_buf, self.params.epsilon, &mut self.u_buf);
-            for (c, &u) in self.candidates[first..].iter_mut().zip(&self.u_buf) {
-                c.score = u;
-                c.weight = u;
-            }
+        }
+        // eq. 13 / 15 over the squared position distances, under the same d_min reading
+        self.me_pairs.clear();
+        self.me_pairs.extend(self.candidates.iter().map(|c| MePair {
+            point: c.track as u32,
+            cluster: c.target as u32,
+            d: c.tiebreak,
+        }));
+        self.u_buf.clear();
+        self.u_buf.resize(self.me_pairs.len(), 0.0);
+        self.me.memberships(
+            &self.me_pairs,
+            self.params.d_min,
+            self.params.epsilon,
+            Normalise::OverClusters,
+            &mut self.u_buf,
+            None,
+        );
+        for (c, &u) in self.candidates.iter_mut().zip(&self.u_buf) {
+            c.score = u;
+            c.weight = u;
         }
     }
 
@@ -702,7 +718,7 @@ mod tests {
             let e1 = (-omega * d1).exp();
             let e2 = (-omega * d2).exp();
             let mut u = [0.0; 2];
-            let w = max_entropy_memberships(&[d1, d2], eps, &mut u);
+            let w = MaxEntropy::default().one_group(&[d1, d2], eps, &mut u);
             assert_relative_eq!(w, omega, epsilon = 1e-9);
             assert_relative_eq!(u[0], e1 / (e1 + e2), epsilon = 1e-12);
             assert_relative_eq!(u[1], e2 / (e1 + e2), epsilon = 1e-12);
@@ -741,11 +757,12 @@ mod tests {
     #[test]
     fn zero_distance_and_empty_memberships_are_defined() {
         let mut u = [0.0; 3];
-        let w = max_entropy_memberships(&[0.0, 0.5, 0.0], 1e-6, &mut u);
+        let mut me = MaxEntropy::default();
+        let w = me.one_group(&[0.0, 0.5, 0.0], 1e-6, &mut u);
         assert!(w.is_infinite());
         assert_eq!(u, [0.5, 0.0, 0.5]);
         let mut none: [f64; 0] = [];
-        assert_eq!(max_entropy_memberships(&[], 1e-6, &mut none), 0.0);
+        assert_eq!(me.one_group(&[], 1e-6, &mut none), 0.0);
     }
 
     #[test]

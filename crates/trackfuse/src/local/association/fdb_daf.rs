@@ -4,6 +4,7 @@
 use super::membership::{distance2_between, push_normalised, NoMeasurement, PairTable};
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
 use crate::local::filter::PredictedMeasurement;
+use crate::max_entropy::DMin;
 use crate::params::{in_range, positive, ParamError};
 use crate::spatial::SweepIndex;
 use crate::types::Vec2;
@@ -30,7 +31,7 @@ pub const NAME: &str = "fdb-daf";
 ///
 /// Defaults: `selection = "all"`, `k = 3`, `xi = 0.1`, `min_pts = 3` (001 Sec. 4),
 /// `eps_scale = 0.55` (001 Sec. 4: Eps = 0.55 C), `no_measurement = "none"`,
-/// `beta0 = 0.0`.
+/// `beta0 = 0.0`, `d_min = "per-point"` (002 eq. 15, see [`crate::max_entropy`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FdbDafParams {
@@ -51,6 +52,12 @@ pub struct FdbDafParams {
     pub no_measurement: NoMeasurement,
     /// `beta_0` when `no_measurement = "fixed"`, in `[0, 1)`.
     pub beta0: f64,
+    /// The `d_min` of eq. 13 (`alpha = -ln(1e-6) / d_min`), which 001 leaves unindexed:
+    /// `"per-point"` (default: each measurement's nearest clustered track, the definition
+    /// of 002 eq. 15, the only paper of the set that defines it), `"per-cluster"` (each
+    /// track's nearest clustered measurement) or `"scan-wide"` (the smallest distance of
+    /// the scan; this method's reading before the option existed).
+    pub d_min: DMin,
 }
 
 fn default_k() -> u32 {
@@ -76,6 +83,7 @@ impl Default for FdbDafParams {
             eps_scale: default_eps_scale(),
             no_measurement: NoMeasurement::None,
             beta0: 0.0,
+            d_min: DMin::PerPoint,
         }
     }
 }
@@ -148,11 +156,14 @@ pub const UNIT_GATE_VOLUME: f64 = std::f64::consts::PI;
 ///   claim on it, like JPDA's validation matrix), not over all `T`: it differs only when
 ///   a measurement sits in one cluster yet nearer another track's prediction, and keeps
 ///   the cost at the size of the clusters instead of measurements x tracks.
-/// - **`d_min`** (eq. 13, unindexed) is the smallest distance over all clustered
-///   (measurement, track) pairs of the scan. `d_min = 0` gives `alpha = inf`, whose limit
-///   (each measurement wholly to its nearest track, ties shared) is evaluated exactly:
-///   finite weights, never NaN. Memberships are computed relative to each measurement's
-///   nearest track, so no `exp` underflows to 0/0.
+/// - **`d_min`** (eq. 13, unindexed) is read per point by default: measurement `j`'s
+///   `d_min` is its distance to the nearest track whose cluster holds it, as 002 eq. 15
+///   defines it (parameter `d_min`, see [`crate::max_entropy`] for `"per-cluster"` and
+///   `"scan-wide"`, the smallest distance of the scan, which this method used before).
+///   An isolated measurement has membership 1 under every reading. `d_min = 0` gives
+///   `alpha = inf`, whose limit (each measurement wholly to its nearest track, ties
+///   shared) is evaluated exactly: finite weights, never NaN, no `exp` underflowing to
+///   0/0.
 /// - **Top-k ties** (an isolated track's clustered measurements all have `u = 1`) are
 ///   broken by distance, nearest first, then by measurement index: `k = 1` is then the
 ///   nearest neighbour, as 001 Sec. 4 says it is.
@@ -293,7 +304,7 @@ impl DataAssociator for FdbDaf {
         }
         self.pairs.finish();
         // 2. eq. 12-13
-        self.pairs.max_entropy_memberships();
+        self.pairs.max_entropy_memberships(self.params.d_min);
         // 3. selection (eq. 14 / 15) and normalisation (eq. 16)
         let beta0 = self
             .params
@@ -346,9 +357,12 @@ mod tests {
     use crate::params::parse_params;
     use crate::types::Mat2;
 
+    /// `d_min = "scan-wide"`, the reading the hand cases below were written for (the
+    /// per-point default is checked in `eq_12_13_memberships_two_targets_three_measurements`).
     fn fdb(selection: Selection, f: impl FnOnce(&mut FdbDafParams)) -> FdbDaf {
         let mut p = FdbDafParams {
             selection,
+            d_min: DMin::ScanWide,
             ..FdbDafParams::default()
         };
         f(&mut p);
@@ -469,6 +483,28 @@ mod tests {
                     close(weight(&out, t, j as u32), want, 1e-9),
                     "t{t} z{j}: {} vs {want}",
                     weight(&out, t, j as u32)
+                );
+            }
+        }
+        // per point (002 eq. 15, the default): each measurement's own nearest track
+        let u: Vec<Vec<f64>> = z
+            .iter()
+            .map(|zj| memberships(*zj, &c, dist(*zj, c[0]).min(dist(*zj, c[1]))))
+            .collect();
+        // z1: d = 1.05, 0.95: u(z1, t0) = eps^(1.05/0.95 - 1) / (1 + ...) = 0.1893
+        assert!(close(u[1][0], 0.189346, 1e-5), "{:?}", u[1]);
+        let mut a = fdb(Selection::All, |p| {
+            p.eps_scale = 10.0;
+            p.d_min = DMin::PerPoint;
+        });
+        let out = f.run(&mut a);
+        check_weights(&out);
+        for t in 0..2 {
+            let n: f64 = (0..3).map(|j| u[j][t]).sum();
+            for j in 0..3 {
+                assert!(
+                    close(weight(&out, t, j as u32), u[j][t] / n, 1e-9),
+                    "t{t} z{j}"
                 );
             }
         }

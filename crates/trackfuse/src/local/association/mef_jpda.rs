@@ -5,6 +5,7 @@
 use super::fnn::pairs_from_gates;
 use super::membership::{push_normalised, push_revised_pda, NoMeasurement, PairTable, Weighting};
 use super::{AssociationProblem, AssociationWeights, DataAssociator};
+use crate::max_entropy::DMin;
 use crate::params::{in_range, ParamError};
 use serde::{Deserialize, Serialize};
 
@@ -15,7 +16,8 @@ pub const NAME: &str = "mef-jpda";
 /// Parameters of `mef-jpda`, table `[tracker.params.mef-jpda]`.
 ///
 /// Defaults: `weighting = "revised-pda"`, `no_measurement = "pd"` (`beta_0 = 1 - P_D P_G`,
-/// used by `weighting = "membership"`), `beta0 = 0.0`.
+/// used by `weighting = "membership"`), `beta0 = 0.0`, `d_min = "per-point"` (002 eq. 15,
+/// see [`crate::max_entropy`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MefJpdaParams {
@@ -26,6 +28,11 @@ pub struct MefJpdaParams {
     pub no_measurement: NoMeasurement,
     /// `beta_0` when `no_measurement = "fixed"`, in `[0, 1)`.
     pub beta0: f64,
+    /// The `d_min` of `alpha = -ln(1e-6) / d_min` (001 eq. 13): `"per-point"` (default:
+    /// each measurement's nearest gating track, 002 eq. 15), `"per-cluster"` (each
+    /// track's nearest validated measurement) or `"scan-wide"` (the smallest distance of
+    /// the scan's validated pairs; this method's reading before the option existed).
+    pub d_min: DMin,
 }
 
 fn default_no_measurement() -> NoMeasurement {
@@ -38,6 +45,7 @@ impl Default for MefJpdaParams {
             weighting: Weighting::RevisedPda,
             no_measurement: default_no_measurement(),
             beta0: 0.0,
+            d_min: DMin::PerPoint,
         }
     }
 }
@@ -59,7 +67,8 @@ impl MefJpdaParams {
 /// For every measurement `z_j` validated by some track's gate, its membership in track
 /// `t` is `u_jt = exp(-alpha d_jt) / sum_s exp(-alpha d_js)` over the tracks `s` whose
 /// gates hold it, `d` the Mahalanobis distance (not squared) and
-/// `alpha = -ln(1e-6) / d_min`, `d_min` the smallest `d` of the scan's validated pairs.
+/// `alpha = -ln(1e-6) / d_min`, `d_min` by default the measurement's distance to its
+/// nearest gating track (002 eq. 15; parameter `d_min`).
 /// Like JPDA's marginals, these memberships share each measurement among the tracks
 /// competing for it, at the cost of one pass over the validated pairs.
 ///
@@ -78,10 +87,10 @@ impl MefJpdaParams {
 ///   literal `"membership"` mode weights all its validated measurements equally).
 /// - `lambda` is the prediction's `clutter_density`; when it is 0 (unknown) the
 ///   nonparametric PDA estimate `m_t / V_t` (validated count over gate volume) is used.
-/// - `d_min` is global over the scan's validated pairs (001 eq. 13 has no index);
-///   `d_min = 0` gives hard memberships (nearest track takes the measurement, ties
-///   shared), finite throughout. Memberships are computed relative to each
-///   measurement's nearest track, so nothing underflows to 0/0.
+/// - `d_min` (001 eq. 13 has no index) is read per point as 002 eq. 15 defines it
+///   (`"per-cluster"` and `"scan-wide"`, the reading used before, are options; see
+///   [`crate::max_entropy`]); `d_min = 0` gives hard memberships (nearest track takes
+///   the measurement, ties shared), finite throughout, nothing underflowing to 0/0.
 /// - No validated measurement: no weights (the track keeps its prediction).
 #[derive(Debug, Clone)]
 pub struct MefJpda {
@@ -125,7 +134,7 @@ impl DataAssociator for MefJpda {
     fn associate(&mut self, problem: &AssociationProblem<'_>, out: &mut AssociationWeights) {
         out.clear();
         pairs_from_gates(&mut self.pairs, problem);
-        self.pairs.max_entropy_memberships();
+        self.pairs.max_entropy_memberships(self.params.d_min);
         let pd = problem.pd;
         let pdpg = pd * problem.gate_probability;
         let beta0 = self.params.no_measurement.beta0(pdpg, self.params.beta0);
@@ -194,6 +203,14 @@ mod tests {
         u
     }
 
+    /// `d_min = "scan-wide"`, the reading `memberships()` writes out.
+    fn scan_wide() -> MefJpdaParams {
+        MefJpdaParams {
+            d_min: DMin::ScanWide,
+            ..MefJpdaParams::default()
+        }
+    }
+
     fn fixture(clutter: f64, pd: f64) -> Fixture {
         let mut f = Fixture::new(&C, Mat2::identity(), &Z, 9.21, pd);
         for p in &mut f.predictions {
@@ -209,7 +226,7 @@ mod tests {
         assert!(u[0][1] > 0.01 && u[0][1] < 0.2, "{u:?}");
         let (lambda, pd) = (0.01, 0.9);
         let f = fixture(lambda, pd);
-        let mut a = MefJpda::new(MefJpdaParams::default()).unwrap();
+        let mut a = MefJpda::new(scan_wide()).unwrap();
         let out = f.run(&mut a);
         check_weights(&out);
         let pg = 1.0 - (-9.21f64 / 2.0).exp();
@@ -240,7 +257,7 @@ mod tests {
         let f = fixture(0.0, pd);
         let mut a = MefJpda::new(MefJpdaParams {
             weighting: Weighting::Membership,
-            ..MefJpdaParams::default()
+            ..scan_wide()
         })
         .unwrap();
         let out = f.run(&mut a);
@@ -253,7 +270,7 @@ mod tests {
             }
         }
         // revised PDA with unknown clutter density: lambda = m / V = 2 / (pi 9.21)
-        let mut a = MefJpda::new(MefJpdaParams::default()).unwrap();
+        let mut a = MefJpda::new(scan_wide()).unwrap();
         let out = f.run(&mut a);
         let lambda = 2.0 / (PI * 9.21);
         let t = 0;
@@ -273,7 +290,7 @@ mod tests {
             9.21,
             1.0,
         );
-        let mut a = MefJpda::new(MefJpdaParams::default()).unwrap();
+        let mut a = MefJpda::new(scan_wide()).unwrap();
         let out = f.run(&mut a);
         check_weights(&out);
         assert_eq!(a.membership(0, 0), 0.5);

@@ -11,37 +11,9 @@
 //! sensor with isotropic `S` they equal those of the Euclidean distance 001 eq. 12 names.
 
 use super::super::filter::PredictedMeasurement;
+use crate::max_entropy::{DMin, MaxEntropy, MePair, Normalise, EPSILON};
 use crate::types::Vec2;
 use serde::{Deserialize, Serialize};
-
-/// `epsilon` of 001 eq. 13 (and 000 eq. 8): `alpha` is chosen so that
-/// `exp(-alpha d_min) = epsilon`.
-pub const MAX_ENTROPY_EPSILON: f64 = 1e-6;
-
-/// Discriminating factor of 001 eq. 13, `alpha = -ln(epsilon) / d_min`.
-///
-/// `d_min = 0` (a measurement exactly at a prediction) gives `alpha = +inf`, the limit
-/// in which every measurement belongs wholly to its nearest target(s); see
-/// [`max_entropy_weight`], which evaluates that limit without `0 * inf`.
-pub fn max_entropy_alpha(d_min: f64) -> f64 {
-    if d_min > 0.0 && d_min.is_finite() {
-        -MAX_ENTROPY_EPSILON.ln() / d_min
-    } else {
-        f64::INFINITY
-    }
-}
-
-/// `exp(-alpha * excess)` where `excess = d - d_ref >= 0` is a distance minus the
-/// smallest distance of the same measurement, so the largest weight is exactly 1 and the
-/// normaliser of eq. 12 never underflows. `excess <= 0` gives 1 even for `alpha = inf`.
-#[inline]
-pub fn max_entropy_weight(alpha: f64, excess: f64) -> f64 {
-    if excess <= 0.0 {
-        1.0
-    } else {
-        (-alpha * excess).exp()
-    }
-}
 
 /// Fuzzy c-means membership weights (unnormalised, largest 1) of squared distances
 /// `d2` with fuzzifier `m > 1`: `w_i = (d2_min / d2_i)^(1/(m-1))`, so that
@@ -133,6 +105,9 @@ pub struct PairTable {
     track_start: Vec<u32>,
     by_measurement: Vec<u32>,
     runs: Vec<(u32, u32)>,
+    me: MaxEntropy,
+    me_pairs: Vec<MePair>,
+    me_out: Vec<f64>,
 }
 
 impl PairTable {
@@ -231,35 +206,31 @@ impl PairTable {
 
     /// 001 eq. 12-13: set each pair's `value` to the maximum-entropy membership of the
     /// measurement in the track, `u = exp(-alpha d) / sum_t exp(-alpha d_t)` over the
-    /// tracks paired with that measurement, with `d = sqrt(d2)` and
-    /// `alpha = -ln(1e-6) / d_min`, `d_min` the smallest `d` of all pairs. Returns `alpha`.
-    pub fn max_entropy_memberships(&mut self) -> f64 {
-        let d_min = self
-            .pairs
-            .iter()
-            .map(|p| p.d2.max(0.0).sqrt())
-            .fold(f64::INFINITY, f64::min);
-        let alpha = max_entropy_alpha(d_min);
-        for r in 0..self.runs.len() {
-            let (a, b) = self.runs[r];
-            let idx = &self.by_measurement[a as usize..b as usize];
-            let d_ref = idx
-                .iter()
-                .map(|&i| self.pairs[i as usize].d2.max(0.0).sqrt())
-                .fold(f64::INFINITY, f64::min);
-            let mut total = 0.0;
-            for &i in idx {
-                let d = self.pairs[i as usize].d2.max(0.0).sqrt();
-                let w = max_entropy_weight(alpha, d - d_ref);
-                self.pairs[i as usize].value = w;
-                total += w;
-            }
-            // total >= 1: the nearest track's weight is exactly 1.
-            for &i in idx {
-                self.pairs[i as usize].value /= total;
-            }
+    /// tracks paired with that measurement, with `d = sqrt(d2)`,
+    /// `alpha = -ln(1e-6) / d_min` and `d_min` read as `d_min` says
+    /// ([`crate::max_entropy`]: per point = the measurement's nearest paired track, 002
+    /// eq. 15; per cluster = the track's nearest paired measurement; scan-wide = the
+    /// smallest `d` of all pairs).
+    pub fn max_entropy_memberships(&mut self, d_min: DMin) {
+        self.me_pairs.clear();
+        self.me_pairs.extend(self.pairs.iter().map(|p| MePair {
+            point: p.measurement,
+            cluster: p.track,
+            d: p.d2.max(0.0).sqrt(),
+        }));
+        self.me_out.clear();
+        self.me_out.resize(self.pairs.len(), 0.0);
+        self.me.memberships(
+            &self.me_pairs,
+            d_min,
+            EPSILON,
+            Normalise::OverClusters,
+            &mut self.me_out,
+            None,
+        );
+        for (p, &u) in self.pairs.iter_mut().zip(&self.me_out) {
+            p.value = u;
         }
-        alpha
     }
 
     /// Fuzzy c-means memberships (fuzzifier `m`) of each measurement over the tracks paired
@@ -366,14 +337,32 @@ mod tests {
     use super::*;
 
     #[test]
-    fn alpha_and_weights_are_defined_at_zero_distance() {
-        assert_eq!(max_entropy_alpha(0.0), f64::INFINITY);
-        assert!((max_entropy_alpha(2.0) - 1e-6f64.ln().abs() / 2.0).abs() < 1e-12);
-        assert_eq!(max_entropy_weight(f64::INFINITY, 0.0), 1.0);
-        assert_eq!(max_entropy_weight(f64::INFINITY, 1e-9), 0.0);
-        // exp(-alpha d_min) = epsilon
-        let a = max_entropy_alpha(0.7);
-        assert!(((-a * 0.7).exp() - MAX_ENTROPY_EPSILON).abs() < 1e-18);
+    fn pair_table_max_entropy_readings() {
+        // track 0: measurements 0 (d = 1) and 1 (d = 2); track 1: measurement 1 (d = 3)
+        let mut t = PairTable::default();
+        t.begin_track();
+        t.push(0, 1.0);
+        t.push(1, 4.0);
+        t.begin_track();
+        t.push(1, 9.0);
+        t.finish();
+        let eps = EPSILON;
+        // per point (002 eq. 15): measurement 1's nearest track is track 0 at 2:
+        // weights 1 and eps^(3/2 - 1) = 1e-3
+        t.max_entropy_memberships(DMin::PerPoint);
+        let v: Vec<f64> = t.pairs().iter().map(|p| p.value).collect();
+        assert_eq!(v[0], 1.0);
+        assert!((v[1] - 1.0 / (1.0 + 1e-3)).abs() < 1e-12, "{v:?}");
+        assert!((v[2] - 1e-3 / (1.0 + 1e-3)).abs() < 1e-12, "{v:?}");
+        // scan-wide: d_min = 1: eps^2 against eps^3
+        t.max_entropy_memberships(DMin::ScanWide);
+        let v: Vec<f64> = t.pairs().iter().map(|p| p.value).collect();
+        assert!((v[2] - eps / (1.0 + eps)).abs() < 1e-15, "{v:?}");
+        // per cluster: track 0's d_min = 1, track 1's = 3: eps^2 against eps^1
+        t.max_entropy_memberships(DMin::PerCluster);
+        let v: Vec<f64> = t.pairs().iter().map(|p| p.value).collect();
+        assert!((v[1] - eps / (1.0 + eps)).abs() < 1e-15, "{v:?}");
+        assert!((v[2] - 1.0 / (1.0 + eps)).abs() < 1e-12, "{v:?}");
     }
 
     #[test]
