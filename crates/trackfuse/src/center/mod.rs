@@ -465,16 +465,6 @@ pub struct FusionConfig {
     #[serde(default = "default_center_delete")]
     pub delete_after: u32,
     /// Per-method parameter tables, `[fusion.params.<method or rule name>]`.
-    ///
-    /// [`FusionConfig::default`] (the center's defaults for data nobody tuned: `trackfuse
-    /// fuse` without `--scenario`, `bench real`) holds one table, `fdbsc-ta`'s
-    /// `d_min = "per-cluster"`: the method's own default is the paper's `"per-point"`
-    /// (002 eq. 15), whose equal weights within a cluster shrink the eq. 12 spreads that
-    /// adapt Eps, so clusters split into duplicate global tracks. Measured on the
-    /// real-aircraft files with every other default (fused GOSPA, c = 500 m, p = 1):
-    /// swiss-a per-point 1964 (false tracks 1.00 per scan), per-cluster 1832 (0.50),
-    /// scan-wide 1823 (0.47); swiss-b 1963, 1835, 1837. A scenario file's `[fusion]`
-    /// starts from an empty table (its methods' own defaults).
     #[serde(default)]
     pub params: ParamTables,
     /// Global track management, `[fusion.management]` (status, merge, hysteresis; see
@@ -514,23 +504,11 @@ impl Default for FusionConfig {
             bias: default_bias(),
             process_noise: default_center_q(),
             delete_after: default_center_delete(),
-            params: default_params(),
+            params: ParamTables::new(),
             management: ManagementConfig::default(),
             period: None,
         }
     }
-}
-
-/// The parameter tables of [`FusionConfig::default`] (see [`FusionConfig::params`]).
-fn default_params() -> ParamTables {
-    let mut t = toml::Table::new();
-    t.insert(
-        "d_min".into(),
-        toml::Value::String(crate::max_entropy::DMin::PerCluster.name().into()),
-    );
-    let mut p = ParamTables::new();
-    p.insert(t2ta::fdbsc::NAME.to_string(), t);
-    p
 }
 
 /// What [`FusionConfig::build_with`] makes: the association method, the fusion rule and

@@ -94,7 +94,7 @@ fn bias<P: DeserializeOwned, B: BiasEstimator + 'static>(
 pub const METHODS: &[MethodInfo] = &[
     MethodInfo {
         name: fdbsc::NAME,
-        summary: "FDBSC-TA (000 Alg. 1): Eps-neighbourhood clustering, maximum-entropy memberships (d_min = per-point, 002 eq. 15 | per-cluster | scan-wide), adaptive Eps",
+        summary: "FDBSC-TA (000 Alg. 1): Eps-neighbourhood clustering, maximum-entropy memberships (d_min = per-cluster, the default | per-point, 002 eq. 15 | scan-wide), adaptive Eps",
         make: |p| method(p, fdbsc::NAME, fdbsc::FdbscTa::new),
     },
     MethodInfo {
