@@ -219,6 +219,14 @@ pub const BIAS_ESTIMATORS: &[BiasInfo] = &[
         },
     },
     BiasInfo {
+        name: super::bias::eq15::NAME,
+        summary: "000 eq. 15 as printed: each sensor's mean range-bearing residual against the fused estimates, iterated with the correction (fused = center | member-mean, residual = polar | cartesian, iterations)",
+        make: |p| {
+            use super::bias::eq15;
+            bias(p, eq15::NAME, eq15::Eq15MeanResidual::new)
+        },
+    },
+    BiasInfo {
         name: super::bias::track_pair_ls::DEPRECATED_NAME,
         summary: "(deprecated alias of track-pair-ls, removed in the next release)",
         make: super::bias::track_pair_ls::make_deprecated,

@@ -10,6 +10,10 @@
 //!   local tracks of two sensors, joint least squares of every sensor's range and
 //!   bearing biases, polar correction. The polar bias map itself is
 //!   [`crate::models::polar`].
+//! - [`eq15`] (`eq15-mean-residual`): 000's eq. 15 as printed, each sensor's mean
+//!   range-bearing residual against the fused estimates, iterated with the correction
+//!   scan by scan; it sees the sensors' biases relative to one another (and absolute
+//!   ones only against an unbiased sensor).
 //!
 //! # The default: `auto`
 //! `[fusion] bias` defaults to [`AUTO`], resolved by [`resolve`] (the one place that
@@ -29,8 +33,10 @@
 //! only what the pairs of tracks show (a zero-mean prior keeps unobserved biases at
 //! zero).
 
+pub mod eq15;
 pub mod track_pair_ls;
 
+pub use eq15::{Eq15MeanResidual, Eq15Params};
 pub use track_pair_ls::{Pairing, TrackPairLs, TrackPairLsParams};
 
 use super::TrackGroup;
