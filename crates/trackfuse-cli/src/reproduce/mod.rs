@@ -528,7 +528,8 @@ mod figure_tests {
         for (name, heading) in names.iter().zip(headings) {
             let f = figure(&figs, name);
             let rows = table_after(&md, heading);
-            assert_eq!(f.series.len(), 3, "{name}");
+            // FDBSC-TA, FTF, FDBSC-TA without bias estimation, and both behind eq. 15
+            assert_eq!(f.series.len(), 5, "{name}");
             for (col, (_, pts)) in f.series.iter().enumerate() {
                 assert_eq!(pts.len(), rows.len(), "{name}");
                 for (row, &(x, y)) in rows.iter().zip(pts) {

@@ -1178,8 +1178,8 @@ fn figs56(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
              `prior_bearing_sigma = {}` rad (the defaults, {} m and {} rad, cover less than \
              the sweep when these are larger).\n",
             trackfuse::center::bias::track_pair_ls::NAME,
-            prior.0,
-            prior.1,
+            (prior.0 * 1e3).round() / 1e3,
+            (prior.1 * 1e6).round() / 1e6,
             defaults.prior_range_sigma,
             defaults.prior_bearing_sigma
         )?;
