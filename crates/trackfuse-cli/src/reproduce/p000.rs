@@ -44,10 +44,9 @@ use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::time::{Duration, Instant};
 use trackfuse::center::{fuse_all, FusedRun, FusionConfig};
-use trackfuse::metrics::{
-    evaluate_run, gated_assignment, label_local_tracks, EvalInput, RunMetrics,
-};
-use trackfuse::models::polar::{polar_image, sensor_image};
+use trackfuse::experiments::{mean_all as mean, ranking_present as ranking, reduction_pct as pct};
+use trackfuse::metrics::{evaluate_run, label_local_tracks, EvalInput, RunMetrics};
+use trackfuse::models::polar::polar_image;
 use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::track_run;
 use trackfuse::sim::{simulate, SimulationOutput};
@@ -241,42 +240,7 @@ struct RunView<'a> {
 /// assignment of each sensor's tracks of a scan to the targets' images in that sensor's
 /// biased frame (see the module doc).
 fn biased_frame_labels(out: &RunView<'_>, gate: f64) -> HashMap<(u32, Id, Id), Id> {
-    let mut truth: BTreeMap<u32, Vec<(Id, Vec2)>> = BTreeMap::new();
-    for t in &out.sim.truth {
-        truth
-            .entry(t.scan)
-            .or_default()
-            .push((t.target_id, position_of(&t.state)));
-    }
-    let mut by_scan_sensor: BTreeMap<(u32, Id), Vec<(Id, Vec2)>> = BTreeMap::new();
-    for l in out.local {
-        by_scan_sensor
-            .entry((l.scan, l.sensor_id))
-            .or_default()
-            .push((l.track_id, position_of(&l.state)));
-    }
-    let sensors: HashMap<Id, &Sensor> = out.sim.sensors.iter().map(|s| (s.id, s)).collect();
-    let mut labels = HashMap::with_capacity(out.local.len());
-    let mut images: Vec<Vec2> = Vec::new();
-    let mut lpos: Vec<Vec2> = Vec::new();
-    for ((scan, sensor), tracks) in &by_scan_sensor {
-        let (Some(ts), Some(s)) = (truth.get(scan), sensors.get(sensor)) else {
-            continue;
-        };
-        images.clear();
-        images.extend(ts.iter().map(|(_, p)| sensor_image(*p, s)));
-        lpos.clear();
-        lpos.extend(tracks.iter().map(|(_, p)| *p));
-        for (li, ti) in gated_assignment(&lpos, &images, gate)
-            .into_iter()
-            .enumerate()
-        {
-            if let Some(ti) = ti {
-                labels.insert((*scan, *sensor, tracks[li].0), ts[ti].0);
-            }
-        }
-    }
-    labels
+    trackfuse::experiments::biased_frame_labels(&out.sim.truth, out.local, &out.sim.sensors, gate)
 }
 
 /// P_c (000 eq. 19) of one run from its associations and the given labels: the sum of
@@ -462,28 +426,6 @@ fn local_rmse(mc: &McResult, sensor: Id, target: Id) -> Option<f64> {
         .iter()
         .find(|r| r.sensor_id == sensor && r.target_id == target)
         .map(|r| r.rmse)
-}
-
-fn mean(v: &[Option<f64>]) -> Option<f64> {
-    let s: Vec<f64> = v.iter().flatten().copied().collect();
-    (s.len() == v.len() && !s.is_empty()).then(|| s.iter().sum::<f64>() / s.len() as f64)
-}
-
-/// `label (value)` pairs in ascending order, joined by " < ".
-fn ranking(items: &[(&str, Option<f64>)]) -> String {
-    let mut v: Vec<(&str, f64)> = items
-        .iter()
-        .filter_map(|(l, x)| x.map(|x| (*l, x)))
-        .collect();
-    v.sort_by(|a, b| a.1.total_cmp(&b.1));
-    v.iter()
-        .map(|(l, x)| format!("{l} ({x:.2})"))
-        .collect::<Vec<_>>()
-        .join(" < ")
-}
-
-fn pct(a: f64, b: f64) -> f64 {
-    (1.0 - a / b) * 100.0
 }
 
 /// A sweep's values `0, step, ..., max`, or (smoke runs) its first and last.

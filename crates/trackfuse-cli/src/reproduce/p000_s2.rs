@@ -26,13 +26,13 @@ use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
 use trackfuse::center::bias::BiasEstimate;
 use trackfuse::center::{fuse_all, fuse_all_two_pass, FusionConfig};
-use trackfuse::experiments::{IndexLine, Verdict};
-use trackfuse::metrics::{evaluate_run, gated_assignment, EvalInput, RunMetrics, Summary};
+use trackfuse::experiments::{biased_frame_labels, IndexLine, Verdict};
+use trackfuse::metrics::{evaluate_run, EvalInput, RunMetrics, Summary};
 use trackfuse::models::polar::polar_shift_position;
 use trackfuse::montecarlo::run_parallel;
 use trackfuse::pipeline::track_run;
 use trackfuse::sim::simulate;
-use trackfuse::types::{position_of, Id, LocalTrack, Sensor, SensorKind, TruthState, Vec2};
+use trackfuse::types::{position_of, Id, LocalTrack, Sensor, TruthState, Vec2};
 
 const PAPER_RUNS: u32 = 100;
 /// Table 3: (true range bias km, estimated km, true bearing bias rad, estimated rad).
@@ -104,57 +104,6 @@ const FDBSC_EQ15: usize = 6;
 const PAPER_ROWS: [[usize; 3]; 2] = [[0, 1, 2], [5, 6, 7]];
 /// Label of the offline two-pass row (FDBSC-TA with the final estimates from scan 0).
 const TWO_PASS: &str = "FDBSC-TA, offline two-pass (extra)";
-
-/// The biased image of `p` in sensor `s`'s frame (what its local tracker follows).
-fn image_of(p: Vec2, s: &Sensor) -> Vec2 {
-    match s.kind {
-        SensorKind::RangeBearing => polar_shift_position(&p, &s.position(), s.bias_r, s.bias_theta),
-        SensorKind::Position => p,
-    }
-}
-
-/// `(scan, sensor, track) -> target` by gated optimal assignment of each sensor's tracks
-/// to the targets' images in its biased frame.
-fn biased_frame_labels(
-    truth: &[TruthState],
-    local: &[LocalTrack],
-    sensors: &[Sensor],
-    gate: f64,
-) -> HashMap<(u32, Id, Id), Id> {
-    let mut by_scan: BTreeMap<u32, Vec<(Id, Vec2)>> = BTreeMap::new();
-    for t in truth {
-        by_scan
-            .entry(t.scan)
-            .or_default()
-            .push((t.target_id, position_of(&t.state)));
-    }
-    let mut tracks: BTreeMap<(u32, Id), Vec<(Id, Vec2)>> = BTreeMap::new();
-    for l in local {
-        tracks
-            .entry((l.scan, l.sensor_id))
-            .or_default()
-            .push((l.track_id, position_of(&l.state)));
-    }
-    let mut labels = HashMap::with_capacity(local.len());
-    for ((scan, sensor), ts) in &tracks {
-        let (Some(targets), Some(s)) =
-            (by_scan.get(scan), sensors.iter().find(|s| s.id == *sensor))
-        else {
-            continue;
-        };
-        let images: Vec<Vec2> = targets.iter().map(|(_, p)| image_of(*p, s)).collect();
-        let pos: Vec<Vec2> = ts.iter().map(|(_, p)| *p).collect();
-        for (li, ti) in gated_assignment(&pos, &images, gate)
-            .into_iter()
-            .enumerate()
-        {
-            if let Some(ti) = ti {
-                labels.insert((*scan, *sensor, ts[li].0), targets[ti].0);
-            }
-        }
-    }
-    labels
-}
 
 /// Squared errors of local tracks, `(sensor, target) -> (sum, count)`: raw, or corrected
 /// with `estimates`.

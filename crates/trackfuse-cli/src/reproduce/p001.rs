@@ -13,12 +13,13 @@ use super::{md_table, monte_carlo_with, num, rel, scenario, Ctx, McResult};
 use anyhow::{Context, Result};
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
-use trackfuse::experiments::{compare_line, mean_present, order_text};
+use trackfuse::experiments::{
+    compare_line, mean_present, mean_present as mean, nees, nees_band, order_text,
+};
 use trackfuse::local::{InitiationConfig, InitiationMethod, KnownStart, TrackerConfig};
 use trackfuse::metrics::label_local_tracks;
 use trackfuse::pipeline::RunOutput;
-use trackfuse::stats::chi2_quantile_wilson_hilferty;
-use trackfuse::types::{position_of, Id, StateCov, StateVec, Vec2};
+use trackfuse::types::{position_of, Id, StateVec, Vec2};
 use trackfuse::RunConfig;
 
 /// The paper's Monte Carlo run count (001 Sec. 4).
@@ -301,12 +302,6 @@ struct Identity {
     nees: BTreeMap<u32, (f64, u64)>,
 }
 
-fn nees(err: &StateVec, cov: &StateCov) -> Option<f64> {
-    let chol = cov.cholesky()?;
-    let v = err.dot(&chol.solve(err));
-    v.is_finite().then_some(v)
-}
-
 /// The identity pairing of one run: a track belongs to the target nearest to it at its
 /// first report (it starts at that target's known state).
 fn identity(out: &RunOutput, label_gate: f64) -> Identity {
@@ -538,15 +533,6 @@ fn run_variant(ctx: &Ctx, sc: &RunConfig, v: &Variant, runs: u32) -> Result<Outc
 
 // ---- chi-square band ----
 
-/// The two-sided 95 % band of the mean of `n` independent 4-dof NEES values.
-fn nees_band(n: u64) -> (f64, f64) {
-    let k = 4.0 * n as f64;
-    (
-        chi2_quantile_wilson_hilferty(0.025, k) / n as f64,
-        chi2_quantile_wilson_hilferty(0.975, k) / n as f64,
-    )
-}
-
 // ---- formatting ----
 
 fn m(v: Option<f64>) -> String {
@@ -571,10 +557,6 @@ fn triple(paper: Option<f64>, ours: Option<f64>) -> [String; 3] {
         m(ours),
         ours.map_or_else(|| "-".into(), |o| rel(o, paper)),
     ]
-}
-
-fn mean(v: &[Option<f64>]) -> Option<f64> {
-    mean_present(v)
 }
 
 /// Scan numbers as ranges, `3-7, 12`; `none` when empty.
@@ -1633,7 +1615,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     let band_row = |label: &str, o: &Outcome, summary: Option<f64>, rows: &mut Vec<Vec<String>>| {
         let per_scan: Vec<(f64, u64)> = o.nees_per_scan.values().copied().collect();
         let n = per_scan.iter().map(|x| x.1).max().unwrap_or(0);
-        let (lo, hi) = nees_band(n.max(1));
+        let (lo, hi) = nees_band(n.max(1), 4);
         let inside = per_scan
             .iter()
             .filter(|(s, c)| {
@@ -1911,7 +1893,7 @@ mod tests {
         assert!((chi2_quantile_wilson_hilferty(0.025, 100.0) / 74.222 - 1.0).abs() < 2e-3);
         assert!((chi2_quantile_wilson_hilferty(0.975, 100.0) / 129.561 - 1.0).abs() < 2e-3);
         // the NEES band of 25 runs of 4 dof is that over 4
-        let (lo, hi) = nees_band(25);
+        let (lo, hi) = nees_band(25, 4);
         assert!((lo - 74.222 / 25.0).abs() < 0.01 && (hi - 129.561 / 25.0).abs() < 0.01);
     }
 

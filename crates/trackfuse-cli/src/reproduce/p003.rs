@@ -20,6 +20,7 @@ use anyhow::Result;
 use std::collections::{BTreeMap, HashMap};
 use trackfuse::center::t2ta::ftta::{correlation_matrix, FttaParams, Report};
 use trackfuse::center::FusionConfig;
+use trackfuse::experiments::{ranking_with_ties, PerScanSquares as PerScan};
 use trackfuse::local::TrackerConfig;
 use trackfuse::metrics::{gated_assignment, label_local_tracks};
 use trackfuse::pipeline::RunOutput;
@@ -92,69 +93,6 @@ fn legend_name(rule: &str) -> String {
 
 /// g (m/s^2) as the scenario files read "10g".
 const G: f64 = 9.81;
-
-/// Squared position errors per scan, summed over runs.
-#[derive(Debug, Clone, Default)]
-struct PerScan {
-    sum: Vec<f64>,
-    n: Vec<u64>,
-}
-
-impl PerScan {
-    fn new(scans: usize) -> Self {
-        PerScan {
-            sum: vec![0.0; scans],
-            n: vec![0; scans],
-        }
-    }
-
-    fn add(&mut self, scan: u32, e2: f64) {
-        let k = scan as usize;
-        if k >= self.sum.len() {
-            self.sum.resize(k + 1, 0.0);
-            self.n.resize(k + 1, 0);
-        }
-        self.sum[k] += e2;
-        self.n[k] += 1;
-    }
-
-    /// The time mean of the per-scan RMSE over runs (the paper's "mean of RMSE"), over
-    /// the scans with at least one estimate.
-    fn mean_rmse(&self) -> Option<f64> {
-        let (mut total, mut count) = (0.0, 0u64);
-        for (s, &n) in self.sum.iter().zip(&self.n) {
-            if n > 0 {
-                total += (s / n as f64).sqrt();
-                count += 1;
-            }
-        }
-        (count > 0).then(|| total / count as f64)
-    }
-
-    /// The RMSE over the runs at each scan with at least one estimate, as `(time (s),
-    /// RMSE (m))` with scan k at k dt (what [`Self::mean_rmse`] averages).
-    fn per_scan(&self, dt: f64) -> Vec<(f64, f64)> {
-        self.sum
-            .iter()
-            .zip(&self.n)
-            .enumerate()
-            .filter(|(_, (_, &n))| n > 0)
-            .map(|(k, (s, &n))| (k as f64 * dt, (s / n as f64).sqrt()))
-            .collect()
-    }
-
-    /// One RMS over every scan and run.
-    fn rms(&self) -> Option<f64> {
-        let n: u64 = self.n.iter().sum();
-        (n > 0).then(|| (self.sum.iter().sum::<f64>() / n as f64).sqrt())
-    }
-
-    /// The share of (run, scan) points that had an estimate.
-    fn coverage(&self, runs: u32) -> f64 {
-        let n: u64 = self.n.iter().sum();
-        n as f64 / (runs as f64 * self.n.len().max(1) as f64)
-    }
-}
 
 /// Table 4 statistics over (run, scan).
 #[derive(Debug, Clone, Default)]
@@ -430,25 +368,7 @@ fn matrix_table(m: &[[String; 6]; 6]) -> String {
 /// The rules ordered by value (ascending, best first), values within 0.5 % of the
 /// previous one a tie (`=`, names sorted within a tie), e.g. `fuzzy = sf < superior`.
 fn ranking(values: &[(&str, f64)]) -> String {
-    let mut v: Vec<(&str, f64)> = values.to_vec();
-    v.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(b.0)));
-    let mut groups: Vec<Vec<&str>> = Vec::new();
-    let mut prev = f64::NAN;
-    for (n, x) in v {
-        match groups.last_mut() {
-            Some(g) if (x - prev).abs() <= 0.005 * x.abs().max(prev.abs()) => g.push(n),
-            _ => groups.push(vec![n]),
-        }
-        prev = x;
-    }
-    groups
-        .into_iter()
-        .map(|mut g| {
-            g.sort_unstable();
-            g.join(" = ")
-        })
-        .collect::<Vec<_>>()
-        .join(" < ")
+    ranking_with_ties(values, 0.005)
 }
 
 /// Markdown rows and the mean RMSE values `[case 1 T2, case 1 T3, case 2 T2, case 2 T3]`

@@ -5,6 +5,19 @@
 //! [`IndexLine`] is one line of `docs/reproduction/index.md`: one table (or figure) of a
 //! paper, the paper's headline value beside ours, whether the ranking of the methods
 //! agrees, and a [`Verdict`] with its reason in one sentence.
+//!
+//! [`labels`] labels local tracks in their sensor's biased frame (000's P_c and local
+//! rows), [`aggregate`] the per-scan RMSE of eq. 17 and its time mean, NEES and its
+//! chi-square band, means, ratios and rankings.
+
+pub mod aggregate;
+pub mod labels;
+
+pub use aggregate::{
+    mean_all, nees, nees_band, ranking_present, ranking_with_ties, ratio, reduction_pct,
+    PerScanSquares,
+};
+pub use labels::biased_frame_labels;
 
 use std::fmt;
 
