@@ -1,6 +1,9 @@
 //! Smoke test of `trackfuse reproduce 002`: two runs, the Markdown has its tables.
 
+mod common;
+
 use assert_cmd::Command;
+use common::assert_cell;
 
 #[test]
 fn reproduce_002_writes_its_tables() {
@@ -35,4 +38,22 @@ fn reproduce_002_writes_its_tables() {
         assert_eq!(md.matches(&row).count(), 2, "rule row {row}");
     }
     assert!(!md.contains("NaN"));
+    // computed numbers: at 100 runs the scenario file's HT-T2GT has P_c 94 % and fused
+    // RMSE 40 m, the paper-literal origin 74 % and 121 m, FTA 99 % and 28 m (cells:
+    // configuration, P_c, correct, false, missed, early P_c, late P_c, global tracks,
+    // surplus, fused RMSE, T1-T4)
+    let node = "| `ht-t2gt` + `sdf`, origin at the global node (**scenario file**) |";
+    assert_cell(&md, node, 1, (85.0, 100.0), "HT-T2GT P_c (%)");
+    assert_cell(&md, node, 9, (20.0, 70.0), "HT-T2GT fused RMSE (m)");
+    let literal = "| `ht-t2gt` + `sdf`, every default: Hough origin (0, 0) (paper-literal) |";
+    assert_cell(
+        &md,
+        literal,
+        1,
+        (40.0, 90.0),
+        "paper-literal HT-T2GT P_c (%)",
+    );
+    let fta = "| `fta` + `sdf` (m = 6) |";
+    assert_cell(&md, fta, 1, (90.0, 100.0), "FTA P_c (%)");
+    assert_cell(&md, fta, 9, (15.0, 50.0), "FTA fused RMSE (m)");
 }

@@ -21,6 +21,7 @@ use anyhow::{bail, Context, Result};
 use std::fmt::Write;
 use std::process::Command;
 use trackfuse::center::bias::{track_pair_ls, BiasEstimate};
+use trackfuse::experiments::ratio;
 use trackfuse::metrics::Summary;
 
 const RUNS: u32 = 100;
@@ -36,13 +37,6 @@ fn settled_rmse(s: &Summary) -> Option<f64> {
         .map(|(_, r)| r * r)
         .collect();
     (!late.is_empty()).then(|| (late.iter().sum::<f64>() / late.len() as f64).sqrt())
-}
-
-fn ratio(a: Option<f64>, b: Option<f64>) -> Option<f64> {
-    match (a, b) {
-        (Some(a), Some(b)) if b > 0.0 => Some(a / b),
-        _ => None,
-    }
 }
 
 /// The CLI stages on files, as a user would run them; returns the Markdown section.

@@ -12,7 +12,7 @@ use super::{md_table, monte_carlo, num, scenario, Ctx, McResult};
 use anyhow::Result;
 use std::fmt::Write as _;
 use trackfuse::center::FusionConfig;
-use trackfuse::experiments::{IndexLine, Verdict};
+use trackfuse::experiments::{mean_all as mean, IndexLine, Verdict};
 use trackfuse::local::TrackerConfig;
 use trackfuse::max_entropy::DMin;
 use trackfuse::types::Id;
@@ -71,12 +71,6 @@ fn local_rmse(mc: &McResult, t: Id) -> Option<f64> {
         n += l.samples;
     }
     (n > 0).then(|| (s / n as f64).sqrt())
-}
-
-fn mean(v: &[Option<f64>]) -> Option<f64> {
-    let v: Option<Vec<f64>> = v.iter().copied().collect();
-    v.filter(|v| !v.is_empty())
-        .map(|v| v.iter().sum::<f64>() / v.len() as f64)
 }
 
 /// The verdict of a ratio (ours / a baseline's, lower is better for ours) against the

@@ -1883,7 +1883,7 @@ fn index_lines(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use trackfuse::stats::normal_quantile;
+    use trackfuse::stats::{chi2_quantile_wilson_hilferty, normal_quantile};
 
     #[test]
     fn chi_square_band_matches_tables() {

@@ -18,6 +18,7 @@ use anyhow::{bail, Result};
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
 use trackfuse::center::FusionConfig;
+use trackfuse::experiments::{compare_line, ratio};
 use trackfuse::metrics::{evaluate_run, EvalInput, RunMetrics, Summary};
 use trackfuse::pipeline::RunOutput;
 use trackfuse::RunConfig;
@@ -494,6 +495,27 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         num(fta.single_pass_us(), 2),
     ));
     md.push_str(&table1_discussion(&node, &wfc, &fta));
+    // the index line: the time ratio wFC / HT-T2GT (absolute times do not compare across
+    // machines and languages), and the order of the three methods by time
+    if let (Some(h), Some(w), Some(f)) = (
+        node.per_update_us(),
+        wfc.per_update_us(),
+        fta.per_update_us(),
+    ) {
+        let paper: Vec<(&str, f64)> = PAPER_TABLE1.iter().map(|r| (r.0, r.1)).collect();
+        let ours = [("HT-T2GT", h), ("wFC", w), ("FTA", f)];
+        ctx.verdict(compare_line(
+            (
+                "002",
+                "Table 1",
+                "time per global-track update, wFC / HT-T2GT; order of the three by time",
+            ),
+            PAPER_TABLE1[1].1 / PAPER_TABLE1[0].1,
+            w / h,
+            0.3,
+            Some((&paper, &ours)),
+        ))?;
+    }
 
     // --- accuracy
     md.push_str("## Association correctness and fused accuracy\n\n");
@@ -623,10 +645,6 @@ pub fn run(ctx: &Ctx) -> Result<String> {
     // issue 14 point 3: the d_min readings side by side (reproduce/dmin.rs)
     md.push_str(&super::dmin::section_002(ctx, runs)?);
     Ok(md)
-}
-
-fn ratio(a: Option<f64>, b: Option<f64>) -> Option<f64> {
-    a.zip(b).and_then(|(a, b)| (b > 0.0).then_some(a / b))
 }
 
 /// Whether `ours` differs from `paper` by more than 30 %.

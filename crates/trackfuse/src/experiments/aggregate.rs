@@ -108,10 +108,10 @@ pub fn mean_all(v: &[Option<f64>]) -> Option<f64> {
     (s.len() == v.len() && !s.is_empty()).then(|| s.iter().sum::<f64>() / s.len() as f64)
 }
 
-/// `a / b` when both are there and `b` is not zero.
+/// `a / b` when both are there and `b` is positive (ratios of times, errors, rates).
 pub fn ratio(a: Option<f64>, b: Option<f64>) -> Option<f64> {
     match (a, b) {
-        (Some(a), Some(b)) if b != 0.0 => Some(a / b),
+        (Some(a), Some(b)) if b > 0.0 => Some(a / b),
         _ => None,
     }
 }
