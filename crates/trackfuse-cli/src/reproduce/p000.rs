@@ -44,7 +44,9 @@ use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::time::{Duration, Instant};
 use trackfuse::center::{fuse_all, FusedRun, FusionConfig};
-use trackfuse::experiments::{mean_all as mean, ranking_present as ranking, reduction_pct as pct};
+use trackfuse::experiments::{
+    mean_all as mean, ranking_present as ranking, reduction_pct as pct, sweep,
+};
 use trackfuse::metrics::{evaluate_run, label_local_tracks, EvalInput, RunMetrics};
 use trackfuse::models::polar::polar_image;
 use trackfuse::montecarlo::run_parallel;
@@ -426,17 +428,6 @@ fn local_rmse(mc: &McResult, sensor: Id, target: Id) -> Option<f64> {
         .iter()
         .find(|r| r.sensor_id == sensor && r.target_id == target)
         .map(|r| r.rmse)
-}
-
-/// A sweep's values `0, step, ..., max`, or (smoke runs) its first and last.
-fn sweep(step: f64, max: f64, full: bool) -> Vec<f64> {
-    let n = (max / step).round() as usize;
-    let all: Vec<f64> = (0..=n).map(|i| i as f64 * step).collect();
-    if full || all.len() <= 2 {
-        all
-    } else {
-        vec![all[0], all[n]]
-    }
 }
 
 /// `sc` with every radar's biases set.

@@ -14,7 +14,7 @@ use anyhow::{Context, Result};
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use trackfuse::experiments::{
-    compare_line, mean_present, mean_present as mean, nees, nees_band, order_text,
+    compare_line, mean_present as mean, nees, nees_band, order_text, PerScanSquares,
 };
 use trackfuse::local::{InitiationConfig, InitiationMethod, KnownStart, TrackerConfig};
 use trackfuse::metrics::label_local_tracks;
@@ -291,7 +291,7 @@ struct Identity {
     /// Per target (in target-id order): sum of squared position errors, samples.
     sq: Vec<(f64, u64)>,
     /// Per target and scan: squared position error, samples (eq. 17's terms).
-    sq_scan: Vec<BTreeMap<u32, (f64, u64)>>,
+    sq_scan: Vec<PerScanSquares>,
     /// Truth points per target.
     truth: Vec<u64>,
     /// A track ends the run nearer another target than its own.
@@ -312,7 +312,7 @@ fn identity(out: &RunOutput, label_gate: f64) -> Identity {
     let mut truth: HashMap<(u32, Id), StateVec> = HashMap::new();
     let mut id = Identity {
         sq: vec![(0.0, 0); targets.len()],
-        sq_scan: vec![BTreeMap::new(); targets.len()],
+        sq_scan: vec![PerScanSquares::default(); targets.len()],
         truth: vec![0; targets.len()],
         ..Identity::default()
     };
@@ -354,9 +354,7 @@ fn identity(out: &RunOutput, label_gate: f64) -> Identity {
         let e = &mut id.sq[index[&target]];
         e.0 += e2;
         e.1 += 1;
-        let e = id.sq_scan[index[&target]].entry(l.scan).or_default();
-        e.0 += e2;
-        e.1 += 1;
+        id.sq_scan[index[&target]].add(l.scan, e2);
         if let Some(v) = nees(&(l.state - x), &l.cov) {
             let n = id.nees.entry(l.scan).or_default();
             n.0 += v;
@@ -449,7 +447,7 @@ fn run_variant(ctx: &Ctx, sc: &RunConfig, v: &Variant, runs: u32) -> Result<Outc
     .with_context(|| format!("{} with {}", sc.scenario.name, v.label))?;
     let n_targets = ids.first().map_or(0, |i| i.sq.len());
     let mut sq = vec![(0.0, 0u64); n_targets];
-    let mut sq_scan: Vec<BTreeMap<u32, (f64, u64)>> = vec![BTreeMap::new(); n_targets];
+    let mut sq_scan: Vec<PerScanSquares> = vec![PerScanSquares::default(); n_targets];
     let mut truth = vec![0u64; n_targets];
     let mut nees_per_scan: BTreeMap<u32, (f64, u64)> = BTreeMap::new();
     let (mut on_other_runs, mut lost_runs) = (0, 0);
@@ -459,11 +457,7 @@ fn run_variant(ctx: &Ctx, sc: &RunConfig, v: &Variant, runs: u32) -> Result<Outc
             sq[t].1 += e.1;
         }
         for (t, per_scan) in id.sq_scan.iter().enumerate().take(n_targets) {
-            for (scan, e) in per_scan {
-                let a = sq_scan[t].entry(*scan).or_default();
-                a.0 += e.0;
-                a.1 += e.1;
-            }
+            sq_scan[t].merge(per_scan);
         }
         for (t, n) in id.truth.iter().enumerate().take(n_targets) {
             truth[t] += n;
@@ -509,16 +503,8 @@ fn run_variant(ctx: &Ctx, sc: &RunConfig, v: &Variant, runs: u32) -> Result<Outc
         .iter()
         .map(|&(s, n)| (n > 0).then(|| (s / n as f64).sqrt()))
         .collect();
-    let eq17 = sq_scan
-        .iter()
-        .map(|per_scan| {
-            let rmse_k: Vec<Option<f64>> = per_scan
-                .values()
-                .map(|&(s, n)| (n > 0).then(|| (s / n as f64).sqrt()))
-                .collect();
-            mean_present(&rmse_k)
-        })
-        .collect();
+    // eq. 17 per scan, averaged over the scans (the tables' numbers)
+    let eq17 = sq_scan.iter().map(PerScanSquares::mean_rmse).collect();
     Ok(Outcome {
         mc,
         eq17,

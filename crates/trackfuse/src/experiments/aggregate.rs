@@ -102,6 +102,18 @@ pub fn nees_band(n: u64, dof: u32) -> (f64, f64) {
     )
 }
 
+/// A sweep's values `0, step, ..., max` (`max / step` rounded to whole steps), or, when
+/// not `full` (smoke runs), its first and last.
+pub fn sweep(step: f64, max: f64, full: bool) -> Vec<f64> {
+    let n = (max / step).round() as usize;
+    let all: Vec<f64> = (0..=n).map(|i| i as f64 * step).collect();
+    if full || all.len() <= 2 {
+        all
+    } else {
+        vec![all[0], all[n]]
+    }
+}
+
 /// The mean when every value is present (`None` when one is missing or there are none).
 pub fn mean_all(v: &[Option<f64>]) -> Option<f64> {
     let s: Vec<f64> = v.iter().flatten().copied().collect();
@@ -194,6 +206,8 @@ mod tests {
 
     #[test]
     fn means_ratios_rankings() {
+        assert_eq!(sweep(0.5, 2.0, true), vec![0.0, 0.5, 1.0, 1.5, 2.0]);
+        assert_eq!(sweep(0.5, 2.0, false), vec![0.0, 2.0]);
         assert_eq!(mean_all(&[Some(1.0), Some(3.0)]), Some(2.0));
         assert_eq!(mean_all(&[Some(1.0), None]), None);
         assert_eq!(ratio(Some(3.0), Some(2.0)), Some(1.5));
