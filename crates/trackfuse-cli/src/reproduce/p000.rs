@@ -45,7 +45,7 @@ use std::fmt::Write as _;
 use std::time::{Duration, Instant};
 use trackfuse::center::{fuse_all, FusedRun, FusionConfig};
 use trackfuse::experiments::{
-    mean_all as mean, ranking_present as ranking, reduction_pct as pct, sweep,
+    mean_all as mean, ranking_flip, ranking_present as ranking, reduction_pct as pct, sweep,
 };
 use trackfuse::metrics::{evaluate_run, label_local_tracks, EvalInput, RunMetrics};
 use trackfuse::models::polar::polar_image;
@@ -430,6 +430,31 @@ fn local_rmse(mc: &McResult, sensor: Id, target: Id) -> Option<f64> {
         .map(|r| r.rmse)
 }
 
+/// Under a fused-tracks table: whether the paper's methods (the rows with paper values)
+/// rank the same by fused RMSE and by GOSPA, in one sentence.
+fn flip_sentence<R, P>(
+    variants: &[Variant],
+    results: &[R],
+    paper: &[Option<P>],
+    mc: impl Fn(&R) -> &McResult,
+) -> String {
+    let mut by_rmse = Vec::new();
+    let mut by_gospa = Vec::new();
+    for ((v, r), p) in variants.iter().zip(results).zip(paper) {
+        let s = &mc(r).summary;
+        if let (Some(_), Some(rmse)) = (p, s.fused_rmse) {
+            by_rmse.push((v.label, rmse));
+            by_gospa.push((v.label, s.gospa.mean));
+        }
+    }
+    ranking_flip(&by_rmse, &by_gospa).unwrap_or_else(|| {
+        format!(
+            "The paper's methods rank the same by fused RMSE and by GOSPA ({}).",
+            trackfuse::experiments::order(&by_gospa).join(" < ")
+        )
+    })
+}
+
 /// `sc` with every radar's biases set.
 fn with_biases(sc: &RunConfig, range: f64, bearing: f64) -> RunConfig {
     let mut s = sc.clone();
@@ -554,19 +579,43 @@ fn table2(ctx: &Ctx, runs: u32, md: &mut String) -> Result<()> {
         }
         row.push(num(mc.summary.probability_correct_association, 3));
         row.push(num(mc.summary.track_coverage, 3));
+        row.push(num(Some(mc.summary.gospa.mean), 1));
+        row.push(num(Some(mc.summary.gospa.mean_false_tracks), 2));
         rows.push(row);
     }
     md.push_str(&md_table(
         &[
-            "method", "T1 paper", "T1 ours", "diff", "T2 paper", "T2 ours", "diff", "T3 paper",
-            "T3 ours", "diff", "T4 paper", "T4 ours", "diff", "P_c", "coverage",
+            "method",
+            "T1 paper",
+            "T1 ours",
+            "diff",
+            "T2 paper",
+            "T2 ours",
+            "diff",
+            "T3 paper",
+            "T3 ours",
+            "diff",
+            "T4 paper",
+            "T4 ours",
+            "diff",
+            "P_c",
+            "coverage",
+            "GOSPA",
+            "false tracks / scan",
         ],
         &rows,
     ));
     writeln!(
         md,
         "\nP_c: eq. 19 (the paper gives none for scenario I); coverage: the share of truth \
-         points with a fused estimate within 1 km (the RMSE is over those).\n"
+         points with a fused estimate within 1 km (the RMSE is over those). GOSPA: the \
+         scenario's evaluation settings, mean over scans; false tracks / scan: fused tracks \
+         GOSPA leaves unassigned (duplicates and false tracks), which the RMSE does not see.\n"
+    )?;
+    writeln!(
+        md,
+        "{}\n",
+        flip_sentence(&variants, &results, &paper, |mc| mc)
     )?;
 
     // discussion, from the numbers
@@ -761,15 +810,31 @@ fn table6(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
         }
         row.push(num(ex.pc.mean(), 3));
         row.push(num(mc.summary.track_coverage, 3));
+        row.push(num(Some(mc.summary.gospa.mean), 1));
+        row.push(num(Some(mc.summary.gospa.mean_false_tracks), 2));
         rows.push(row);
     }
     md.push_str(&md_table(
         &[
-            "method", "T1 paper", "T1 ours", "diff", "T2 paper", "T2 ours", "diff", "P_c",
+            "method",
+            "T1 paper",
+            "T1 ours",
+            "diff",
+            "T2 paper",
+            "T2 ours",
+            "diff",
+            "P_c",
             "coverage",
+            "GOSPA",
+            "false tracks / scan",
         ],
         &rows,
     ));
+    writeln!(
+        md,
+        "\n{}",
+        flip_sentence(&variants, &results, &paper, |(mc, _)| mc)
+    )?;
     writeln!(
         md,
         "\nP_c: eq. 19 with biased-frame labels. Coverage: share of truth points with a fused \

@@ -26,7 +26,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
 use trackfuse::center::bias::BiasEstimate;
 use trackfuse::center::{fuse_all, fuse_all_two_pass, FusionConfig};
-use trackfuse::experiments::{biased_frame_labels, IndexLine, Verdict};
+use trackfuse::experiments::{biased_frame_labels, ranking_flip, IndexLine, Verdict};
 use trackfuse::metrics::{evaluate_run, EvalInput, RunMetrics, Summary};
 use trackfuse::models::polar::polar_shift_position;
 use trackfuse::montecarlo::run_parallel;
@@ -497,7 +497,7 @@ pub fn run(ctx: &Ctx) -> Result<String> {
                     rel(ours.unwrap_or(f64::NAN), Some(*p)),
                 ]);
             }
-            r.extend(["-".into(), "-".into(), "-".into()]);
+            r.extend(["-".into(), "-".into(), "-".into(), "-".into(), "-".into()]);
             rows.push(r);
         }
     }
@@ -514,6 +514,8 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             num(settled(s), 1),
             num(s.probability_correct_association, 3),
             num(s.track_coverage, 3),
+            num(Some(s.gospa.mean), 1),
+            num(Some(s.gospa.mean_false_tracks), 2),
         ]);
         rows.push(r);
     }
@@ -530,6 +532,8 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             num(settled(&two_pass), 1),
             num(two_pass.probability_correct_association, 3),
             num(two_pass.track_coverage, 3),
+            num(Some(two_pass.gospa.mean), 1),
+            num(Some(two_pass.gospa.mean_false_tracks), 2),
         ]);
         rows.push(r);
     }
@@ -548,9 +552,28 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             &format!("ours, all targets, from scan {SETTLED_FROM}"),
             "P_c",
             "coverage",
+            "GOSPA",
+            "false tracks / scan",
         ],
         &rows,
     ));
+    // the paper's three rows (with each estimator): RMSE against GOSPA ranking
+    let mut flips = Vec::new();
+    for rows in PAPER_ROWS {
+        let by = |f: &dyn Fn(&Summary) -> Option<f64>| -> Vec<(&str, f64)> {
+            rows.iter()
+                .filter_map(|&k| f(&summaries[k]).map(|v| (VARIANTS[k].0, v)))
+                .collect()
+        };
+        let (r, g) = (by(&|s| s.fused_rmse), by(&|s| Some(s.gospa.mean)));
+        flips.push(ranking_flip(&r, &g).unwrap_or_else(|| {
+            format!(
+                "By fused RMSE and by GOSPA the same order: {}.",
+                trackfuse::experiments::order(&g).join(" < ")
+            )
+        }));
+    }
+    writeln!(md, "\n{}", flips.join(" "))?;
     writeln!(
         md,
         "\nOurs are eq. 11 over every scan with an assigned estimate and every run (the \

@@ -114,6 +114,29 @@ pub fn sweep(step: f64, max: f64, full: bool) -> Vec<f64> {
     }
 }
 
+/// Where the ranking by RMSE and the ranking by GOSPA disagree (issue of duplicate
+/// tracks: the RMSE counts one fused track per target, GOSPA also the surplus ones), one
+/// sentence naming both orders (smaller first); `None` when they agree. Each list holds
+/// `(method, value)`; methods missing from either are left out.
+pub fn ranking_flip(rmse: &[(&str, f64)], gospa: &[(&str, f64)]) -> Option<String> {
+    let common = |v: &[(&str, f64)], other: &[(&str, f64)]| -> Vec<String> {
+        super::order(v)
+            .into_iter()
+            .filter(|n| other.iter().any(|(m, _)| m == n))
+            .map(str::to_string)
+            .collect()
+    };
+    let (by_rmse, by_gospa) = (common(rmse, gospa), common(gospa, rmse));
+    (by_rmse != by_gospa).then(|| {
+        format!(
+            "The ranking flips: by RMSE {}, by GOSPA {} (GOSPA also counts the duplicate \
+             and false tracks that the one-track-per-target RMSE leaves out).",
+            by_rmse.join(" < "),
+            by_gospa.join(" < ")
+        )
+    })
+}
+
 /// The mean when every value is present (`None` when one is missing or there are none).
 pub fn mean_all(v: &[Option<f64>]) -> Option<f64> {
     let s: Vec<f64> = v.iter().flatten().copied().collect();
@@ -206,6 +229,16 @@ mod tests {
 
     #[test]
     fn means_ratios_rankings() {
+        let rmse = [("FTF", 2.1), ("FDBSC-TA", 2.2)];
+        let flip = ranking_flip(&rmse, &[("FTF", 36.7), ("FDBSC-TA", 5.8)]).unwrap();
+        assert!(
+            flip.contains("by RMSE FTF < FDBSC-TA, by GOSPA FDBSC-TA < FTF"),
+            "{flip}"
+        );
+        assert_eq!(
+            ranking_flip(&rmse, &[("FTF", 5.0), ("FDBSC-TA", 6.0)]),
+            None
+        );
         assert_eq!(sweep(0.5, 2.0, true), vec![0.0, 0.5, 1.0, 1.5, 2.0]);
         assert_eq!(sweep(0.5, 2.0, false), vec![0.0, 2.0]);
         assert_eq!(mean_all(&[Some(1.0), Some(3.0)]), Some(2.0));
