@@ -362,7 +362,9 @@ fn run_all(args: &ReproduceArgs) -> Result<()> {
         "# Reproductions: index\n\nMade by `trackfuse reproduce --all{runs}` ({}). One line per table: \
          the paper's value, ours, their ratio, whether the methods rank as in the paper, and \
          a verdict (matches / same ranking, off / differs) with its reason. Each \
-         reproduction's file has the full tables and the readings side by side.\n\n",
+         reproduction's file has the full tables and the readings side by side; `bias.md` \
+         runs the project's own bias scenario against its bias-free twin and compares with \
+         no paper, so it has no line here.\n\n",
         if args.runs.is_some() {
             "runs as given"
         } else {

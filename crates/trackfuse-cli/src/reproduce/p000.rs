@@ -35,8 +35,9 @@
 //!
 //! The paper states 100 Monte Carlo runs for its RMSE tables and no count for Figs. 5-6.
 //! The four sweeps have 54 points, each a scenario III run (672 false alarms per
-//! sensor-scan) fused by five variants: at 100 runs per point they alone take about 15
-//! minutes on 2 cores. Without `--runs` each point runs [`SWEEP_RUNS`] (20: P_c of one
+//! sensor-scan) fused by five variants: at 100 runs per point `reproduce 000` took more
+//! than 10 minutes on 2 cores (measured; 138 s at 20 runs per point), which with the
+//! other reproductions breaks the 15 minutes of `reproduce --all`. Without `--runs` each point runs [`SWEEP_RUNS`] (20: P_c of one
 //! point is a mean over 20 x 118 scans x 2 targets, its spread a few hundredths);
 //! `--runs N` sets the points' runs too.
 //!
@@ -1103,8 +1104,8 @@ fn figs56(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
          wherever the biases exceed its resolutions of tens of metres, see Table 6's extra \
          row). The sweeps as printed (rad) come first; then, as an extra reading, the same \
          bearing values in degrees (see below). Each point: {runs} Monte Carlo runs (the \
-         paper gives no count for the figures; 100 per point would take about 15 minutes \
-         on 2 cores, `--runs` sets it).{}\n",
+         paper gives no count for the figures; at 100 per point this reproduction takes \
+         more than 10 minutes on 2 cores, `--runs` sets it).{}\n",
         sc.fusion.bias.as_deref().unwrap_or("none"),
         if full {
             ""
