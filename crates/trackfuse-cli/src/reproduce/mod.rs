@@ -293,6 +293,15 @@ pub fn rel(ours: f64, paper: Option<f64>) -> String {
 }
 
 /// A number with `d` decimals, `-` for none / not finite.
+/// The two cells every fused RMSE row carries beside it: GOSPA (mean over scans, one
+/// decimal) and the fused tracks per scan GOSPA leaves unassigned (two decimals).
+pub fn gospa_cells(s: &trackfuse::metrics::Summary) -> [String; 2] {
+    [
+        num(Some(s.gospa.mean), 1),
+        num(Some(s.gospa.mean_false_tracks), 2),
+    ]
+}
+
 pub fn num(v: Option<f64>, d: usize) -> String {
     match v {
         Some(v) if v.is_finite() => format!("{v:.d$}"),

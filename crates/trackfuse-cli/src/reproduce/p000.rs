@@ -46,14 +46,14 @@
 //! variant of a table row set ([`run_variants`]): the local trackers do not see the
 //! center, so their tracks are the same for all variants.
 
-use super::{md_table, monte_carlo, num, rel, scenario, Ctx, McResult};
+use super::{gospa_cells, md_table, monte_carlo, num, rel, scenario, Ctx, McResult};
 use anyhow::Result;
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::time::{Duration, Instant};
 use trackfuse::center::{fuse_all, FusedRun, FusionConfig};
 use trackfuse::experiments::{
-    mean_all as mean, ranking_flip, ranking_present as ranking, reduction_pct as pct, sweep,
+    mean_all as mean, ranking_present as ranking, ranking_sentence, reduction_pct as pct, sweep,
 };
 use trackfuse::metrics::{evaluate_run, label_local_tracks, EvalInput, RunMetrics};
 use trackfuse::models::polar::polar_image;
@@ -459,12 +459,7 @@ fn flip_sentence<R, P>(
             by_gospa.push((v.label, s.gospa.mean));
         }
     }
-    ranking_flip(&by_rmse, &by_gospa).unwrap_or_else(|| {
-        format!(
-            "The paper's methods rank the same by fused RMSE and by GOSPA ({}).",
-            trackfuse::experiments::order(&by_gospa).join(" < ")
-        )
-    })
+    ranking_sentence("The paper's methods", "fused RMSE", &by_rmse, &by_gospa)
 }
 
 /// `sc` with every radar's biases set.
@@ -591,8 +586,7 @@ fn table2(ctx: &Ctx, runs: u32, md: &mut String) -> Result<()> {
         }
         row.push(num(mc.summary.probability_correct_association, 3));
         row.push(num(mc.summary.track_coverage, 3));
-        row.push(num(Some(mc.summary.gospa.mean), 1));
-        row.push(num(Some(mc.summary.gospa.mean_false_tracks), 2));
+        row.extend(gospa_cells(&mc.summary));
         rows.push(row);
     }
     md.push_str(&md_table(
@@ -822,8 +816,7 @@ fn table6(ctx: &Ctx, sc: &RunConfig, runs: u32, md: &mut String) -> Result<()> {
         }
         row.push(num(ex.pc.mean(), 3));
         row.push(num(mc.summary.track_coverage, 3));
-        row.push(num(Some(mc.summary.gospa.mean), 1));
-        row.push(num(Some(mc.summary.gospa.mean_false_tracks), 2));
+        row.extend(gospa_cells(&mc.summary));
         rows.push(row);
     }
     md.push_str(&md_table(

@@ -20,13 +20,13 @@
 //! both: the raw local tracks and the local tracks corrected with each run's final
 //! `track-pair-ls` estimates (FDBSC-TA variant), against the same labels.
 
-use super::{md_table, num, rel, scenario, Ctx};
+use super::{gospa_cells, md_table, num, rel, scenario, Ctx};
 use anyhow::Result;
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
 use trackfuse::center::bias::BiasEstimate;
 use trackfuse::center::{fuse_all, fuse_all_two_pass, FusionConfig};
-use trackfuse::experiments::{biased_frame_labels, ranking_flip, IndexLine, Verdict};
+use trackfuse::experiments::{biased_frame_labels, ranking_sentence, IndexLine, Verdict};
 use trackfuse::metrics::{evaluate_run, EvalInput, RunMetrics, Summary};
 use trackfuse::models::polar::polar_shift_position;
 use trackfuse::montecarlo::run_parallel;
@@ -514,9 +514,8 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             num(settled(s), 1),
             num(s.probability_correct_association, 3),
             num(s.track_coverage, 3),
-            num(Some(s.gospa.mean), 1),
-            num(Some(s.gospa.mean_false_tracks), 2),
         ]);
+        r.extend(gospa_cells(s));
         rows.push(r);
     }
     {
@@ -532,9 +531,8 @@ pub fn run(ctx: &Ctx) -> Result<String> {
             num(settled(&two_pass), 1),
             num(two_pass.probability_correct_association, 3),
             num(two_pass.track_coverage, 3),
-            num(Some(two_pass.gospa.mean), 1),
-            num(Some(two_pass.gospa.mean_false_tracks), 2),
         ]);
+        r.extend(gospa_cells(&two_pass));
         rows.push(r);
     }
     md.push_str(&md_table(
@@ -566,12 +564,12 @@ pub fn run(ctx: &Ctx) -> Result<String> {
                 .collect()
         };
         let (r, g) = (by(&|s| s.fused_rmse), by(&|s| Some(s.gospa.mean)));
-        flips.push(ranking_flip(&r, &g).unwrap_or_else(|| {
-            format!(
-                "By fused RMSE and by GOSPA the same order: {}.",
-                trackfuse::experiments::order(&g).join(" < ")
-            )
-        }));
+        flips.push(ranking_sentence(
+            "The paper's methods",
+            "fused RMSE",
+            &r,
+            &g,
+        ));
     }
     writeln!(md, "\n{}", flips.join(" "))?;
     writeln!(

@@ -13,12 +13,12 @@
 //! estimates published); each configuration is run [`TIMING_REPEATS`] times, each run's
 //! least fusion time is kept, and the metrics are checked identical across the passes.
 
-use super::{md_table, monte_carlo_with, num, rel, scenario, Ctx, McResult};
+use super::{gospa_cells, md_table, monte_carlo_with, num, rel, scenario, Ctx, McResult};
 use anyhow::{bail, Result};
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
 use trackfuse::center::FusionConfig;
-use trackfuse::experiments::{compare_line, ranking_flip, ratio};
+use trackfuse::experiments::{compare_line, ranking_sentence, ratio};
 use trackfuse::metrics::{evaluate_run, EvalInput, RunMetrics, Summary};
 use trackfuse::pipeline::RunOutput;
 use trackfuse::RunConfig;
@@ -290,8 +290,7 @@ fn accuracy_row(label: &str, o: &Outcome) -> Vec<String> {
         num(o.s().fused_rmse, 1),
     ];
     row.extend((0..4).map(|t| num(o.rmse_target(t), 1)));
-    row.push(num(Some(o.s().gospa.mean), 1));
-    row.push(num(Some(o.s().gospa.mean_false_tracks), 2));
+    row.extend(gospa_cells(o.s()));
     row
 }
 
@@ -300,8 +299,7 @@ fn rules_row(rule: &str, o: &Outcome, reference: Option<f64>) -> Vec<String> {
     let mut row = vec![format!("`{rule}`"), pct(o.pc()), pct(c), pct(f)];
     row.push(num(o.s().fused_rmse, 1));
     row.extend((0..4).map(|t| num(o.rmse_target(t), 1)));
-    row.push(num(Some(o.s().gospa.mean), 1));
-    row.push(num(Some(o.s().gospa.mean_false_tracks), 2));
+    row.extend(gospa_cells(o.s()));
     row.push(num(o.per_update_us(), 2));
     row.push(num(
         o.per_update_us()
@@ -595,12 +593,12 @@ pub fn run(ctx: &Ctx) -> Result<String> {
                 .collect()
         };
         let (r, g) = (by(&|o| o.s().fused_rmse), by(&|o| Some(o.s().gospa.mean)));
-        md.push_str(&ranking_flip(&r, &g).unwrap_or_else(|| {
-            format!(
-                "HT-T2GT, wFC and FTA rank the same by fused RMSE and by GOSPA ({}).",
-                trackfuse::experiments::order(&g).join(" < ")
-            )
-        }));
+        md.push_str(&ranking_sentence(
+            "HT-T2GT, wFC and FTA",
+            "fused RMSE",
+            &r,
+            &g,
+        ));
         md.push_str(
             " GOSPA: the scenario's evaluation settings, mean over scans; false tracks / \
              scan: fused tracks it leaves unassigned (duplicates included).\n\n",

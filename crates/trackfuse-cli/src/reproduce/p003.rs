@@ -21,7 +21,8 @@ use std::collections::{BTreeMap, HashMap};
 use trackfuse::center::t2ta::ftta::{correlation_matrix, FttaParams, Report};
 use trackfuse::center::FusionConfig;
 use trackfuse::experiments::{
-    compare_line, ranking_flip, ranking_with_ties, IndexLine, PerScanSquares as PerScan, Verdict,
+    compare_line, ranking_sentence, ranking_with_ties, IndexLine, PerScanSquares as PerScan,
+    Verdict,
 };
 use trackfuse::local::TrackerConfig;
 use trackfuse::metrics::{gated_assignment, label_local_tracks};
@@ -695,11 +696,12 @@ pub fn run(ctx: &Ctx) -> Result<String> {
         md.push_str(&format!(
             "\nGOSPA: the scenario's evaluation settings, mean over scans, all three targets; \
              false tracks / scan: fused tracks it leaves unassigned. {}\n",
-            ranking_flip(&by_rmse, &by_gospa).unwrap_or_else(|| format!(
-                "The paper's rules rank the same by the mean of the two RMSE and by GOSPA \
-                 ({}).",
-                trackfuse::experiments::order(&by_gospa).join(" < ")
-            ))
+            ranking_sentence(
+                "The paper's rules",
+                "the mean of the two RMSE",
+                &by_rmse,
+                &by_gospa,
+            )
         ));
         md.push('\n');
         let dt = cases[c].scenario.dt;

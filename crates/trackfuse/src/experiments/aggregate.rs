@@ -137,6 +137,23 @@ pub fn ranking_flip(rmse: &[(&str, f64)], gospa: &[(&str, f64)]) -> Option<Strin
     })
 }
 
+/// The sentence under a fused-tracks table: [`ranking_flip`]'s when the rankings by RMSE
+/// and by GOSPA differ, else `{subject} rank the same by {rmse_name} and by GOSPA (a < b
+/// < ...).`
+pub fn ranking_sentence(
+    subject: &str,
+    rmse_name: &str,
+    rmse: &[(&str, f64)],
+    gospa: &[(&str, f64)],
+) -> String {
+    ranking_flip(rmse, gospa).unwrap_or_else(|| {
+        format!(
+            "{subject} rank the same by {rmse_name} and by GOSPA ({}).",
+            super::order(gospa).join(" < ")
+        )
+    })
+}
+
 /// The mean when every value is present (`None` when one is missing or there are none).
 pub fn mean_all(v: &[Option<f64>]) -> Option<f64> {
     let s: Vec<f64> = v.iter().flatten().copied().collect();
@@ -238,6 +255,15 @@ mod tests {
         assert_eq!(
             ranking_flip(&rmse, &[("FTF", 5.0), ("FDBSC-TA", 6.0)]),
             None
+        );
+        assert_eq!(
+            ranking_sentence(
+                "Both",
+                "fused RMSE",
+                &rmse,
+                &[("FTF", 5.0), ("FDBSC-TA", 6.0)]
+            ),
+            "Both rank the same by fused RMSE and by GOSPA (FTF < FDBSC-TA)."
         );
         assert_eq!(sweep(0.5, 2.0, true), vec![0.0, 0.5, 1.0, 1.5, 2.0]);
         assert_eq!(sweep(0.5, 2.0, false), vec![0.0, 2.0]);

@@ -14,8 +14,8 @@ pub mod aggregate;
 pub mod labels;
 
 pub use aggregate::{
-    mean_all, nees, nees_band, ranking_flip, ranking_present, ranking_with_ties, ratio,
-    reduction_pct, sweep, PerScanSquares,
+    mean_all, nees, nees_band, ranking_flip, ranking_present, ranking_sentence, ranking_with_ties,
+    ratio, reduction_pct, sweep, PerScanSquares,
 };
 pub use labels::biased_frame_labels;
 
