@@ -230,6 +230,8 @@ fn bench_io(
         Ok(n)
     })?;
     print_io("read measurements.csv", bytes, n, secs);
+    let (secs, n) = best_cpu(repeat, || quick_rows(&meas_path))?;
+    print_io("quick pass measurements.csv", bytes, n, secs);
     let rows = MeasurementStream::open(&meas_path, Some(&sensors))?.collect_rows()?;
     let (secs, written) = best_cpu(repeat, || {
         let mut w = MeasurementWriter::new(CountingSink::default(), &sensors)?;
@@ -252,6 +254,8 @@ fn bench_io(
             Ok(n)
         })?;
         print_io("read local_tracks.csv", bytes, n, secs);
+        let (secs, n) = best_cpu(repeat, || quick_rows(path))?;
+        print_io("quick pass local_tracks.csv", bytes, n, secs);
         let rows = LocalTrackStream::open(path)?.collect_rows()?;
         let (secs, written) = best_cpu(repeat, || {
             let mut w = LocalTrackWriter::new(CountingSink::default())?;
@@ -263,6 +267,19 @@ fn bench_io(
         print_io("write local_tracks.csv", written, rows.len(), secs);
     }
     Ok(())
+}
+
+/// The quick pass of `track` and `fuse` over `path` (`trackfuse::io::quick_report_times`):
+/// the number of data rows it read; an error if it sends the file to the
+/// validating stream instead (then it measures nothing).
+fn quick_rows(path: &std::path::Path) -> Result<usize> {
+    let times = trackfuse::io::quick_report_times(path)?.ok_or_else(|| {
+        anyhow::anyhow!(
+            "{}: the quick pass does not read this file (the validating stream does)",
+            path.display()
+        )
+    })?;
+    Ok(times.1 as usize)
 }
 
 /// `bench bias`: see [`BenchWhat::Bias`].

@@ -4,7 +4,8 @@
 //! It streams: local_tracks.csv (and truth.csv, with `--truth`) is read one scan (or,
 //! without a scan column, one time) at a time, and the center fuses at its own update
 //! instants (`--period`, default the shortest of the sensors' median report intervals,
-//! learned in one pass over the file first; `trackfuse::center::instants`), each
+//! learned in a quick pass over each row's sensor and time first,
+//! `trackfuse::io::quick_report_times`; `trackfuse::center::instants`), each
 //! instant's fused tracks and associations written before the next batch is read, so
 //! memory does not grow with the number of scans (with more than one thread the next
 //! batch is read on a second thread while the current one is fused:
@@ -14,7 +15,8 @@
 //! corrected with pass 1's final estimates. Errors found while
 //! streaming name the file and line of the row (a local track whose sensor is not in
 //! sensors.csv, a center error about one local track) or of the scan's first row. On an
-//! error the partial outputs are removed.
+//! error while streaming the partial outputs are removed and the output folder is left
+//! as it was (nothing has been renamed into place yet).
 
 use crate::common::{for_each_scan, load_scenario, scenario_input};
 use crate::config::FusionFlags;
@@ -294,27 +296,38 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         }
         Ok(())
     };
-    let (stats, bias) = if args.two_pass {
-        // pass 1 estimates the biases and writes nothing; pass 2 reads the files again,
-        // corrects every scan with pass 1's final estimates and fuses without estimator
-        // (what `fuse_all_two_pass` does on a whole file in memory)
-        let first_stats = first.run(&mut center, None, |_, c, s, t| record(c, s, t))?;
-        let second_cfg = FusionConfig {
-            bias: None,
-            ..cfg.clone()
-        };
-        let mut second = new_center(args, &second_cfg, sensors.as_deref(), &labels)?;
-        let mut again = StreamFusion::open(args, &labels, sensors.as_deref())?;
-        again.schedule = (period, clocks);
-        let mut stats = again.run(&mut second, Some(&center), |out, _, _, _| write(out))?;
-        stats.elapsed += first_stats.elapsed;
-        (stats, center.bias_estimates())
-    } else {
-        let stats = first.run(&mut center, None, |out, c, s, t| {
-            write(out)?;
-            record(c, s, t)
-        })?;
-        (stats, center.bias_estimates())
+    let streamed = (|| -> Result<_> {
+        Ok(if args.two_pass {
+            // pass 1 estimates the biases and writes nothing; pass 2 reads the files again,
+            // corrects every scan with pass 1's final estimates and fuses without estimator
+            // (what `fuse_all_two_pass` does on a whole file in memory)
+            let first_stats = first.run(&mut center, None, |_, c, s, t| record(c, s, t))?;
+            let second_cfg = FusionConfig {
+                bias: None,
+                ..cfg.clone()
+            };
+            let mut second = new_center(args, &second_cfg, sensors.as_deref(), &labels)?;
+            let mut again = StreamFusion::open(args, &labels, sensors.as_deref())?;
+            again.schedule = (period, clocks);
+            let mut stats = again.run(&mut second, Some(&center), |out, _, _, _| write(out))?;
+            stats.elapsed += first_stats.elapsed;
+            (stats, center.bias_estimates())
+        } else {
+            let stats = first.run(&mut center, None, |out, c, s, t| {
+                write(out)?;
+                record(c, s, t)
+            })?;
+            (stats, center.bias_estimates())
+        })
+    })();
+    let (stats, bias) = match streamed {
+        Ok(v) => v,
+        Err(e) => {
+            // the atomic writers, dropped unfinished, leave nothing under the real names
+            drop((fw, aw, history));
+            outs.failed_before_commit();
+            return Err(e);
+        }
     };
     fw.finish().with_context(|| ctx(&fused_path))?;
     aw.finish().with_context(|| ctx(&assoc_path))?;
@@ -342,6 +355,11 @@ pub fn run(args: &FuseArgs) -> Result<()> {
 
 /// Each sensor's report clock, from the distinct times of its rows in local_tracks.csv.
 fn report_clocks(path: &Path) -> Result<BTreeMap<Id, ReportClock>> {
+    // two cells a row; a file the quick pass does not read exactly goes through the
+    // validating stream (which also names the first bad row, if any)
+    if let Some((times, _)) = trackfuse::io::quick_report_times(path)? {
+        return Ok(times.clocks());
+    }
     let mut times = ReportTimes::default();
     let mut stream = LocalTrackStream::open(path)?;
     let mut buf = Vec::new();

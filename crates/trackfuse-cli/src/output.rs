@@ -14,7 +14,9 @@
 //!   `bias_estimates.csv` after a run without a bias estimator) are removed, with one line
 //!   on stderr each. When it fails after it began writing, every file of its set is removed
 //!   (one line on stderr each), so the folder never mixes two runs; when it fails before
-//!   writing anything, the folder is left as it was. Files outside the set are never
+//!   writing anything, or before renaming any file into place (`track` and `fuse` on a bad
+//!   row found while streaming: [`Outputs::failed_before_commit`]), the folder is left as
+//!   it was. Files outside the set are never
 //!   touched, nor is any file of the set that is one of the command's inputs.
 
 use anyhow::{bail, Context, Result};
@@ -166,6 +168,13 @@ impl Outputs {
                 Err(e) => eprintln!("could not remove {} ({why}): {e}", p.display()),
             }
         }
+    }
+
+    /// The run failed before it renamed any file into place (its atomic writers dropped
+    /// unfinished leave nothing under the real names: a bad row found while streaming):
+    /// leave the folder as it was, an earlier run's outputs included.
+    pub fn failed_before_commit(mut self) {
+        self.finished = true;
     }
 
     /// The run succeeded: remove the files of the set this run did not write.

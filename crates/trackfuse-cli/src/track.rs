@@ -6,8 +6,10 @@
 //! tracks written before the next scan is read, so memory does not grow with the number
 //! of scans. With more than one thread (`--threads`, default all cores) the next scan is
 //! read on a second thread while the current one is tracked (`common::for_each_scan`):
-//! the same bytes and the same errors at any thread count. On an error (a bad row late
-//! in the file) the partial local_tracks.csv is removed.
+//! the same bytes and the same errors at any thread count. Before that, a quick pass
+//! reads each row's sensor and time for the sensors' report clocks
+//! (`trackfuse::io::quick_report_times`). On an error (a bad row late in the file) the
+//! partial local_tracks.csv is removed and the output folder is left as it was.
 
 use crate::common::{for_each_scan, load_scenario, scenario_input};
 use crate::config::TrackerFlags;
@@ -17,6 +19,7 @@ use clap::Args;
 use std::collections::BTreeSet;
 use std::path::PathBuf;
 use trackfuse::clock::ReportTimes;
+use trackfuse::io::quick_report_times;
 use trackfuse::io::Sink;
 use trackfuse::io::{read_sensors, LocalTrackWriter, MeasurementStream};
 use trackfuse::local::{MultiSensorTracker, TrackerConfig};
@@ -86,18 +89,25 @@ pub fn run(args: &TrackArgs) -> Result<()> {
         seed,
         0,
     )?;
-    // pass 1: each sensor's report clock from its measurement times (the file is read
-    // and checked once before anything is written), so that a sensor is scanned at its
-    // own times only (MultiSensorTracker::set_clocks)
-    let mut times = ReportTimes::default();
-    let mut pre = MeasurementStream::open(&meas_path, Some(&sensors))?;
-    let mut buf = Vec::new();
-    while pre.next_scan(&mut buf)?.is_some() {
-        for m in &buf {
-            times.add(m.sensor_id, m.time);
+    // pass 1: each sensor's report clock from its measurement times, so that a sensor
+    // is scanned at its own times only (MultiSensorTracker::set_clocks). The quick pass
+    // reads two cells a row; a file it does not read exactly goes through the validating
+    // stream (trackfuse::io::quick_report_times). Either way a bad row is reported by the
+    // validating stream, before anything is renamed into place (below).
+    let times = match quick_report_times(&meas_path)? {
+        Some((t, _)) => t,
+        None => {
+            let mut times = ReportTimes::default();
+            let mut pre = MeasurementStream::open(&meas_path, Some(&sensors))?;
+            let mut buf = Vec::new();
+            while pre.next_scan(&mut buf)?.is_some() {
+                for m in &buf {
+                    times.add(m.sensor_id, m.time);
+                }
+            }
+            times
         }
-    }
-    drop(pre);
+    };
     tracker.set_clocks(&times.clocks());
     let scenario_path = scenario_input(args.scenario.as_deref());
     let mut inputs = vec![sensors_path.as_path(), meas_path.as_path()];
@@ -106,9 +116,16 @@ pub fn run(args: &TrackArgs) -> Result<()> {
     let path = outs.path("local_tracks.csv")?;
     let ctx = || format!("writing {}", path.display());
     // atomic: a failed run (a bad row late in the file) leaves no partial local_tracks.csv,
-    // and `outs` dropped unfinished removes the folder's output set
+    // and the folder as it was (nothing was renamed into place)
     let mut w = LocalTrackWriter::create(&path).with_context(ctx)?;
-    let stats = track_stream(&mut measurements, &mut tracker, &mut w, &path)?;
+    let stats = match track_stream(&mut measurements, &mut tracker, &mut w, &path) {
+        Ok(s) => s,
+        Err(e) => {
+            drop(w);
+            outs.failed_before_commit();
+            return Err(e);
+        }
+    };
     w.finish().with_context(ctx)?;
     outs.finish();
     eprintln!(

@@ -111,6 +111,97 @@ fn an_earlier_runs_outputs_of_the_set_are_removed_others_kept() {
     );
 }
 
+/// `text` with cell `col` (0-based) of its last data row replaced by `cell`.
+fn last_row_cell(text: &str, col: usize, cell: &str) -> String {
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let last = lines.last_mut().expect("rows");
+    let mut cells: Vec<&str> = last.split(',').collect();
+    cells[col] = cell;
+    *last = cells.join(",");
+    lines.join("\n") + "\n"
+}
+
+/// A bad cell in the last row, found while streaming (after the quick first pass over
+/// sensor and time, which accepts the row): `track` and `fuse` fail naming file, line
+/// and column, and the output folder keeps the earlier run's outputs byte for byte.
+#[test]
+fn a_bad_row_found_while_streaming_leaves_the_earlier_outputs_as_they_were() {
+    let dir = tempfile::tempdir().expect("tmp");
+    simulated_and_tracked(dir.path());
+    let out = dir.path().join("run");
+    let local = dir.path().join("local_tracks.csv");
+    trackfuse()
+        .args(["track", "--data"])
+        .arg(dir.path())
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    trackfuse()
+        .args(["fuse", "--local-tracks"])
+        .arg(&local)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let snapshot = |d: &Path| -> Vec<(String, Vec<u8>)> {
+        files_in(d)
+            .into_iter()
+            .map(|f| {
+                let b = std::fs::read(d.join(&f)).expect("read");
+                (f, b)
+            })
+            .collect()
+    };
+    let before = snapshot(&out);
+    assert!(before.len() >= 3, "{:?}", files_in(&out));
+
+    let text = std::fs::read_to_string(&local).expect("read");
+    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+    let p00 = header.iter().position(|h| *h == "P00").expect("P00");
+    let bad = dir.path().join("bad_local_tracks.csv");
+    std::fs::write(&bad, last_row_cell(&text, p00, "abc")).expect("write");
+    let line = text.lines().count();
+    trackfuse()
+        .args(["fuse", "--local-tracks"])
+        .arg(&bad)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains(format!(
+            "{}:{line}:{}: column 'P00'",
+            bad.display(),
+            p00 + 1
+        )));
+    assert_eq!(snapshot(&out), before, "fuse left the folder as it was");
+
+    let meas = std::fs::read_to_string(dir.path().join("measurements.csv")).expect("read");
+    let header: Vec<&str> = meas.lines().next().expect("header").split(',').collect();
+    let range = header.iter().position(|h| *h == "range").expect("range");
+    let data = dir.path().join("bad_data");
+    std::fs::create_dir(&data).expect("mkdir");
+    std::fs::copy(dir.path().join("sensors.csv"), data.join("sensors.csv")).expect("copy");
+    std::fs::write(
+        data.join("measurements.csv"),
+        last_row_cell(&meas, range, "-5"),
+    )
+    .expect("write");
+    let line = meas.lines().count();
+    trackfuse()
+        .args(["track", "--data"])
+        .arg(&data)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains(format!(
+            "measurements.csv:{line}:{}: column 'range'",
+            range + 1
+        )));
+    assert_eq!(snapshot(&out), before, "track left the folder as it was");
+}
+
 /// A full disk, simulated with a file-size limit (the write fails with EFBIG; SIGXFSZ is
 /// ignored so the process sees the error): exit 1 naming the file, and no output under
 /// its real name, neither this run's nor the earlier run's it had begun to replace.

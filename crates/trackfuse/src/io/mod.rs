@@ -57,10 +57,12 @@
 
 mod error;
 mod lines;
+mod quick;
 mod reader;
 mod writer;
 
 pub use error::InputError;
+pub use quick::{quick_report_times, quick_report_times_from};
 pub use reader::{
     check_covariance, no_truth_rows, read_associations, read_associations_from, read_fused_tracks,
     read_fused_tracks_from, read_local_tracks, read_local_tracks_from, read_measurements,

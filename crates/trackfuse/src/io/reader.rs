@@ -366,7 +366,7 @@ impl Row<'_> {
 /// without `str::parse`'s UTF-8 check and sign and overflow handling); `None` for
 /// anything else.
 #[inline]
-fn small_int(b: &[u8]) -> Option<i64> {
+pub(crate) fn small_int(b: &[u8]) -> Option<i64> {
     let (neg, digits) = match b.split_first() {
         Some((b'-', rest)) => (true, rest),
         _ => (false, b),
