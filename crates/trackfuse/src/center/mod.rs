@@ -169,6 +169,13 @@ pub trait FusionRule: Send + Sync {
     fn fallback_count(&self) -> u64 {
         0
     }
+    /// Whether one fusion costs enough (an iterative search per group, as `ci`'s weight
+    /// search) that the center fuses a scan's groups in parallel: for the closed-form
+    /// rules the fork-join and the second thread's wake-ups cost more than they save
+    /// (measured: BENCHMARKS.md, "Both cores"). Default: no.
+    fn costly(&self) -> bool {
+        false
+    }
     /// Fuse a group's members with their weights.
     fn fuse(
         &self,

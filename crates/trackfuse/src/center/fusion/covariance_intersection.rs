@@ -426,6 +426,11 @@ fn best_on_segment(f: &dyn Fn(f64) -> f64, len: f64) -> f64 {
 }
 
 impl FusionRule for CovarianceIntersection {
+    /// The weight search (det: the exact line search; trace: golden section) is the
+    /// costly part of a `ci` run: the center fuses a scan's groups in parallel.
+    fn costly(&self) -> bool {
+        true
+    }
     fn name(&self) -> &'static str {
         NAME
     }
