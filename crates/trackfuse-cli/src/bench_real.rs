@@ -12,6 +12,13 @@
 //!   per-radar local GOSPA and RMSE;
 //! - the ratio of the fused RMSE to the best single radar's local RMSE.
 //!
+//! - the oracle (`trackfuse::experiments::oracle`): one filter per target fed every
+//!   target-originated measurement of every radar, corrected by the true biases, with
+//!   nothing to associate and no clutter. It needs measurements.csv's truth column
+//!   `target_id` (the row is left out when the file has none) and is a floor for what any
+//!   fusion of these radars reaches with that motion model (`--oracle-filter`,
+//!   `--oracle-process-noise`; by default the local trackers' `ekf` and process noise).
+//!
 //! `--reference DIR2` scores another tool's output folder (`fused_tracks.csv`, and
 //! `local_tracks.csv` when present, e.g. the `stonesoup/` folder of the shared data) the
 //! same way, side by side. `--track-args` / `--fuse-args` pass flags to the two
@@ -23,7 +30,10 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Parser};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use trackfuse::io::{read_fused_tracks, read_local_tracks, read_sensors, read_truth};
+use trackfuse::experiments::oracle::{oracle_tracks, OracleConfig};
+use trackfuse::io::{
+    read_fused_tracks, read_local_tracks, read_measurements, read_sensors, read_truth,
+};
 use trackfuse::metrics::{evaluate_run, EvalInput, EvaluationConfig, Summary};
 use trackfuse::types::{FusedTrack, LocalTrack, Sensor, TruthState};
 
@@ -50,6 +60,14 @@ pub struct RealArgs {
     /// GOSPA order p.
     #[arg(long, default_value_t = 1.0)]
     pub gospa_p: f64,
+    /// Filter of the oracle row (true association, every radar, true biases), by its
+    /// ALGORITHMS.md name.
+    #[arg(long, default_value = "ekf")]
+    pub oracle_filter: String,
+    /// White-acceleration standard deviation (m/s^2) of the oracle's filter (default:
+    /// the local trackers' default).
+    #[arg(long, default_value_t = trackfuse::local::DEFAULT_PROCESS_NOISE)]
+    pub oracle_process_noise: f64,
 }
 
 #[derive(Parser, Debug)]
@@ -120,6 +138,23 @@ pub fn run(args: &RealArgs) -> Result<()> {
     };
     cfg.validate()
         .map_err(|e| anyhow::anyhow!("--{}: {}", e.key.replace('_', "-"), e.reason))?;
+    let sensors = read_sensors(&sensors_path)?;
+    let truth = read_truth(&truth_path)?;
+    // the oracle first: a bad --oracle-filter fails before the commands run
+    let oracle = {
+        let measurements = read_measurements(&args.data.join("measurements.csv"), Some(&sensors))?;
+        if measurements.iter().any(|m| m.target_id >= 0) {
+            let cfg_o = OracleConfig {
+                filter: args.oracle_filter.clone(),
+                process_noise: args.oracle_process_noise,
+            };
+            let tracks = oracle_tracks(&sensors, &measurements, &cfg_o)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", args.data.display()))?;
+            Some(Scored::of(&summary_of(&truth, &tracks, &cfg)))
+        } else {
+            None
+        }
+    };
     let track_dir = args.out.join("track");
     let fuse_dir = args.out.join("fuse");
 
@@ -143,8 +178,6 @@ pub fn run(args: &RealArgs) -> Result<()> {
     fuse::run(&cmd.args)?;
     let fuse_secs = t0.elapsed().as_secs_f64();
 
-    let sensors = read_sensors(&sensors_path)?;
-    let truth = read_truth(&truth_path)?;
     let ours = score_folder(&fuse_dir, Some(&track_dir), &sensors, &truth, &cfg)?;
     let reference = args
         .reference
@@ -178,6 +211,15 @@ pub fn run(args: &RealArgs) -> Result<()> {
         _ => String::new(),
     };
     rows.push(ours.fused.cells("trackfuse fused", &ratio(&ours)));
+    if let Some(o) = &oracle {
+        rows.push(o.cells(
+            "oracle",
+            &format!(
+                "true association, every radar, true biases ({})",
+                args.oracle_filter
+            ),
+        ));
+    }
     if let Some(r) = &reference {
         rows.push(r.fused.cells("reference fused", &ratio(r)));
         rows.push(vec![
@@ -235,18 +277,7 @@ fn score_folder(
     cfg: &EvaluationConfig,
 ) -> Result<FolderScore> {
     let fused = read_fused_tracks(&fused_dir.join("fused_tracks.csv"))?;
-    let summary = |truth: &[TruthState], fused: &[FusedTrack]| {
-        evaluate_run(
-            &EvalInput {
-                truth,
-                fused,
-                associations: None,
-                local: None,
-            },
-            cfg,
-        )
-        .summary(cfg)
-    };
+    let summary = |truth: &[TruthState], fused: &[FusedTrack]| summary_of(truth, fused, cfg);
     let fused_score = Scored::of(&summary(truth, &fused));
     let mut local = Vec::new();
     if let Some(path) = local_dir
@@ -274,6 +305,20 @@ fn score_folder(
         fused: fused_score,
         local,
     })
+}
+
+/// The evaluation summary of `fused` against `truth`, no associations or local tracks.
+fn summary_of(truth: &[TruthState], fused: &[FusedTrack], cfg: &EvaluationConfig) -> Summary {
+    evaluate_run(
+        &EvalInput {
+            truth,
+            fused,
+            associations: None,
+            local: None,
+        },
+        cfg,
+    )
+    .summary(cfg)
 }
 
 /// A local track row as a one-source fused row (its id the local track id), so one

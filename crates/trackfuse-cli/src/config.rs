@@ -171,7 +171,7 @@ pub struct FusionFlags {
     /// with their status).
     #[arg(long, value_name = "confirmed|all")]
     pub publish: Option<String>,
-    /// Updates after which a global track seen by one sensor is confirmed (default 3).
+    /// Updates after which a global track seen by one sensor is confirmed (default 2).
     #[arg(long, value_name = "N")]
     pub confirm_scans: Option<u32>,
     /// Consecutive scans two global tracks must pass the merge test to be merged

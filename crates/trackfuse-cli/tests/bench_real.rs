@@ -48,6 +48,14 @@ fn bench_real_scores_what_the_commands_write() {
     let sensors = std::fs::read_to_string(data.join("sensors.csv")).expect("sensors");
     let n = sensors.lines().count() - 1;
     assert_eq!(stdout.matches("trackfuse radar ").count(), n, "{stdout}");
+    // the oracle row (true association, every radar): simulate writes the truth columns;
+    // with nothing to associate it misses fewer targets than the pipeline and its
+    // position error is smaller on this straight-flying simulated truth
+    let oracle = row(&stdout, "oracle");
+    let cell = |r: &[&str], i: usize| -> f64 { r[i].parse().expect("cell") };
+    assert!(cell(&oracle, 0) < printed, "{stdout}");
+    assert!(cell(&oracle, 2) <= cell(&fused, 2), "{stdout}");
+    assert!(cell(&oracle, 4) < cell(&fused, 4), "{stdout}");
 
     // the same GOSPA from `evaluate` on the fused file bench real left behind
     let summary = dir.path().join("summary.json");
@@ -82,6 +90,28 @@ fn bench_real_scores_what_the_commands_write() {
     let reference: f64 = row(&stdout, "reference fused")[0].parse().expect("cell");
     assert!((reference - printed).abs() <= 0.5, "{stdout}");
     assert!(stdout.contains("ours / reference GOSPA"), "{stdout}");
+}
+
+#[test]
+fn bench_real_refuses_an_unknown_oracle_filter_before_running() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let data = dir.path().join("data");
+    trackfuse()
+        .args(["simulate", "bias-radars-nobias", "--seed", "3", "--out"])
+        .arg(&data)
+        .assert()
+        .success();
+    let out = dir.path().join("bench");
+    let res = trackfuse()
+        .args(["bench", "real"])
+        .arg(&data)
+        .args(["--oracle-filter", "nope", "--out"])
+        .arg(&out)
+        .assert()
+        .failure();
+    let stderr = String::from_utf8(res.get_output().stderr.clone()).expect("utf8");
+    assert!(stderr.contains("unknown filter \"nope\""), "{stderr}");
+    assert!(!out.exists(), "nothing written before the error");
 }
 
 #[test]

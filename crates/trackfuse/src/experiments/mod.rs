@@ -8,10 +8,12 @@
 //!
 //! [`labels`] labels local tracks in their sensor's biased frame (000's P_c and local
 //! rows), [`aggregate`] the per-scan RMSE of eq. 17 and its time mean, NEES and its
-//! chi-square band, means, ratios and rankings.
+//! chi-square band, means, ratios and rankings. [`oracle`] is the true-association
+//! centralised filter that `bench real` prints as a floor for the fused tracks.
 
 pub mod aggregate;
 pub mod labels;
+pub mod oracle;
 
 pub use aggregate::{
     mean_all, nees, nees_band, ranking_flip, ranking_present, ranking_sentence, ranking_with_ties,
