@@ -3,7 +3,7 @@
 //! relinearised and gated Gauss-Newton passes, and the folding of old groups.
 
 use super::TrackPairLs;
-use crate::models::polar::{polar_shift_position, MIN_RANGE};
+use crate::models::polar::MIN_RANGE;
 use crate::models::wrap_angle;
 use crate::stats::chi2_quantile_even;
 use crate::types::{symmetrize, Id, Mat2, SensorKind, Vec2};
@@ -30,6 +30,26 @@ fn polar_jacobian(q: &Vec2, sensor: &Vec2) -> Mat2 {
     let r2 = d.norm_squared();
     let r = r2.sqrt();
     Mat2::new(d[0] / r, d[1] / r, -d[1] / r2, d[0] / r2)
+}
+
+/// [`polar_shift_position`](crate::models::polar::polar_shift_position)`(q, sensor, dr, dtheta)` for a member whose offset from
+/// `sensor` and range are in `cache`, given `(sin, cos)` of `dtheta`: the same
+/// expressions on the same values, so the same bits.
+#[inline]
+fn shift_cached(
+    q: &Vec2,
+    cache: &ObservationCache,
+    sensor: &Vec2,
+    dr: f64,
+    sin: f64,
+    cos: f64,
+) -> Vec2 {
+    let (d, rho) = (cache.d, cache.rho);
+    if !rho.is_finite() || rho < MIN_RANGE {
+        return *q;
+    }
+    let k = if rho + dr > 0.0 { 1.0 + dr / rho } else { 1.0 };
+    sensor + Vec2::new(cos * d[0] - sin * d[1], sin * d[0] + cos * d[1]) * k
 }
 
 /// One member's contribution to a group's normal equations.
@@ -66,8 +86,10 @@ pub(super) struct ObservationCache {
     pub(super) w_ref: Option<Mat2>,
     /// The same without the symmetrisation (a position sensor's residual weight).
     pub(super) w_pos: Option<Mat2>,
-    /// Range and bearing of the raw position from the sensor, and its range.
+    /// Range and bearing of the raw position from the sensor, its offset from the
+    /// sensor and its range.
     pub(super) z: Vec2,
+    pub(super) d: Vec2,
     pub(super) rho: f64,
     /// Inverse of the residual's polar covariance (a radar member).
     pub(super) w_polar: Option<Mat2>,
@@ -80,6 +102,7 @@ impl ObservationCache {
         w_ref: None,
         w_pos: None,
         z: Vec2::new(0.0, 0.0),
+        d: Vec2::new(0.0, 0.0),
         rho: 0.0,
         w_polar: None,
     };
@@ -150,7 +173,8 @@ impl TrackPairLs {
             ..ObservationCache::EMPTY
         };
         if kind == SensorKind::RangeBearing {
-            let rho = (o.q - sp).norm();
+            c.d = o.q - sp;
+            let rho = c.d.norm();
             c.rho = rho;
             if rho >= MIN_RANGE {
                 c.z = polar(&o.q, &sp);
@@ -169,6 +193,9 @@ impl TrackPairLs {
         c
     }
 
+    ///
+    /// `trig` must hold the sine and cosine of `-b_theta` of every estimated sensor of
+    /// `b` ([`Self::set_trig`]).
     pub(super) fn evaluate(
         &mut self,
         g: StoredGroup,
@@ -189,8 +216,11 @@ impl TrackPairLs {
             let c = match s.bias {
                 Some(bi) => {
                     any_biased = true;
-                    let (br, bt) = Self::bias_in(b, bi);
-                    polar_shift_position(&o.q, &s.position, -br, -bt)
+                    // polar_shift_position(q, sensor, -b_r, -b_theta), with the offset
+                    // and range cached and the rotation of the pass (`trig`)
+                    let (br, _) = Self::bias_in(b, bi);
+                    let (sin, cos) = self.trig[bi];
+                    shift_cached(&o.q, &cache, &s.position, -br, sin, cos)
                 }
                 None => o.q,
             };
@@ -323,8 +353,18 @@ impl TrackPairLs {
         self.scale * self.quantiles(dof).0
     }
 
+    /// `trig` for the biases `b`: per estimated sensor, `(sin, cos)` of `-b_theta` (what
+    /// [`polar_shift_position`](crate::models::polar::polar_shift_position) computes for every member; once per pass here).
+    pub(super) fn set_trig(&mut self, b: &DVector<f64>) {
+        self.trig.clear();
+        for k in 0..b.len() / 2 {
+            self.trig.push((-Self::bias_in(b, k).1).sin_cos());
+        }
+    }
+
     /// Evaluate every stored group at `b` (into `evaluations`).
     pub(super) fn evaluate_all(&mut self, b: &DVector<f64>) {
+        self.set_trig(b);
         self.scratch.clear();
         self.evaluations.clear();
         let f = self.params.forgetting;
@@ -426,6 +466,7 @@ impl TrackPairLs {
     /// the current estimate; those failing the residual gate are dropped).
     pub(super) fn fold(&mut self) {
         let b = self.estimate.clone();
+        self.set_trig(&b);
         while self.groups.len() > self.params.max_groups {
             let Some(g) = self.groups.pop_front() else {
                 break;
