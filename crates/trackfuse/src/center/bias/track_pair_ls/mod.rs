@@ -257,6 +257,10 @@ pub struct TrackPairLs {
     /// history validated them: `(pair, streak, last scan accepted)` (revocation).
     ended: Vec<(PairKey, u32, u64)>,
     component: Vec<(u32, u32)>,
+    /// Scratch of the counting sort of `component`: each track's root, and where each
+    /// root's run starts.
+    roots: Vec<u32>,
+    root_starts: Vec<u32>,
     /// Components of the candidate graph of one sensor pair (the settled check).
     candidate_sets: crate::union_find::UnionFind,
     /// Per scan track: candidates the current estimate explains with it (saturating).
@@ -326,6 +330,8 @@ impl TrackPairLs {
             by_second: Vec::new(),
             ended: Vec::new(),
             component: Vec::new(),
+            roots: Vec::new(),
+            root_starts: Vec::new(),
             candidate_sets: crate::union_find::UnionFind::default(),
             explained: Vec::new(),
             unsettled: Vec::new(),

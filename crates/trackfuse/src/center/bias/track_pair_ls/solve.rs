@@ -152,15 +152,17 @@ impl TrackPairLs {
     /// and return its evaluation, or none when it carries no information.
     /// The estimate-independent part of observation `idx`'s evaluation, for the sensor
     /// at `sp` ([`ObservationCache`]).
+    /// It is left in `obs_cache[idx]` (read there, not copied out: the copy cost as
+    /// much as the rest of the lookup).
     #[inline]
-    fn observation_cache(&mut self, idx: usize, sp: Vec2, kind: SensorKind) -> ObservationCache {
+    fn observation_cache(&mut self, idx: usize, sp: Vec2, kind: SensorKind) {
         if self.obs_cache.len() < self.observations.len() {
             self.obs_cache
                 .resize(self.observations.len(), ObservationCache::EMPTY);
         }
-        let cached = self.obs_cache[idx];
+        let cached = &self.obs_cache[idx];
         if cached.valid && cached.sensor == sp {
-            return cached;
+            return;
         }
         let f2 = self.params.model_sigma * self.params.model_sigma;
         let o = self.observations[idx];
@@ -190,7 +192,6 @@ impl TrackPairLs {
             }
         }
         self.obs_cache[idx] = c;
-        c
     }
 
     ///
@@ -212,7 +213,8 @@ impl TrackPairLs {
                 continue;
             };
             let s = self.lookup[k];
-            let cache = self.observation_cache(idx, s.position, s.kind);
+            self.observation_cache(idx, s.position, s.kind);
+            let cache = &self.obs_cache[idx];
             let c = match s.bias {
                 Some(bi) => {
                     any_biased = true;
@@ -220,7 +222,7 @@ impl TrackPairLs {
                     // and range cached and the rotation of the pass (`trig`)
                     let (br, _) = Self::bias_in(b, bi);
                     let (sin, cos) = self.trig[bi];
-                    shift_cached(&o.q, &cache, &s.position, -br, sin, cos)
+                    shift_cached(&o.q, cache, &s.position, -br, sin, cos)
                 }
                 None => o.q,
             };
@@ -242,7 +244,8 @@ impl TrackPairLs {
                 continue;
             };
             let s = self.lookup[k];
-            let cache = self.observation_cache(idx, s.position, s.kind);
+            // made by the first loop (the same members, the same sensors)
+            let cache = &self.obs_cache[idx];
             match s.kind {
                 SensorKind::Position => {
                     let Some(w) = cache.w_pos else {
@@ -325,16 +328,23 @@ impl TrackPairLs {
         let Some(a_inv) = symmetrize(&a).try_inverse() else {
             return;
         };
+        // `w h` of the first members, once each instead of once per pair of members
+        const KEPT: usize = 8;
+        let mut wh = [Mat2::zeros(); KEPT];
+        for (g, r) in wh.iter_mut().zip(rs) {
+            *g = r.w * r.h;
+        }
+        let g_of = |l: usize, r: &Residual| if l < KEPT { wh[l] } else { r.w * r.h };
         for (k, rk) in rs.iter().enumerate() {
             let Some(i) = rk.bias else { continue };
-            let g_i = rk.w * rk.h;
+            let g_i = g_of(k, rk);
             let g_a = g_i * a_inv;
             let v = (rk.w * rk.y - g_a * c) * weight;
             vector[2 * i] += v[0];
             vector[2 * i + 1] += v[1];
             for (l, rl) in rs.iter().enumerate() {
                 let Some(j) = rl.bias else { continue };
-                let g_j = rl.w * rl.h;
+                let g_j = g_of(l, rl);
                 let mut block = -(g_a * g_j.transpose());
                 if k == l {
                     block += rk.w;
