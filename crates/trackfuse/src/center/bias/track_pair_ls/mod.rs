@@ -272,6 +272,10 @@ pub struct TrackPairLs {
     /// Sensor pairs paired partly by settled components, partly by a consensus (tests).
     #[cfg(test)]
     split_pairings: u32,
+    /// Score every hypothesis in full and refit in the ambiguity check (tests: the
+    /// early stop and the reuse change nothing).
+    #[cfg(test)]
+    exhaustive_scores: bool,
 }
 
 impl TrackPairLs {
@@ -338,6 +342,8 @@ impl TrackPairLs {
             settled_track: Vec::new(),
             #[cfg(test)]
             split_pairings: 0,
+            #[cfg(test)]
+            exhaustive_scores: false,
         })
     }
 

@@ -572,6 +572,8 @@ impl TrackPairLs {
             // a hypothesis that cannot reach the best score so far is not needed: it can
             // neither win nor be an equally supported rival (step 3)
             let floor = self.hypotheses[best.0].2;
+            #[cfg(test)]
+            let floor = if self.exhaustive_scores { 0 } else { floor };
             let (score, cost) = self.score(&ctx, &theta, None, floor);
             self.hypotheses[h].2 = score;
             self.hypotheses[h].3 = cost;
@@ -595,6 +597,11 @@ impl TrackPairLs {
                 continue;
             }
             // the fit made in the loop above (the same candidates, the same bits)
+            #[cfg(test)]
+            if self.exhaustive_scores && h > 0 {
+                let (x, y, _, _) = self.hypotheses[h];
+                self.hypothesis_fits[h] = self.fit_hypothesis(&ctx, x, y, &prior_info);
+            }
             let Some(other) = self.hypothesis_fits[h] else {
                 continue;
             };

@@ -36,7 +36,7 @@ fn polar_jacobian(q: &Vec2, sensor: &Vec2) -> Mat2 {
 /// `sensor` and range are in `cache`, given `(sin, cos)` of `dtheta`: the same
 /// expressions on the same values, so the same bits.
 #[inline]
-fn shift_cached(
+pub(super) fn shift_cached(
     q: &Vec2,
     cache: &ObservationCache,
     sensor: &Vec2,
