@@ -156,7 +156,7 @@ use crate::stats::chi2_quantile_even;
 use crate::types::{
     position_of, symmetrize, Id, LocalTrack, Mat2, Sensor, SensorKind, StateCov, StateVec, Vec2,
 };
-use nalgebra::{DMatrix, DVector, Matrix4x2};
+use nalgebra::{DMatrix, DVector, Matrix4x2, Vector4};
 use pairing::{Acceptance, Candidate, PairKey, ScanTrack, ShiftCache, TrackHistory};
 use solve::{Evaluation, Observation, Residual, StoredGroup};
 use std::collections::VecDeque;
@@ -214,6 +214,8 @@ pub struct TrackPairLs {
     // ---- reused buffers ----
     lookup: Vec<SensorInfo>,
     scratch: Vec<Residual>,
+    /// Per estimated sensor, `(sin, cos)` of `-b_theta` at the biases being evaluated.
+    trig: Vec<(f64, f64)>,
     evaluations: Vec<Evaluation>,
     ratios: Vec<f64>,
     /// `(gate quantile, median)` of the chi-square distribution by `dof / 2`.
@@ -229,6 +231,14 @@ pub struct TrackPairLs {
     pair_gates: [f64; HISTORY + 1],
     /// `(candidate, candidate or NONE, score, cost)`; `(NONE, NONE)` is the zero one.
     hypotheses: Vec<(u32, u32, usize, f64)>,
+    /// Per hypothesis, its fitted biases (none when the fit failed), for the ambiguity
+    /// check to reuse instead of refitting.
+    hypothesis_fits: Vec<Option<Vector4<f64>>>,
+    /// Per candidate `k`: how many distinct first and second tracks `candidates[k..]`
+    /// hold (the bound that lets [`TrackPairLs::score`] stop early).
+    suffix_tracks: Vec<(u32, u32)>,
+    /// Scratch of the fits: prepared points `(first sensor's, second sensor's, weight)`.
+    fit_points: Vec<(pairing::Unshift, pairing::Unshift, Mat2)>,
     in_best: Vec<bool>,
     scratch_marks: Vec<bool>,
     inliers: Vec<u32>,
@@ -247,6 +257,10 @@ pub struct TrackPairLs {
     /// history validated them: `(pair, streak, last scan accepted)` (revocation).
     ended: Vec<(PairKey, u32, u64)>,
     component: Vec<(u32, u32)>,
+    /// Scratch of the counting sort of `component`: each track's root, and where each
+    /// root's run starts.
+    roots: Vec<u32>,
+    root_starts: Vec<u32>,
     /// Components of the candidate graph of one sensor pair (the settled check).
     candidate_sets: crate::union_find::UnionFind,
     /// Per scan track: candidates the current estimate explains with it (saturating).
@@ -258,6 +272,10 @@ pub struct TrackPairLs {
     /// Sensor pairs paired partly by settled components, partly by a consensus (tests).
     #[cfg(test)]
     split_pairings: u32,
+    /// Score every hypothesis in full and refit in the ambiguity check (tests: the
+    /// early stop and the reuse change nothing).
+    #[cfg(test)]
+    exhaustive_scores: bool,
 }
 
 impl TrackPairLs {
@@ -281,6 +299,7 @@ impl TrackPairLs {
             memory: Vec::new(),
             lookup: Vec::new(),
             scratch: Vec::new(),
+            trig: Vec::new(),
             evaluations: Vec::new(),
             ratios: Vec::new(),
             quantile_cache: Vec::new(),
@@ -298,6 +317,9 @@ impl TrackPairLs {
                 g
             },
             hypotheses: Vec::new(),
+            hypothesis_fits: Vec::new(),
+            suffix_tracks: Vec::new(),
+            fit_points: Vec::new(),
             in_best: Vec::new(),
             scratch_marks: Vec::new(),
             inliers: Vec::new(),
@@ -312,12 +334,16 @@ impl TrackPairLs {
             by_second: Vec::new(),
             ended: Vec::new(),
             component: Vec::new(),
+            roots: Vec::new(),
+            root_starts: Vec::new(),
             candidate_sets: crate::union_find::UnionFind::default(),
             explained: Vec::new(),
             unsettled: Vec::new(),
             settled_track: Vec::new(),
             #[cfg(test)]
             split_pairings: 0,
+            #[cfg(test)]
+            exhaustive_scores: false,
         })
     }
 

@@ -3,7 +3,7 @@
 //! relinearised and gated Gauss-Newton passes, and the folding of old groups.
 
 use super::TrackPairLs;
-use crate::models::polar::{polar_shift_position, MIN_RANGE};
+use crate::models::polar::MIN_RANGE;
 use crate::models::wrap_angle;
 use crate::stats::chi2_quantile_even;
 use crate::types::{symmetrize, Id, Mat2, SensorKind, Vec2};
@@ -30,6 +30,26 @@ fn polar_jacobian(q: &Vec2, sensor: &Vec2) -> Mat2 {
     let r2 = d.norm_squared();
     let r = r2.sqrt();
     Mat2::new(d[0] / r, d[1] / r, -d[1] / r2, d[0] / r2)
+}
+
+/// [`polar_shift_position`](crate::models::polar::polar_shift_position)`(q, sensor, dr, dtheta)` for a member whose offset from
+/// `sensor` and range are in `cache`, given `(sin, cos)` of `dtheta`: the same
+/// expressions on the same values, so the same bits.
+#[inline]
+pub(super) fn shift_cached(
+    q: &Vec2,
+    cache: &ObservationCache,
+    sensor: &Vec2,
+    dr: f64,
+    sin: f64,
+    cos: f64,
+) -> Vec2 {
+    let (d, rho) = (cache.d, cache.rho);
+    if !rho.is_finite() || rho < MIN_RANGE {
+        return *q;
+    }
+    let k = if rho + dr > 0.0 { 1.0 + dr / rho } else { 1.0 };
+    sensor + Vec2::new(cos * d[0] - sin * d[1], sin * d[0] + cos * d[1]) * k
 }
 
 /// One member's contribution to a group's normal equations.
@@ -66,8 +86,10 @@ pub(super) struct ObservationCache {
     pub(super) w_ref: Option<Mat2>,
     /// The same without the symmetrisation (a position sensor's residual weight).
     pub(super) w_pos: Option<Mat2>,
-    /// Range and bearing of the raw position from the sensor, and its range.
+    /// Range and bearing of the raw position from the sensor, its offset from the
+    /// sensor and its range.
     pub(super) z: Vec2,
+    pub(super) d: Vec2,
     pub(super) rho: f64,
     /// Inverse of the residual's polar covariance (a radar member).
     pub(super) w_polar: Option<Mat2>,
@@ -80,6 +102,7 @@ impl ObservationCache {
         w_ref: None,
         w_pos: None,
         z: Vec2::new(0.0, 0.0),
+        d: Vec2::new(0.0, 0.0),
         rho: 0.0,
         w_polar: None,
     };
@@ -129,15 +152,17 @@ impl TrackPairLs {
     /// and return its evaluation, or none when it carries no information.
     /// The estimate-independent part of observation `idx`'s evaluation, for the sensor
     /// at `sp` ([`ObservationCache`]).
+    /// It is left in `obs_cache[idx]` (read there, not copied out: the copy cost as
+    /// much as the rest of the lookup).
     #[inline]
-    fn observation_cache(&mut self, idx: usize, sp: Vec2, kind: SensorKind) -> ObservationCache {
+    fn observation_cache(&mut self, idx: usize, sp: Vec2, kind: SensorKind) {
         if self.obs_cache.len() < self.observations.len() {
             self.obs_cache
                 .resize(self.observations.len(), ObservationCache::EMPTY);
         }
-        let cached = self.obs_cache[idx];
+        let cached = &self.obs_cache[idx];
         if cached.valid && cached.sensor == sp {
-            return cached;
+            return;
         }
         let f2 = self.params.model_sigma * self.params.model_sigma;
         let o = self.observations[idx];
@@ -150,7 +175,8 @@ impl TrackPairLs {
             ..ObservationCache::EMPTY
         };
         if kind == SensorKind::RangeBearing {
-            let rho = (o.q - sp).norm();
+            c.d = o.q - sp;
+            let rho = c.d.norm();
             c.rho = rho;
             if rho >= MIN_RANGE {
                 c.z = polar(&o.q, &sp);
@@ -166,9 +192,11 @@ impl TrackPairLs {
             }
         }
         self.obs_cache[idx] = c;
-        c
     }
 
+    ///
+    /// `trig` must hold the sine and cosine of `-b_theta` of every estimated sensor of
+    /// `b` ([`Self::set_trig`]).
     pub(super) fn evaluate(
         &mut self,
         g: StoredGroup,
@@ -185,12 +213,16 @@ impl TrackPairLs {
                 continue;
             };
             let s = self.lookup[k];
-            let cache = self.observation_cache(idx, s.position, s.kind);
+            self.observation_cache(idx, s.position, s.kind);
+            let cache = &self.obs_cache[idx];
             let c = match s.bias {
                 Some(bi) => {
                     any_biased = true;
-                    let (br, bt) = Self::bias_in(b, bi);
-                    polar_shift_position(&o.q, &s.position, -br, -bt)
+                    // polar_shift_position(q, sensor, -b_r, -b_theta), with the offset
+                    // and range cached and the rotation of the pass (`trig`)
+                    let (br, _) = Self::bias_in(b, bi);
+                    let (sin, cos) = self.trig[bi];
+                    shift_cached(&o.q, cache, &s.position, -br, sin, cos)
                 }
                 None => o.q,
             };
@@ -212,7 +244,8 @@ impl TrackPairLs {
                 continue;
             };
             let s = self.lookup[k];
-            let cache = self.observation_cache(idx, s.position, s.kind);
+            // made by the first loop (the same members, the same sensors)
+            let cache = &self.obs_cache[idx];
             match s.kind {
                 SensorKind::Position => {
                     let Some(w) = cache.w_pos else {
@@ -295,16 +328,23 @@ impl TrackPairLs {
         let Some(a_inv) = symmetrize(&a).try_inverse() else {
             return;
         };
+        // `w h` of the first members, once each instead of once per pair of members
+        const KEPT: usize = 8;
+        let mut wh = [Mat2::zeros(); KEPT];
+        for (g, r) in wh.iter_mut().zip(rs) {
+            *g = r.w * r.h;
+        }
+        let g_of = |l: usize, r: &Residual| if l < KEPT { wh[l] } else { r.w * r.h };
         for (k, rk) in rs.iter().enumerate() {
             let Some(i) = rk.bias else { continue };
-            let g_i = rk.w * rk.h;
+            let g_i = g_of(k, rk);
             let g_a = g_i * a_inv;
             let v = (rk.w * rk.y - g_a * c) * weight;
             vector[2 * i] += v[0];
             vector[2 * i + 1] += v[1];
             for (l, rl) in rs.iter().enumerate() {
                 let Some(j) = rl.bias else { continue };
-                let g_j = rl.w * rl.h;
+                let g_j = g_of(l, rl);
                 let mut block = -(g_a * g_j.transpose());
                 if k == l {
                     block += rk.w;
@@ -323,8 +363,18 @@ impl TrackPairLs {
         self.scale * self.quantiles(dof).0
     }
 
+    /// `trig` for the biases `b`: per estimated sensor, `(sin, cos)` of `-b_theta` (what
+    /// [`polar_shift_position`](crate::models::polar::polar_shift_position) computes for every member; once per pass here).
+    pub(super) fn set_trig(&mut self, b: &DVector<f64>) {
+        self.trig.clear();
+        for k in 0..b.len() / 2 {
+            self.trig.push((-Self::bias_in(b, k).1).sin_cos());
+        }
+    }
+
     /// Evaluate every stored group at `b` (into `evaluations`).
     pub(super) fn evaluate_all(&mut self, b: &DVector<f64>) {
+        self.set_trig(b);
         self.scratch.clear();
         self.evaluations.clear();
         let f = self.params.forgetting;
@@ -426,6 +476,7 @@ impl TrackPairLs {
     /// the current estimate; those failing the residual gate are dropped).
     pub(super) fn fold(&mut self) {
         let b = self.estimate.clone();
+        self.set_trig(&b);
         while self.groups.len() > self.params.max_groups {
             let Some(g) = self.groups.pop_front() else {
                 break;
