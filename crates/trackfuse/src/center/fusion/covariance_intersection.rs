@@ -1007,9 +1007,7 @@ mod tests {
                 assert!((pf - ps).norm() <= 1e-8 * ps.norm(), "case {case}");
             }
         }
-        eprintln!(
-            "largest weight difference on realistic groups: {:e} (case {})",
-            worst.0, worst.1
-        );
+        // the largest difference seen on the realistic groups (4.6e-13 when written)
+        assert!(worst.0 <= 1e-11, "{worst:?}");
     }
 }
