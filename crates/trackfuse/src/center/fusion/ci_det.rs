@@ -72,7 +72,7 @@ const GAP_TOLERANCE: f64 = 1e-13;
 /// Stop after a full Newton step with a decrement below this.
 const DECREMENT_TOLERANCE: f64 = 1e-6;
 /// The bound on the projected Newton steps (a step that does not move ends the search
-/// too). Typical groups need 2 to 4.
+/// too). The benchmark's groups of four take about 5.
 const MAX_STEPS: usize = 60;
 /// Below this Newton decrement the full Newton step is taken without a line search: it
 /// stays feasible (`|E|_2 <= |E|_F < 1`), descends (`f+ - f <= -lambda^2 - lambda -

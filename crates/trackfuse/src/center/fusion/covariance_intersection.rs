@@ -8,7 +8,20 @@
 //! # How the weights are optimised
 //! Both criteria are convex in `w`: `ln det P = -ln det(sum w_i P_i^-1)` (log-det is
 //! concave) and `trace P = trace((sum w_i P_i^-1)^-1)` (the matrix inverse is operator
-//! convex). So a local search finds the global optimum:
+//! convex). So a local search finds the global optimum.
+//!
+//! **`det` criterion, up to 8 members** (the default, and every ordinary group): the
+//! allocation-free search of `ci_det.rs` — for two members the closed form (the root
+//! of the cubic `d/dt det(I + t L^-1 (Y_1 - Y_2) L^-T) = 0`, i.e. of
+//! `sum_i (lambda_i - 1) / (1 + t (lambda_i - 1))` over the generalised eigenvalues
+//! `lambda_i` of `(Y_1, Y_2)`, then one Newton step on the matrices); for three or more
+//! projected Newton steps on the simplex (analytic gradient and Hessian, exact line search
+//! far from the optimum, full steps near it; self-concordance bounds the error at the
+//! stop to about `1e-12`). About 3 times faster than the search below on grid-bench
+//! groups, and the same weights to `1e-9` (test `fast_det_weights_match_a_slow_reference`).
+//!
+//! **`trace` criterion, or more than 8 members** (the general search, also the tests'
+//! reference; for `det` its line searches are exact):
 //! - two members: golden-section search of `w_1` on `[0, 1]` to `1e-10`, then the better
 //!   of that point and the two end points (pure `P_1` or `P_2`);
 //! - more members: pairwise coordinate descent on the simplex (the SMO scheme): start at
@@ -153,7 +166,7 @@ impl CovarianceIntersection {
 
     /// The optimal weights for information matrices `infos` (all positive definite) into
     /// `w`: for the `det` criterion and up to [`FAST_MAX`] members the allocation-free
-    /// search of [`super::ci_det`] (closed form for two, projected Newton for more);
+    /// search of `ci_det.rs` (closed form for two, projected Newton for more);
     /// otherwise the general search ([`Self::optimise`]).
     fn weights(&self, infos: &[StateCov], w: &mut [f64]) {
         let n = infos.len();
@@ -916,7 +929,7 @@ mod tests {
         w
     }
 
-    /// Issue 13 point 5: the allocation-free `det` weights ([`super::super::ci_det`]) are
+    /// Issue 13 point 5: the allocation-free `det` weights (`ci_det.rs`) are
     /// those of a slow independent search to `1e-9`, on 3 000 random realistic groups
     /// (grid-bench radars, 2 to 4 members, and 5 to 8 members with several tracks per
     /// radar), and on random covariances of condition numbers up to about `1e12` to
