@@ -3,6 +3,7 @@
 
 pub mod bar_shalom_campo;
 pub(crate) mod blue;
+mod ci_det;
 pub mod convex_combination;
 pub mod covariance_intersection;
 pub mod fuzzy;
