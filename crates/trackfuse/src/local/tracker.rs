@@ -43,7 +43,8 @@ use crate::types::{
 };
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
-use std::collections::{BTreeMap, HashMap};
+use rustc_hash::FxHashMap;
+use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 /// A local-tracking problem: a configuration the registry cannot build, or input the
@@ -936,7 +937,9 @@ pub struct MultiSensorTracker {
     /// One slot per distinct sensor id: the id, its kind, its time in the current scan
     /// (`None`: no measurement) and its measurement values.
     slots: Vec<SensorSlot>,
-    slot_of: HashMap<Id, usize>,
+    /// Looked up once per measurement: Fx-hashed (only looked up, and iterated where the
+    /// order cannot matter).
+    slot_of: FxHashMap<Id, usize>,
     /// The slot of each tracker.
     tracker_slot: Vec<usize>,
     /// Each tracker's output of the current scan.
@@ -984,7 +987,7 @@ impl MultiSensorTracker {
             .into_iter()
             .collect::<Result<Vec<_>, _>>()?;
         let mut slots: Vec<SensorSlot> = Vec::new();
-        let mut slot_of = HashMap::new();
+        let mut slot_of = FxHashMap::default();
         let mut tracker_slot = Vec::with_capacity(sensors.len());
         for s in sensors {
             // the first sensor of an id gives the kind its measurements are checked with
@@ -1157,7 +1160,6 @@ pub fn track_sensors_timed(
     seed: u64,
     run: u64,
 ) -> Result<(Vec<LocalTrack>, Duration), TrackerError> {
-    let mut by_scan: BTreeMap<u32, Vec<Measurement>> = BTreeMap::new();
     for m in measurements {
         let Some(s) = sensors.iter().find(|s| s.id == m.sensor_id) else {
             return Err(TrackerError::UnknownSensor {
@@ -1173,20 +1175,28 @@ pub fn track_sensors_timed(
                 sensor: s.kind,
             });
         }
-        by_scan.entry(m.scan).or_default().push(*m);
     }
+    // the scans in ascending order, each with its rows in input order: the rows as they
+    // are when already in scan order (a simulation's are), else a stably sorted copy
+    let sorted: Vec<Measurement>;
+    let rows: &[Measurement] = if measurements.is_sorted_by_key(|m| m.scan) {
+        measurements
+    } else {
+        let mut v = measurements.to_vec();
+        v.sort_by_key(|m| m.scan);
+        sorted = v;
+        &sorted
+    };
     let mut tracker =
         MultiSensorTracker::new(sensors, cfg, scenario_process_noise, known, seed, run)?;
     let mut times = ReportTimes::default();
-    for ms in by_scan.values() {
-        for m in ms {
-            times.add(m.sensor_id, m.time);
-        }
+    for m in rows {
+        times.add(m.sensor_id, m.time);
     }
     tracker.set_clocks(&times.clocks());
     let mut all = Vec::new();
-    for (&scan, ms) in &by_scan {
-        tracker.process_scan(scan, ms, &mut all)?;
+    for ms in rows.chunk_by(|a, b| a.scan == b.scan) {
+        tracker.process_scan(ms[0].scan, ms, &mut all)?;
     }
     Ok((all, tracker.association_time()))
 }
