@@ -354,8 +354,10 @@ impl BoxGrid {
     /// grid (monotone in `v`, so a box's end cells bound its points' cells).
     #[inline]
     fn cx(&self, v: f64, axis: usize) -> usize {
-        let c = ((v - self.origin[axis]) * self.inv_cell[axis]).floor();
-        // NaN and negative -> 0 (`as` saturates), beyond the grid -> the last cell
+        let c = (v - self.origin[axis]) * self.inv_cell[axis];
+        // NaN and negative -> 0, beyond the grid -> the last cell; `as` truncates, which
+        // is the floor of the non-negative value (and saturates): no `floor` call (a
+        // libm call on the baseline x86-64 target, 3-4 % of a dense-clutter run)
         (c.max(0.0) as usize).min(self.dims[axis] - 1)
     }
 
@@ -402,8 +404,21 @@ const CELL_MAX: i64 = i32::MAX as i64 - 2;
 
 #[inline]
 fn cell_of(p: &Vec2, inv_cell: f64) -> (i64, i64) {
-    let c = |v: f64| ((v * inv_cell).floor() as i64).clamp(CELL_MIN, CELL_MAX);
+    let c = |v: f64| floor_i64(v * inv_cell).clamp(CELL_MIN, CELL_MAX);
     (c(p[0]), c(p[1]))
+}
+
+/// `v.floor() as i64` without the `floor` call (a libm call on the baseline x86-64
+/// target): truncate, then step down when truncation went up. The same value for every
+/// input: NaN gives 0, and beyond the `i64` range both saturate.
+#[inline]
+fn floor_i64(v: f64) -> i64 {
+    let t = v as i64;
+    if (t as f64) > v {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
 }
 
 /// Cell `(x, y)` (each within `CELL_MIN - 1 ..= CELL_MAX + 1`) as one integer ordered as

@@ -30,6 +30,7 @@ use super::{CenterError, FusedRun, FusionCenter, FusionConfig, ScanOutput};
 use crate::clock::{ReportClock, ReportTimes, CLOCK_TOLERANCE};
 use crate::models::{cv_transition, process_noise};
 use crate::types::{symmetrize, Id, LocalTrack, Sensor};
+use rustc_hash::FxHashMap;
 use std::collections::{BTreeMap, HashMap};
 
 /// The default update period of the center: the shortest median report interval of the
@@ -56,11 +57,12 @@ pub fn predict_to(track: &mut LocalTrack, time: f64, q: f64) {
 pub struct InstantBatcher {
     period: f64,
     /// Each sensor's staleness limit (its report interval).
-    stale: HashMap<Id, f64>,
+    /// Fx-hashed, as `sensor_last`: looked up per report, never iterated.
+    stale: FxHashMap<Id, f64>,
     /// The latest report of each `(sensor_id, track_id)`.
     latest: BTreeMap<(Id, Id), LocalTrack>,
     /// Each sensor's latest report time.
-    sensor_last: HashMap<Id, f64>,
+    sensor_last: FxHashMap<Id, f64>,
     /// The next instant's time (`None` before the first report).
     next: Option<f64>,
     /// The scan index of the last instant fused.
@@ -79,7 +81,7 @@ impl InstantBatcher {
             period,
             stale: clocks.iter().map(|(&s, c)| (s, c.period)).collect(),
             latest: BTreeMap::new(),
-            sensor_last: HashMap::new(),
+            sensor_last: FxHashMap::default(),
             next: None,
             last_scan: None,
             last_time: None,

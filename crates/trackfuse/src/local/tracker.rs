@@ -43,7 +43,8 @@ use crate::types::{
 };
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
-use std::collections::{BTreeMap, HashMap};
+use rustc_hash::FxHashMap;
+use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 /// A local-tracking problem: a configuration the registry cannot build, or input the
@@ -217,7 +218,8 @@ pub struct SensorTracker {
     weights: AssociationWeights,
     /// Whether each track was updated this scan.
     updated: Vec<bool>,
-    candidates: Vec<(f64, u32, u32)>,
+    /// `(d^2, track, measurement)` as one [`sort_key`], so the sort compares integers.
+    candidates: Vec<u128>,
     /// Measurements and scans seen so far, and the bounding box of the Cartesian
     /// positions (a sensor without `max_range`): the clutter density of the track score
     /// when neither sensors.csv nor the config gives one.
@@ -709,12 +711,11 @@ impl SensorTracker {
                     }
                     let d2 = p.distance2(&converted[m as usize]);
                     if d2 <= gamma {
-                        candidates.push((d2, ti as u32, m));
+                        candidates.push(sort_key(d2, ti as u32, m));
                     }
                 });
         }
-        self.candidates
-            .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        self.candidates.sort_unstable();
         let scored = self.cfg.initiation.method == InitiationMethod::Score;
         let (confirm_at, _) = self.cfg.initiation.score_thresholds();
         let lambda = if scored {
@@ -724,7 +725,7 @@ impl SensorTracker {
         };
         let pd = self.sensor.pd;
         for c in 0..self.candidates.len() {
-            let (_, ti, m) = self.candidates[c];
+            let (ti, m) = sort_key_indices(self.candidates[c]);
             let (ti, m) = (ti as usize, m as usize);
             if self.updated[ti] || self.used[m] {
                 continue;
@@ -809,7 +810,7 @@ impl SensorTracker {
         let mut seed_used = vec![false; seeds.len()];
         let mut new_seeds = Vec::new();
         // candidate pairs (distance excess, measurement, seed)
-        let mut pairs: Vec<(f64, u32, u32)> = Vec::new();
+        let mut pairs: Vec<u128> = Vec::new();
         let mut cart: Vec<(Vec2, Mat2)> = Vec::with_capacity(self.raw.len());
         for (m, z) in self.raw.iter().enumerate() {
             cart.push(if self.used[m] {
@@ -849,11 +850,11 @@ impl SensorTracker {
                 let reach = max_speed * dt + 3.0 * (sp + spread(&s.cov));
                 let d = (p - s.position).norm();
                 if d <= reach {
-                    pairs.push((d / dt, m as u32, si));
+                    pairs.push(sort_key(d / dt, m as u32, si));
                 }
             });
         }
-        pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        pairs.sort_unstable();
         let mut meas_paired = vec![false; self.used.len()];
         let scored = self.cfg.initiation.method == InitiationMethod::Score;
         let lambda = if scored {
@@ -861,7 +862,8 @@ impl SensorTracker {
         } else {
             0.0
         };
-        for &(_, m, si) in &pairs {
+        for &key in &pairs {
+            let (m, si) = sort_key_indices(key);
             let (m, si) = (m as usize, si as usize);
             if meas_paired[m] || seed_used[si] {
                 continue;
@@ -920,6 +922,27 @@ impl SensorTracker {
     }
 }
 
+/// `(x, a, b)` as one integer ordered as `x` by [`f64::total_cmp`], then `a`, then `b`:
+/// the order of the tentative-track candidates and initiation pairs, sorted as plain
+/// integers (the keys are distinct, so any sort gives the same order).
+#[inline]
+fn sort_key(x: f64, a: u32, b: u32) -> u128 {
+    let bits = x.to_bits();
+    // total_cmp's order as an unsigned one: negatives reversed below the positives
+    let ordered = if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | (1 << 63)
+    };
+    ((ordered as u128) << 64) | ((a as u128) << 32) | b as u128
+}
+
+/// The two indices `(a, b)` of a [`sort_key`].
+#[inline]
+fn sort_key_indices(key: u128) -> (u32, u32) {
+    ((key >> 32) as u32, key as u32)
+}
+
 /// Every sensor's tracker, fed one scan of measurements at a time: [`track_sensors`]
 /// for a caller that reads scan by scan (the CLI's `track`), so that memory does not
 /// grow with the number of scans.
@@ -936,7 +959,9 @@ pub struct MultiSensorTracker {
     /// One slot per distinct sensor id: the id, its kind, its time in the current scan
     /// (`None`: no measurement) and its measurement values.
     slots: Vec<SensorSlot>,
-    slot_of: HashMap<Id, usize>,
+    /// Looked up once per measurement: Fx-hashed (only looked up, and iterated where the
+    /// order cannot matter).
+    slot_of: FxHashMap<Id, usize>,
     /// The slot of each tracker.
     tracker_slot: Vec<usize>,
     /// Each tracker's output of the current scan.
@@ -984,7 +1009,7 @@ impl MultiSensorTracker {
             .into_iter()
             .collect::<Result<Vec<_>, _>>()?;
         let mut slots: Vec<SensorSlot> = Vec::new();
-        let mut slot_of = HashMap::new();
+        let mut slot_of = FxHashMap::default();
         let mut tracker_slot = Vec::with_capacity(sensors.len());
         for s in sensors {
             // the first sensor of an id gives the kind its measurements are checked with
@@ -1157,7 +1182,6 @@ pub fn track_sensors_timed(
     seed: u64,
     run: u64,
 ) -> Result<(Vec<LocalTrack>, Duration), TrackerError> {
-    let mut by_scan: BTreeMap<u32, Vec<Measurement>> = BTreeMap::new();
     for m in measurements {
         let Some(s) = sensors.iter().find(|s| s.id == m.sensor_id) else {
             return Err(TrackerError::UnknownSensor {
@@ -1173,20 +1197,28 @@ pub fn track_sensors_timed(
                 sensor: s.kind,
             });
         }
-        by_scan.entry(m.scan).or_default().push(*m);
     }
+    // the scans in ascending order, each with its rows in input order: the rows as they
+    // are when already in scan order (a simulation's are), else a stably sorted copy
+    let sorted: Vec<Measurement>;
+    let rows: &[Measurement] = if measurements.is_sorted_by_key(|m| m.scan) {
+        measurements
+    } else {
+        let mut v = measurements.to_vec();
+        v.sort_by_key(|m| m.scan);
+        sorted = v;
+        &sorted
+    };
     let mut tracker =
         MultiSensorTracker::new(sensors, cfg, scenario_process_noise, known, seed, run)?;
     let mut times = ReportTimes::default();
-    for ms in by_scan.values() {
-        for m in ms {
-            times.add(m.sensor_id, m.time);
-        }
+    for m in rows {
+        times.add(m.sensor_id, m.time);
     }
     tracker.set_clocks(&times.clocks());
     let mut all = Vec::new();
-    for (&scan, ms) in &by_scan {
-        tracker.process_scan(scan, ms, &mut all)?;
+    for ms in rows.chunk_by(|a, b| a.scan == b.scan) {
+        tracker.process_scan(ms[0].scan, ms, &mut all)?;
     }
     Ok((all, tracker.association_time()))
 }
@@ -1230,6 +1262,34 @@ pd = 0.95
             .filter(|l| l.sensor_id == sensor)
             .map(|l| l.track_id)
             .collect()
+    }
+
+    #[test]
+    fn sort_keys_order_as_the_tuples() {
+        let xs = [
+            f64::NEG_INFINITY,
+            -3.5,
+            -1e-300,
+            -0.0,
+            0.0,
+            1e-300,
+            2.0,
+            2.0 + f64::EPSILON,
+            f64::INFINITY,
+            f64::NAN,
+        ];
+        let mut tuples = Vec::new();
+        for (i, &x) in xs.iter().enumerate() {
+            for (a, b) in [(0u32, 5u32), (3, 1), (3, 0), (u32::MAX - 1, 2)] {
+                tuples.push((x, a + (i % 2) as u32, b));
+            }
+        }
+        let mut keys: Vec<u128> = tuples.iter().map(|t| sort_key(t.0, t.1, t.2)).collect();
+        tuples.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        keys.sort_unstable();
+        let from_keys: Vec<(u32, u32)> = keys.into_iter().map(sort_key_indices).collect();
+        let from_tuples: Vec<(u32, u32)> = tuples.iter().map(|t| (t.1, t.2)).collect();
+        assert_eq!(from_keys, from_tuples);
     }
 
     #[test]

@@ -11,72 +11,115 @@
 
 use crate::spatial::EpsGrid;
 use crate::types::Vec2;
-use crate::union_find::UnionFind;
-use std::collections::HashMap;
+use crate::union_find::{Components, UnionFind};
 
 /// Optimal assignment of `rows` to `cols` minimising the sum of `min(d^2, gate^2)`;
 /// returns for each row the assigned column, or `None`. Pairs at distance `>= gate`
 /// are never assigned.
+///
+/// Allocates its buffers for this one call; a caller solving many problems (one per
+/// scan) keeps a [`GatedAssigner`] instead.
 pub fn gated_assignment(rows: &[Vec2], cols: &[Vec2], gate: f64) -> Vec<Option<usize>> {
-    let mut out = vec![None; rows.len()];
-    if rows.is_empty() || cols.is_empty() || gate.is_nan() || gate <= 0.0 {
-        return out;
-    }
-    let gate2 = gate * gate;
-    let mut grid = EpsGrid::default();
-    grid.rebuild(gate, cols.iter().copied());
-    // union-find over rows (0..n) and cols (n..n+m); a component's root is its smallest
-    // row, so components are solved in the order of their first row
-    let n = rows.len();
-    let mut sets = UnionFind::default();
-    sets.reset(n + cols.len());
-    let mut edges: Vec<(usize, usize, f64)> = Vec::new();
-    for (i, r) in rows.iter().enumerate() {
-        // the grid's disc is inclusive; the gate is not
-        grid.for_each_within(r, |j, _| {
-            let d2 = (r - cols[j]).norm_squared();
-            if d2 < gate2 {
-                edges.push((i, j, d2));
-                sets.union(i as u32, (n + j) as u32);
+    GatedAssigner::default().solve(rows, cols, gate).to_vec()
+}
+
+/// [`gated_assignment`] with every buffer (the grid, the union-find, the candidate
+/// edges, the per-component cost matrix, the answer) kept between calls, so that once
+/// grown to the largest problem seen a call allocates nothing but what `lsap` allocates
+/// inside. The evaluation solves several problems per scan (fused tracks, GOSPA, each
+/// sensor's labels); the per-call `HashMap` of components, `Vec`s and binary searches
+/// this replaces cost more than the `lsap` solves themselves.
+///
+/// The answer is the same as [`gated_assignment`]'s, bit for bit: components are solved
+/// in the order of their smallest row, each on the cost matrix of its rows and columns
+/// in ascending order.
+#[derive(Debug, Clone, Default)]
+pub struct GatedAssigner {
+    grid: EpsGrid,
+    sets: UnionFind,
+    comps: Components,
+    /// Candidate pairs `(column, d^2)`, grouped by row (rows ascending).
+    edges: Vec<(u32, f64)>,
+    /// Where each row's candidates start in `edges` (one more entry than rows).
+    edge_start: Vec<u32>,
+    /// A column's index within the component being solved.
+    local_col: Vec<u32>,
+    cost: Vec<f64>,
+    out: Vec<Option<usize>>,
+}
+
+impl GatedAssigner {
+    /// The assignment of [`gated_assignment`]: for each row the assigned column, or
+    /// `None`.
+    pub fn solve(&mut self, rows: &[Vec2], cols: &[Vec2], gate: f64) -> &[Option<usize>] {
+        self.out.clear();
+        self.out.resize(rows.len(), None);
+        if rows.is_empty() || cols.is_empty() || gate.is_nan() || gate <= 0.0 {
+            return &self.out;
+        }
+        let gate2 = gate * gate;
+        self.grid.rebuild(gate, cols.iter().copied());
+        // union-find over rows (0..n) and cols (n..n+m); a component's smallest member
+        // is its smallest row, so components are solved in the order of their first row
+        let n = rows.len();
+        self.sets.reset(n + cols.len());
+        self.edges.clear();
+        self.edge_start.clear();
+        for (i, r) in rows.iter().enumerate() {
+            self.edge_start.push(self.edges.len() as u32);
+            let (edges, sets) = (&mut self.edges, &mut self.sets);
+            // the grid's disc is inclusive; the gate is not
+            self.grid.for_each_within(r, |j, _| {
+                let d2 = (r - cols[j]).norm_squared();
+                if d2 < gate2 {
+                    edges.push((j as u32, d2));
+                    sets.union(i as u32, (n + j) as u32);
+                }
+            });
+        }
+        self.edge_start.push(self.edges.len() as u32);
+        self.comps.build(&mut self.sets);
+        if self.local_col.len() < cols.len() {
+            self.local_col.resize(cols.len(), 0);
+        }
+        for c in 0..self.comps.len() {
+            // members ascending: the component's rows, then its columns (offset by n)
+            let members = self.comps.component(c);
+            if members.len() < 2 {
+                continue; // a row or column without candidates
             }
-        });
-    }
-    // group edges by component
-    let mut comps: HashMap<u32, Vec<(usize, usize, f64)>> = HashMap::new();
-    for e in edges {
-        let root = sets.find(e.0 as u32);
-        comps.entry(root).or_default().push(e);
-    }
-    let mut roots: Vec<u32> = comps.keys().copied().collect();
-    roots.sort_unstable();
-    for root in roots {
-        let es = &comps[&root];
-        if es.len() == 1 {
-            out[es[0].0] = Some(es[0].1);
-            continue;
-        }
-        let mut ri: Vec<usize> = es.iter().map(|e| e.0).collect();
-        let mut ci: Vec<usize> = es.iter().map(|e| e.1).collect();
-        ri.sort_unstable();
-        ri.dedup();
-        ci.sort_unstable();
-        ci.dedup();
-        let (nr, nc) = (ri.len(), ci.len());
-        let mut cost = vec![gate2; nr * nc];
-        for &(i, j, d2) in es {
-            let a = ri.binary_search(&i).unwrap_or(0);
-            let b = ci.binary_search(&j).unwrap_or(0);
-            cost[a * nc + b] = d2;
-        }
-        if let Ok((rr, cc)) = lsap::solve(nr, nc, &cost, false) {
-            for (a, b) in rr.into_iter().zip(cc) {
-                if cost[a * nc + b] < gate2 {
-                    out[ri[a]] = Some(ci[b]);
+            let nr = members.partition_point(|&x| (x as usize) < n);
+            let (ri, ci) = members.split_at(nr);
+            let nc = ci.len();
+            if nr == 1 && nc == 1 {
+                // one candidate pair: its distance is within the gate
+                self.out[ri[0] as usize] = Some(ci[0] as usize - n);
+                continue;
+            }
+            for (b, &j) in ci.iter().enumerate() {
+                self.local_col[j as usize - n] = b as u32;
+            }
+            self.cost.clear();
+            self.cost.resize(nr * nc, gate2);
+            for (a, &i) in ri.iter().enumerate() {
+                let (s, e) = (
+                    self.edge_start[i as usize] as usize,
+                    self.edge_start[i as usize + 1] as usize,
+                );
+                for &(j, d2) in &self.edges[s..e] {
+                    self.cost[a * nc + self.local_col[j as usize] as usize] = d2;
+                }
+            }
+            if let Ok((rr, cc)) = lsap::solve(nr, nc, &self.cost, false) {
+                for (a, b) in rr.into_iter().zip(cc) {
+                    if self.cost[a * nc + b] < gate2 {
+                        self.out[ri[a] as usize] = Some(ci[b] as usize - n);
+                    }
                 }
             }
         }
+        &self.out
     }
-    out
 }
 
 #[cfg(test)]

@@ -22,14 +22,16 @@
 //!   *missed* if another sensor has a local track of its target at that scan. Tracks in
 //!   none of these cases (alone and rightly so) are not counted; the three rates sum to 1.
 
-use super::assignment::gated_assignment;
-use super::gospa::{gospa, ospa};
+use super::assignment::GatedAssigner;
+use super::gospa::{gospa_and_ospa, GospaScratch};
 use super::EvaluationConfig;
 use crate::types::{
     position_of, Association, FusedTrack, Id, LocalTrack, StateCov, StateVec, TruthState, Vec2,
 };
+use rustc_hash::FxHashMap;
 use serde::Serialize;
 use std::collections::{BTreeMap, HashMap};
+use std::hash::BuildHasher;
 
 /// A running sum and count.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
@@ -338,6 +340,9 @@ pub fn evaluate_run_with(
     let mut tpos: Vec<Vec2> = Vec::new();
     let mut fpos: Vec<Vec2> = Vec::new();
     let mut cur: Vec<TruthState> = Vec::new();
+    // buffers of the per-scan assignments (GOSPA and OSPA share one), reused
+    let mut scores = GospaScratch::default();
+    let mut assigner = GatedAssigner::default();
     for &(time, scan) in &times {
         let key = TimeKey(time);
         let fs = fused_t.get(&key).map_or(&empty_f, |v| &v.1);
@@ -354,16 +359,16 @@ pub fn evaluate_run_with(
         tpos.extend(ts.iter().map(|t| position_of(&t.state)));
         fpos.clear();
         fpos.extend(fs.iter().map(|f| position_of(&f.state)));
-        let g = gospa(&tpos, &fpos, c, p);
+        let (g, ospa) = gospa_and_ospa(&mut scores, &tpos, &fpos, c, p);
         m.gospa.add(g.distance);
         m.gospa_localisation.add(g.localisation);
         m.gospa_missed.add(g.missed);
         m.gospa_false.add(g.false_);
         m.gospa_n_missed.add(g.n_missed as f64);
         m.gospa_n_false.add(g.n_false as f64);
-        m.ospa.add(ospa(&tpos, &fpos, c, p));
+        m.ospa.add(ospa);
         m.truth_points += ts.len() as u64;
-        for (fi, ti) in gated_assignment(&fpos, &tpos, c).into_iter().enumerate() {
+        for (fi, &ti) in assigner.solve(&fpos, &tpos, c).iter().enumerate() {
             if let Some(ti) = ti {
                 let e2 = (fpos[fi] - tpos[ti]).norm_squared();
                 m.fused_per_target
@@ -381,7 +386,8 @@ pub fn evaluate_run_with(
     }
 
     let Some(local) = input.local else { return m };
-    let labels = label_local_tracks_into(&truth, local, cfg.label_gate, Some(&mut m));
+    let labels: FxHashMap<(u32, Id, Id), Id> =
+        label_local_tracks_into(&truth, local, cfg.label_gate, &mut assigner, Some(&mut m));
     // associations: given, or from the fused tracks' sources
     let derived: Vec<Association>;
     let assoc: &[Association] = match input.associations {
@@ -444,19 +450,22 @@ pub fn evaluate_run_with(
 
 /// Fused id -> members `(sensor, label)`, and target -> `(sensor, fused id)` of the local
 /// tracks following it, of one scan's associations (in their order).
+///
+/// Fx-hashed: the maps are only looked up, and iterated where the order cannot matter
+/// (counts), so the quicker hash changes no output.
 type ScanGroups = (
-    HashMap<Id, Vec<(Id, Option<Id>)>>,
-    HashMap<Id, Vec<(Id, Id)>>,
+    FxHashMap<Id, Vec<(Id, Option<Id>)>>,
+    FxHashMap<Id, Vec<(Id, Id)>>,
 );
 
 /// [`ScanGroups`] of the associations `rows` of scan `scan` under `labels`.
-fn scan_groups(
+fn scan_groups<S: BuildHasher>(
     scan: u32,
     rows: &[&Association],
-    labels: &HashMap<(u32, Id, Id), Id>,
+    labels: &HashMap<(u32, Id, Id), Id, S>,
 ) -> ScanGroups {
-    let mut members: HashMap<Id, Vec<(Id, Option<Id>)>> = HashMap::new();
-    let mut followers: HashMap<Id, Vec<(Id, Id)>> = HashMap::new();
+    let mut members: FxHashMap<Id, Vec<(Id, Option<Id>)>> = FxHashMap::default();
+    let mut followers: FxHashMap<Id, Vec<(Id, Id)>> = FxHashMap::default();
     for a in rows {
         let label = labels.get(&(scan, a.sensor_id, a.track_id)).copied();
         members
@@ -477,8 +486,8 @@ fn scan_groups(
 /// label)` of its local tracks) and `followers` (target -> `(sensor, fused id)` of the
 /// local tracks following it, in association order); `None` without a common target.
 fn scan_probability_correct(
-    members: &HashMap<Id, Vec<(Id, Option<Id>)>>,
-    followers: &HashMap<Id, Vec<(Id, Id)>>,
+    members: &FxHashMap<Id, Vec<(Id, Option<Id>)>>,
+    followers: &FxHashMap<Id, Vec<(Id, Id)>>,
 ) -> Option<f64> {
     let mut n_public = 0u64;
     let mut n_correct = 0u64;
@@ -531,18 +540,24 @@ pub fn label_local_tracks(
     gate: f64,
 ) -> HashMap<(u32, Id, Id), Id> {
     let truth = group_by_scan(truth, |t| t.scan);
-    label_local_tracks_into(&truth, local, gate, None)
+    label_local_tracks_into(&truth, local, gate, &mut GatedAssigner::default(), None)
 }
 
-fn label_local_tracks_into(
+/// [`label_local_tracks`] into a map of any hasher (the evaluation's own is Fx-hashed:
+/// it only looks labels up), solving in `assigner`'s buffers and, with `metrics`,
+/// adding the local RMSE and NEES of the labelled tracks.
+fn label_local_tracks_into<S: BuildHasher + Default>(
     truth: &BTreeMap<u32, Vec<&TruthState>>,
     local: &[LocalTrack],
     gate: f64,
+    assigner: &mut GatedAssigner,
     mut metrics: Option<&mut RunMetrics>,
-) -> HashMap<(u32, Id, Id), Id> {
-    let mut labels: HashMap<(u32, Id, Id), Id> = HashMap::with_capacity(local.len());
+) -> HashMap<(u32, Id, Id), Id, S> {
+    let mut labels: HashMap<(u32, Id, Id), Id, S> =
+        HashMap::with_capacity_and_hasher(local.len(), S::default());
     let empty_t: Vec<&TruthState> = Vec::new();
     let mut tpos: Vec<Vec2> = Vec::new();
+    let mut lpos: Vec<Vec2> = Vec::new();
     for (scan, ls) in &group_by_scan(local, |l| l.scan) {
         let ts = truth.get(scan).unwrap_or(&empty_t);
         tpos.clear();
@@ -552,8 +567,9 @@ fn label_local_tracks_into(
             by_sensor.entry(l.sensor_id).or_default().push(l);
         }
         for (sensor, tracks) in by_sensor {
-            let lpos: Vec<Vec2> = tracks.iter().map(|l| position_of(&l.state)).collect();
-            for (li, ti) in gated_assignment(&lpos, &tpos, gate).into_iter().enumerate() {
+            lpos.clear();
+            lpos.extend(tracks.iter().map(|l| position_of(&l.state)));
+            for (li, &ti) in assigner.solve(&lpos, &tpos, gate).iter().enumerate() {
                 let Some(ti) = ti else { continue };
                 let l = tracks[li];
                 labels.insert((*scan, sensor, l.track_id), ts[ti].target_id);

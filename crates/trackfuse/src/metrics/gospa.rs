@@ -11,6 +11,7 @@
 //! pairs within `c`; for `p = 2` it is the same gated assignment the rest of the
 //! evaluation uses.
 
+use super::assignment::GatedAssigner;
 use crate::types::Vec2;
 
 /// GOSPA of one scan and its parts.
@@ -25,17 +26,30 @@ pub struct Gospa {
     pub n_false: usize,
 }
 
-fn optimal_pairs(truth: &[Vec2], est: &[Vec2], c: f64, p: f64) -> Vec<(usize, usize, f64)> {
+/// The optimal pairs `(truth, estimate, distance)` closer than `c`, into `pairs`
+/// (cleared first); `assigner` holds the buffers of the `p = 2` case.
+fn optimal_pairs_into(
+    assigner: &mut GatedAssigner,
+    truth: &[Vec2],
+    est: &[Vec2],
+    c: f64,
+    p: f64,
+    pairs: &mut Vec<(usize, usize, f64)>,
+) {
+    pairs.clear();
     let (m, n) = (truth.len(), est.len());
     if m == 0 || n == 0 {
-        return Vec::new();
+        return;
     }
     if (p - 2.0).abs() < 1e-12 {
-        return super::assignment::gated_assignment(truth, est, c)
-            .into_iter()
-            .enumerate()
-            .filter_map(|(i, j)| j.map(|j| (i, j, (truth[i] - est[j]).norm())))
-            .collect();
+        pairs.extend(
+            assigner
+                .solve(truth, est, c)
+                .iter()
+                .enumerate()
+                .filter_map(|(i, &j)| j.map(|j| (i, j, (truth[i] - est[j]).norm()))),
+        );
+        return;
     }
     let cp = c.powf(p);
     let mut cost = vec![cp; m * n];
@@ -47,23 +61,21 @@ fn optimal_pairs(truth: &[Vec2], est: &[Vec2], c: f64, p: f64) -> Vec<(usize, us
             }
         }
     }
-    match lsap::solve(m, n, &cost, false) {
-        Ok((r, cc)) => r
-            .into_iter()
-            .zip(cc)
-            .filter(|&(i, j)| cost[i * n + j] < cp)
-            .map(|(i, j)| (i, j, (truth[i] - est[j]).norm()))
-            .collect(),
-        Err(_) => Vec::new(),
+    if let Ok((r, cc)) = lsap::solve(m, n, &cost, false) {
+        pairs.extend(
+            r.into_iter()
+                .zip(cc)
+                .filter(|&(i, j)| cost[i * n + j] < cp)
+                .map(|(i, j)| (i, j, (truth[i] - est[j]).norm())),
+        );
     }
 }
 
-/// GOSPA between true positions and estimated positions, cut-off `c`, order `p`, alpha 2.
-pub fn gospa(truth: &[Vec2], est: &[Vec2], c: f64, p: f64) -> Gospa {
-    let pairs = optimal_pairs(truth, est, c, p);
+/// GOSPA of `m` truths and `n` estimates from their optimal pairs.
+fn gospa_of_pairs(pairs: &[(usize, usize, f64)], m: usize, n: usize, c: f64, p: f64) -> Gospa {
     let localisation: f64 = pairs.iter().map(|&(_, _, d)| d.powf(p)).sum();
-    let n_missed = truth.len() - pairs.len();
-    let n_false = est.len() - pairs.len();
+    let n_missed = m - pairs.len();
+    let n_false = n - pairs.len();
     let half = c.powf(p) / 2.0;
     let missed = half * n_missed as f64;
     let false_ = half * n_false as f64;
@@ -77,23 +89,60 @@ pub fn gospa(truth: &[Vec2], est: &[Vec2], c: f64, p: f64) -> Gospa {
     }
 }
 
-/// OSPA between true and estimated positions, cut-off `c`, order `p`. Zero when both
-/// sets are empty, `c` when exactly one is.
-pub fn ospa(truth: &[Vec2], est: &[Vec2], c: f64, p: f64) -> f64 {
-    let (m, n) = (truth.len(), est.len());
+/// OSPA of `m` truths and `n` estimates from their optimal pairs.
+fn ospa_of_pairs(pairs: &[(usize, usize, f64)], m: usize, n: usize, c: f64, p: f64) -> f64 {
     if m == 0 && n == 0 {
         return 0.0;
     }
     if m == 0 || n == 0 {
         return c;
     }
-    let pairs = optimal_pairs(truth, est, c, p);
     let cp = c.powf(p);
     // every truth or estimate that is not in a pair within c costs c^p
     let matched: f64 = pairs.iter().map(|&(_, _, d)| d.powf(p)).sum();
     let unmatched_in_min = m.min(n) - pairs.len();
     let total = matched + cp * unmatched_in_min as f64 + cp * (m.max(n) - m.min(n)) as f64;
     (total / m.max(n) as f64).powf(1.0 / p)
+}
+
+/// GOSPA between true positions and estimated positions, cut-off `c`, order `p`, alpha 2.
+pub fn gospa(truth: &[Vec2], est: &[Vec2], c: f64, p: f64) -> Gospa {
+    let mut pairs = Vec::new();
+    optimal_pairs_into(&mut GatedAssigner::default(), truth, est, c, p, &mut pairs);
+    gospa_of_pairs(&pairs, truth.len(), est.len(), c, p)
+}
+
+/// OSPA between true and estimated positions, cut-off `c`, order `p`. Zero when both
+/// sets are empty, `c` when exactly one is.
+pub fn ospa(truth: &[Vec2], est: &[Vec2], c: f64, p: f64) -> f64 {
+    let mut pairs = Vec::new();
+    optimal_pairs_into(&mut GatedAssigner::default(), truth, est, c, p, &mut pairs);
+    ospa_of_pairs(&pairs, truth.len(), est.len(), c, p)
+}
+
+/// [`gospa`] and [`ospa`] of the same sets, from one optimal assignment (both use the
+/// same one) solved in `scratch`'s buffers: what the evaluation calls once per scan.
+pub fn gospa_and_ospa(
+    scratch: &mut GospaScratch,
+    truth: &[Vec2],
+    est: &[Vec2],
+    c: f64,
+    p: f64,
+) -> (Gospa, f64) {
+    let GospaScratch { assigner, pairs } = scratch;
+    optimal_pairs_into(assigner, truth, est, c, p, pairs);
+    let (m, n) = (truth.len(), est.len());
+    (
+        gospa_of_pairs(pairs, m, n, c, p),
+        ospa_of_pairs(pairs, m, n, c, p),
+    )
+}
+
+/// Buffers of [`gospa_and_ospa`], reused from scan to scan.
+#[derive(Debug, Clone, Default)]
+pub struct GospaScratch {
+    assigner: GatedAssigner,
+    pairs: Vec<(usize, usize, f64)>,
 }
 
 #[cfg(test)]

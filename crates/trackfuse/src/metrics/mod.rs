@@ -4,12 +4,12 @@ pub mod assignment;
 pub mod evaluate;
 pub mod gospa;
 
-pub use assignment::gated_assignment;
+pub use assignment::{gated_assignment, GatedAssigner};
 pub use evaluate::{
     default_truth_gap, evaluate_run, evaluate_run_with, label_local_tracks, probability_correct,
     EvalInput, RunMetrics, Summary,
 };
-pub use gospa::{gospa, ospa, Gospa};
+pub use gospa::{gospa, gospa_and_ospa, ospa, Gospa, GospaScratch};
 
 use serde::{Deserialize, Serialize};
 

@@ -92,8 +92,8 @@ use crate::params::{in_range, ParamError};
 use crate::spatial::SweepIndex;
 use crate::types::{position_of, Id, LocalTrack, StateCov, StateVec, Vec2};
 use nalgebra::DMatrix;
+use rustc_hash::FxHashMap;
 use serde::Deserialize;
-use std::collections::HashMap;
 use std::f64::consts::PI;
 
 /// The registered name.
@@ -439,11 +439,13 @@ struct Candidate {
 #[derive(Debug, Clone)]
 pub struct Fdtta {
     params: FdttaParams,
-    history: HashMap<(Id, Id), TrackHistory>,
+    /// Fx-hashed, as `global_index`: looked up per track and pair, and only filtered
+    /// (`retain`) where the order cannot matter.
+    history: FxHashMap<(Id, Id), TrackHistory>,
     last_scan: Option<u32>,
     decisions: Vec<FdttaDecision>,
     // per-scan buffers
-    global_index: HashMap<Id, usize>,
+    global_index: FxHashMap<Id, usize>,
     candidates: Vec<Candidate>,
     taken_by: Vec<Id>,
     rows: Vec<usize>,
@@ -462,10 +464,10 @@ impl Fdtta {
         params.check()?;
         Ok(Fdtta {
             params,
-            history: HashMap::new(),
+            history: FxHashMap::default(),
             last_scan: None,
             decisions: Vec::new(),
-            global_index: HashMap::new(),
+            global_index: FxHashMap::default(),
             candidates: Vec::new(),
             taken_by: Vec::new(),
             rows: Vec::new(),
