@@ -15,6 +15,10 @@ const BEARING_VAR_FLOOR: f64 = 1e-12;
 /// Extra ungated Gauss-Newton passes of the joint solve while its linearisation settles
 /// (module doc, "Relinearisation and robustness").
 const MAX_RELINEARISATIONS: u32 = 4;
+/// A gated pass whose step is below this, squared in the metric of the new estimate's
+/// information (`step' M step`, i.e. (0.01 standard deviations)^2), ends the solve early
+/// (module doc, "Relinearisation and robustness").
+const SETTLED_STEP: f64 = 1e-4;
 
 /// Range and bearing of position `q` from `sensor`.
 #[inline]
@@ -443,14 +447,18 @@ impl TrackPairLs {
                 info[(2 * i + 1, 2 * i + 1)] += pb;
             }
             let m = (&info + info.transpose()) * 0.5;
-            let step_metric = if gated { None } else { Some(m.clone()) };
-            let Some(ch) = m.cholesky() else { break };
+            let step = |x: &DVector<f64>| {
+                let d = x - &b;
+                d.dot(&(&m * &d))
+            };
+            let Some(ch) = m.clone().cholesky() else {
+                break;
+            };
             let x = ch.solve(&vector);
             if !x.iter().all(|v| v.is_finite()) {
                 break;
             }
-            let step = &x - &b;
-            let moved = step_metric.map_or(0.0, |m| step.dot(&(m * &step)));
+            let moved = step(&x);
             b = x;
             let c = ch.inverse();
             if c.iter().all(|v| v.is_finite()) {
@@ -458,7 +466,7 @@ impl TrackPairLs {
             }
             if gated {
                 gated_done += 1;
-                if gated_done >= gated_wanted {
+                if gated_done >= gated_wanted || moved < SETTLED_STEP {
                     break;
                 }
             } else if gated_wanted == 0 {
