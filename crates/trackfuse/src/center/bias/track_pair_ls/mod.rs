@@ -50,7 +50,9 @@
 //!   most 1, at most 4 extra passes); then `iterations - 1` passes leave out every group
 //!   whose chi-square residual exceeds the `gate_probability` quantile (`2 members - 2`
 //!   degrees of freedom, [`crate::stats::chi2_quantile_even`]) scaled by the median
-//!   normalised chi-square when that is above 1.
+//!   normalised chi-square when that is above 1. A gated pass that moves the estimate
+//!   by under 0.01 standard deviations (`step' M step < 1e-4`) ends the scan's solve
+//!   early: a further pass could only move it by a like amount (docs/bias-estimator.md).
 //!
 //! # Pairing
 //! With `pairing = "consensus"` (the default) the estimator pairs the scan's raw tracks
@@ -74,7 +76,7 @@
 //!    (up to 8 scans), with the biases removed exactly
 //!    ([`crate::models::polar::polar_shift_position`]), passes the gate (`2 n` dof for
 //!    `n` scans). Hypotheses: zero, each candidate alone, each pair of candidates of
-//!    distinct tracks among at most 40 sampled, each a MAP fit (5 Gauss-Newton steps,
+//!    distinct tracks among at most 20 sampled, each a MAP fit (5 Gauss-Newton steps,
 //!    prior `N(0, prior)`), rejected when the biases they imply leave the prior's pair
 //!    gate. The largest support (distinct tracks explained) wins, ties by the smallest
 //!    summed chi-square.
@@ -124,10 +126,10 @@
 //! # Cost
 //! Per scan: grid queries over each sensor pair's tracks (`O(m log m)` at bounded
 //! density) and, in the steady state, one pass over the candidates' histories; the
-//! consensus only over unsettled components (at most `1 + 40 + 40^2 / 2` hypotheses),
+//! consensus only over unsettled components (at most `1 + 20 + 20 * 19 / 2` hypotheses),
 //! so a dense scene's split tracks and close targets do not make every scan an
-//! acquisition over all its tracks; the re-solve is `iterations`
-//! passes (up to 4 more) over at most `max_groups` groups plus a Cholesky factorisation
+//! acquisition over all its tracks; the re-solve is at most `iterations`
+//! passes (up to 4 more, fewer once a gated pass has settled) over at most `max_groups` groups plus a Cholesky factorisation
 //! of the `2 n x 2 n` normal matrix of `n` sensors. All buffers are reused.
 //!
 //! # Code
