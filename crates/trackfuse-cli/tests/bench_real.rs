@@ -23,15 +23,21 @@ fn gospa_of(summary: &Path) -> f64 {
     v["gospa"]["mean"].as_f64().expect("gospa mean")
 }
 
-#[test]
-fn bench_real_scores_what_the_commands_write() {
-    let dir = tempfile::tempdir().expect("tmp");
-    let data = dir.path().join("data");
+/// A simulated data folder (`bias-radars-nobias`, seed 3) under `dir`.
+fn simulated(dir: &Path) -> std::path::PathBuf {
+    let data = dir.join("data");
     trackfuse()
         .args(["simulate", "bias-radars-nobias", "--seed", "3", "--out"])
         .arg(&data)
         .assert()
         .success();
+    data
+}
+
+#[test]
+fn bench_real_scores_what_the_commands_write() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let data = simulated(dir.path());
     let out = dir.path().join("bench");
     let res = trackfuse()
         .args(["bench", "real"])
@@ -95,12 +101,7 @@ fn bench_real_scores_what_the_commands_write() {
 #[test]
 fn bench_real_refuses_an_unknown_oracle_filter_before_running() {
     let dir = tempfile::tempdir().expect("tmp");
-    let data = dir.path().join("data");
-    trackfuse()
-        .args(["simulate", "bias-radars-nobias", "--seed", "3", "--out"])
-        .arg(&data)
-        .assert()
-        .success();
+    let data = simulated(dir.path());
     let out = dir.path().join("bench");
     let res = trackfuse()
         .args(["bench", "real"])

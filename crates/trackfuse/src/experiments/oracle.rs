@@ -25,11 +25,9 @@
 
 use crate::local::filter::Filter;
 use crate::local::registry::{make_filter, FilterSettings};
-use crate::models::measurement::range_bearing_to_position;
+use crate::local::tracker::{measurement_position, two_point_state};
 use crate::params::{ParamError, ParamTables};
-use crate::types::{
-    FusedTrack, Id, Mat2, Measurement, Sensor, SensorKind, StateCov, StateVec, TrackStatus, Vec2,
-};
+use crate::types::{FusedTrack, Id, Measurement, Sensor, SensorKind, TrackStatus, Vec2};
 use std::collections::BTreeMap;
 
 /// The oracle's settings.
@@ -66,20 +64,6 @@ pub enum OracleError {
         sensor: Id,
         kind: SensorKind,
     },
-}
-
-/// A measurement in Cartesian position with its covariance (bias-corrected).
-fn cartesian(z: &Vec2, sensor: &Sensor) -> (Vec2, Mat2) {
-    let r = sensor.measurement_noise();
-    match sensor.kind {
-        SensorKind::Position => (*z, r),
-        SensorKind::RangeBearing => {
-            let p = range_bearing_to_position(z, &sensor.position());
-            let (c, s) = (z[1].cos(), z[1].sin());
-            let j = Mat2::new(c, -z[0] * s, s, z[0] * c);
-            (p, j * r * j.transpose())
-        }
-    }
 }
 
 /// The measurement with the sensor's true bias removed (000 eq. 3: `z = h(x) + b + w`).
@@ -166,24 +150,9 @@ fn track_one(
     // two-point initiation, as the local trackers do it
     let s1 = sensors[&first.sensor_id];
     let s2 = sensors[&dets[second_at].sensor_id];
-    let (p1, c1) = cartesian(&unbiased(first, s1), s1);
-    let (p2, c2) = cartesian(&unbiased(dets[second_at], s2), s2);
-    let dt = second_time - first_time;
-    let v = (p2 - p1) / dt;
-    let vc = (c1 + c2) / (dt * dt);
-    let mut mean = StateVec::zeros();
-    let mut cov = StateCov::zeros();
-    let idx = [0usize, 2];
-    for a in 0..2 {
-        mean[idx[a]] = p2[a];
-        mean[idx[a] + 1] = v[a];
-        for b in 0..2 {
-            cov[(idx[a], idx[b])] = c2[(a, b)];
-            cov[(idx[a] + 1, idx[b] + 1)] = vc[(a, b)];
-            cov[(idx[a], idx[b] + 1)] = c2[(a, b)] / dt;
-            cov[(idx[a] + 1, idx[b])] = c2[(a, b)] / dt;
-        }
-    }
+    let p1 = measurement_position(&unbiased(first, s1), s1);
+    let p2 = measurement_position(&unbiased(dets[second_at], s2), s2);
+    let (mean, cov) = two_point_state(p1, p2, second_time - first_time);
     let mut state = filter.init(mean, cov);
     let mut now = second_time;
     // detections after the one the initiation used (others at the second time update too)
@@ -222,6 +191,7 @@ fn track_one(
 mod tests {
     use super::*;
     use crate::models::cv_transition;
+    use crate::types::StateVec;
 
     fn radar(id: Id, x: f64, bias_r: f64) -> Sensor {
         Sensor {

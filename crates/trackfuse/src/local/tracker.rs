@@ -786,16 +786,7 @@ impl SensorTracker {
 
     /// Cartesian position and its covariance of a raw measurement.
     fn to_cartesian(&self, z: &Vec2) -> (Vec2, Mat2) {
-        let r = self.sensor.measurement_noise();
-        match self.sensor.kind {
-            SensorKind::Position => (*z, r),
-            SensorKind::RangeBearing => {
-                let p = range_bearing_to_position(z, &self.sensor.position());
-                let (c, s) = (z[1].cos(), z[1].sin());
-                let j = Mat2::new(c, -z[0] * s, s, z[0] * c);
-                (p, j * r * j.transpose())
-            }
-        }
+        measurement_position(z, &self.sensor)
     }
 
     /// Step 5, two-point initiation: each unused measurement pairs with the nearest single point
@@ -873,19 +864,7 @@ impl SensorTracker {
             let s = &seeds[si];
             let (p, pc) = cart[m];
             let dt = time - s.time;
-            let v = (p - s.position) / dt;
-            let vc = (pc + s.cov) / (dt * dt);
-            let mean = StateVec::new(p[0], v[0], p[1], v[1]);
-            let mut cov = StateCov::zeros();
-            let idx = [0usize, 2];
-            for a in 0..2 {
-                for b in 0..2 {
-                    cov[(idx[a], idx[b])] = pc[(a, b)];
-                    cov[(idx[a] + 1, idx[b] + 1)] = vc[(a, b)];
-                    cov[(idx[a], idx[b] + 1)] = pc[(a, b)] / dt;
-                    cov[(idx[a] + 1, idx[b])] = pc[(a, b)] / dt;
-                }
-            }
+            let (mean, cov) = two_point_state((s.position, s.cov), (p, pc), dt);
             if !mean.iter().all(|v| v.is_finite()) {
                 continue;
             }
@@ -941,6 +920,44 @@ fn sort_key(x: f64, a: u32, b: u32) -> u128 {
 #[inline]
 fn sort_key_indices(key: u128) -> (u32, u32) {
     ((key >> 32) as u32, key as u32)
+}
+
+/// Cartesian position of a raw measurement `z` of `sensor` and its covariance (a
+/// range-bearing measurement's noise carried through the polar-to-Cartesian Jacobian).
+/// The trackers' initiation and the oracle (`experiments::oracle`) use it.
+pub fn measurement_position(z: &Vec2, sensor: &Sensor) -> (Vec2, Mat2) {
+    let r = sensor.measurement_noise();
+    match sensor.kind {
+        SensorKind::Position => (*z, r),
+        SensorKind::RangeBearing => {
+            let p = range_bearing_to_position(z, &sensor.position());
+            let (c, s) = (z[1].cos(), z[1].sin());
+            let j = Mat2::new(c, -z[0] * s, s, z[0] * c);
+            (p, j * r * j.transpose())
+        }
+    }
+}
+
+/// Two-point initiation: the state at the second of two Cartesian points `(position,
+/// covariance)` `dt` seconds apart, position the second point, velocity their difference
+/// over `dt`, with the covariance of those two estimates (position-velocity coupling
+/// `P2 / dt`, velocity `(P1 + P2) / dt^2`). The trackers and the oracle use it.
+pub fn two_point_state(first: (Vec2, Mat2), second: (Vec2, Mat2), dt: f64) -> (StateVec, StateCov) {
+    let ((p1, c1), (p, pc)) = (first, second);
+    let v = (p - p1) / dt;
+    let vc = (pc + c1) / (dt * dt);
+    let mean = StateVec::new(p[0], v[0], p[1], v[1]);
+    let mut cov = StateCov::zeros();
+    let idx = [0usize, 2];
+    for a in 0..2 {
+        for b in 0..2 {
+            cov[(idx[a], idx[b])] = pc[(a, b)];
+            cov[(idx[a] + 1, idx[b] + 1)] = vc[(a, b)];
+            cov[(idx[a], idx[b] + 1)] = pc[(a, b)] / dt;
+            cov[(idx[a] + 1, idx[b])] = pc[(a, b)] / dt;
+        }
+    }
+    (mean, cov)
 }
 
 /// Every sensor's tracker, fed one scan of measurements at a time: [`track_sensors`]

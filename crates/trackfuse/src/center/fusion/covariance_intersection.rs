@@ -742,6 +742,17 @@ mod tests {
         symmetrize(&(StateCov::from_diagonal(&s) * p * StateCov::from_diagonal(&s)))
     }
 
+    /// The largest condition number (largest over smallest eigenvalue) among `infos`.
+    fn largest_condition(infos: &[StateCov]) -> f64 {
+        infos
+            .iter()
+            .map(|y| {
+                let e = y.symmetric_eigenvalues();
+                e.max() / e.min()
+            })
+            .fold(0.0f64, f64::max)
+    }
+
     /// The exact optimum of two members, independently: the generalised eigenvalues
     /// `lambda_k` of `(Y_1, Y_2)` (eigen-decomposition of `L^-1 Y_1 L^-T`, `Y_2 = L L^T`)
     /// make `d/dt ln det(t Y_1 + (1 - t) Y_2) = sum (lambda_k - 1) / (1 + t (lambda_k - 1))`,
@@ -821,13 +832,7 @@ mod tests {
                     // 1e-9, or what double precision resolves: both computations of the
                     // root carry an error of about 1e-16 k / f'' for members of
                     // condition number k (1e-13 k covers the cases seen, k up to 1e9)
-                    let cond = infos
-                        .iter()
-                        .map(|y| {
-                            let e = y.symmetric_eigenvalues();
-                            e.max() / e.min()
-                        })
-                        .fold(0.0f64, f64::max);
+                    let cond = largest_condition(&infos);
                     let tol = 1e-9f64.max(1e-13 * cond);
                     assert!(
                         (we[0] - t).abs() <= tol,
@@ -983,13 +988,7 @@ mod tests {
             } else {
                 reference_det_weights(&infos)
             };
-            let cond = infos
-                .iter()
-                .map(|y| {
-                    let e = y.symmetric_eigenvalues();
-                    e.max() / e.min()
-                })
-                .fold(0.0f64, f64::max);
+            let cond = largest_condition(&infos);
             let tol = if realistic {
                 1e-9
             } else {
