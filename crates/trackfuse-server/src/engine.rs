@@ -46,7 +46,7 @@ use std::time::{Duration, Instant};
 use trackfuse::center::instants::InstantBatcher;
 use trackfuse::center::{FusionCenter, ScanOutput};
 use trackfuse::clock::CLOCK_TOLERANCE;
-use trackfuse::types::{Id, LocalTrack};
+use trackfuse::types::{Association, FusedTrack, Id, LocalTrack};
 
 /// A report time as a map key (times are finite: checked on parsing).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -70,6 +70,41 @@ struct Batch {
     rows: Vec<LocalTrack>,
     /// When its first report arrived (for the latency budget and the latency metric).
     first_arrival: Instant,
+}
+
+/// One fused instant's output: its fused tracks (sorted by `fused_id`), then one
+/// association per local track (sorted by sensor and track), as the center gave them.
+/// Encoding is left to whoever publishes it ([`InstantOutput::encode_chunks`]), so that
+/// the TCP service encodes off the center's task while the next reports come in.
+#[derive(Debug, Clone, Default)]
+pub struct InstantOutput {
+    pub fused: Vec<FusedTrack>,
+    pub associations: Vec<Association>,
+}
+
+impl InstantOutput {
+    /// The instant's NDJSON lines (FORMATS.md "Streaming"), fused tracks first, handed
+    /// to `emit` in chunks of whole lines, each at least `min_chunk` bytes but the last
+    /// (`usize::MAX`: one chunk). The chunks joined are the same bytes whatever
+    /// `min_chunk` is.
+    pub fn encode_chunks(&self, min_chunk: usize, mut emit: impl FnMut(Vec<u8>)) {
+        let cap = min_chunk.min(256 * (self.fused.len() + self.associations.len())) + 512;
+        let mut chunk = Vec::with_capacity(cap);
+        let mut flush = |chunk: &mut Vec<u8>, last: bool| {
+            if (last && !chunk.is_empty()) || chunk.len() >= min_chunk {
+                emit(std::mem::replace(chunk, Vec::with_capacity(cap)));
+            }
+        };
+        for f in &self.fused {
+            encode_fused(f, &mut chunk);
+            flush(&mut chunk, false);
+        }
+        for a in &self.associations {
+            encode_association(a, &mut chunk);
+            flush(&mut chunk, false);
+        }
+        flush(&mut chunk, true);
+    }
 }
 
 /// What [`Engine::accept`] did with a report.
@@ -127,8 +162,8 @@ pub struct Engine {
     journal: Option<std::io::BufWriter<std::fs::File>>,
     scan_out: ScanOutput,
     line: Vec<u8>,
-    /// The output lines not yet taken, one chunk per instant ([`Engine::take_output`]).
-    output: Vec<Vec<u8>>,
+    /// The fused instants not yet taken ([`Engine::take_output`]).
+    output: Vec<InstantOutput>,
     /// Each fused instant's time in the center, not yet taken.
     pub fusion_times: Vec<Duration>,
     /// The first-arrival time of each batch released, not yet taken.
@@ -337,16 +372,12 @@ impl Engine {
                 center.process_at_into(s, t, tracks, out)?;
                 times.push(t0.elapsed());
                 stats.instants_fused += 1;
-                let mut chunk =
-                    Vec::with_capacity(256 * (out.fused.len() + out.associations.len()));
-                for f in &out.fused {
-                    encode_fused(f, &mut chunk);
-                }
-                for a in &out.associations {
-                    encode_association(a, &mut chunk);
-                }
-                if !chunk.is_empty() {
-                    output.push(chunk);
+                if !out.fused.is_empty() || !out.associations.is_empty() {
+                    // taken, not copied: the center refills the emptied buffers
+                    output.push(InstantOutput {
+                        fused: std::mem::take(&mut out.fused),
+                        associations: std::mem::take(&mut out.associations),
+                    });
                 }
                 Ok::<(), trackfuse::center::CenterError>(())
             });
@@ -357,9 +388,26 @@ impl Engine {
         }
     }
 
-    /// The output lines produced since the last call, one chunk per instant.
-    pub fn take_output(&mut self) -> Vec<Vec<u8>> {
+    /// The instants fused since the last call (those with output lines), oldest first.
+    pub fn take_output(&mut self) -> Vec<InstantOutput> {
         std::mem::take(&mut self.output)
+    }
+
+    /// Whether fused instants wait to be taken.
+    pub fn has_output(&self) -> bool {
+        !self.output.is_empty()
+    }
+
+    /// [`Engine::take_output`] encoded, one chunk of lines per instant.
+    pub fn take_output_lines(&mut self) -> Vec<Vec<u8>> {
+        self.take_output()
+            .iter()
+            .map(|o| {
+                let mut chunk = Vec::new();
+                o.encode_chunks(usize::MAX, |c| chunk = c);
+                chunk
+            })
+            .collect()
     }
 
     /// Global tracks the center holds.
@@ -397,12 +445,12 @@ pub fn replay(journal: &std::path::Path, out: &mut dyn Write) -> Result<EngineSt
                 .map_err(|r| anyhow::anyhow!("{}: {}: {}", at(), r.reason, r.detail))?;
             engine.accept(t, now)?;
         }
-        for chunk in engine.take_output() {
+        for chunk in engine.take_output_lines() {
             out.write_all(&chunk)?;
         }
     }
     engine.release_all()?;
-    for chunk in engine.take_output() {
+    for chunk in engine.take_output_lines() {
         out.write_all(&chunk)?;
     }
     for e in &engine.errors {

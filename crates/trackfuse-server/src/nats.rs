@@ -401,7 +401,7 @@ impl Center {
     /// Publish the instants fused since the last call (module docs), skipping what the
     /// output stream already has; wait for the acknowledgements.
     async fn publish(&mut self) -> Result<()> {
-        let chunks = self.engine.take_output();
+        let chunks = self.engine.take_output_lines();
         update_metrics(&mut self.engine, &self.metrics, &mut self.last);
         let mut acks = Vec::new();
         for chunk in chunks {
