@@ -7,7 +7,9 @@
 //! reported by every sensor at every scan (data time `scan * --period`), its local track
 //! the truth plus 20 m / 2 m/s of deterministic noise, covariance `diag(400, 4, 400, 4)`.
 //! All sensors report at one period, so the service fuses instant `k` once every sensor
-//! has sent a report of scan `k + 1` (its assembly wait). The latency of instant `k` is
+//! has sent a report of scan `k + 1` (its assembly wait). Each sensor's scan is sent in
+//! one write at its due time (`scan * targets / (rate / sensors)` seconds after the
+//! start), encoded beforehand while the sender waits. The latency of instant `k` is
 //! measured from the moment the last sensor sent its first report of scan `k + 1` to the
 //! first fused line of `k` received: the service's latency beyond the assembly wait.
 
@@ -106,13 +108,24 @@ fn synthetic(sensor: u32, target: u32, k: u32, period: f64) -> LocalTrack {
 }
 
 /// The value of `"scan":N` in an output line, without decoding the rest.
-fn scan_of(line: &str) -> Option<u32> {
-    let i = line.find("\"scan\":")? + 7;
+fn scan_of(line: &[u8]) -> Option<u32> {
+    let key = b"\"scan\":";
+    let i = line.windows(key.len()).position(|w| w == key)? + key.len();
     let rest = &line[i..];
     let end = rest
-        .find(|c: char| !c.is_ascii_digit())
+        .iter()
+        .position(|c| !c.is_ascii_digit())
         .unwrap_or(rest.len());
-    rest[..end].parse().ok()
+    std::str::from_utf8(&rest[..end]).ok()?.parse().ok()
+}
+
+/// Sensor `sensor`'s reports of scan `k` as NDJSON lines, in `buf`.
+fn encode_scan(sensor: u32, targets: u32, k: u32, period: f64, buf: &mut Vec<u8>) {
+    buf.clear();
+    for target in 0..targets {
+        crate::message::encode_report(&synthetic(sensor, target, k, period), buf);
+        buf.push(b'\n');
+    }
 }
 
 fn percentile(sorted: &[f64], p: f64) -> f64 {
@@ -173,9 +186,9 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
         let recv_lines = recv_lines.clone();
         std::thread::spawn(move || {
             let mut r = BufReader::with_capacity(1 << 20, sub);
-            let mut line = String::new();
+            let mut line = Vec::new();
             let mut last_scan = None;
-            while r.read_line(&mut line).map(|n| n > 0).unwrap_or(false) {
+            while r.read_until(b'\n', &mut line).map(|n| n > 0).unwrap_or(false) {
                 recv_lines.fetch_add(1, Ordering::Relaxed);
                 if let Some(k) = scan_of(&line) {
                     if last_scan != Some(k) {
@@ -197,7 +210,12 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
         let (stop, sent, first_sent) = (stop.clone(), sent.clone(), first_sent.clone());
         let (targets, period, duration) = (args.targets, args.period, args.duration);
         senders.push(std::thread::spawn(move || -> Result<()> {
+            // each scan is encoded while the sender waits for its due time, so that the
+            // load generator's own work does not fall on the service's busiest moment
             let mut buf = Vec::with_capacity(1 << 20);
+            if max_scans > 0 {
+                encode_scan(sensor, targets, 0, period, &mut buf);
+            }
             for k in 0..max_scans {
                 let due = start + Duration::from_secs_f64(scan_wall * f64::from(k));
                 let now = Instant::now();
@@ -207,21 +225,10 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
                 if stop.load(Ordering::Relaxed) || start.elapsed().as_secs_f64() >= duration {
                     break;
                 }
-                buf.clear();
-                let mut first = true;
-                for target in 0..targets {
-                    crate::message::encode_report(&synthetic(sensor, target, k, period), &mut buf);
-                    buf.push(b'\n');
-                    if buf.len() >= 1 << 16 || target + 1 == targets {
-                        if first {
-                            note(&first_sent, k, Instant::now(), false);
-                            first = false;
-                        }
-                        conn.write_all(&buf)?;
-                        buf.clear();
-                    }
-                }
+                note(&first_sent, k, Instant::now(), false);
+                conn.write_all(&buf)?;
                 sent.fetch_add(u64::from(targets), Ordering::Relaxed);
+                encode_scan(sensor, targets, k + 1, period, &mut buf);
             }
             Ok(())
         }));
@@ -369,7 +376,7 @@ fn run_nats(args: &LoadgenArgs, url: &str, max_scans: u32, scan_wall: f64) -> Re
                 while let Some(m) = sub.next().await {
                     let text = String::from_utf8_lossy(&m.payload);
                     recv_lines.fetch_add(text.lines().count() as u64, Ordering::Relaxed);
-                    if let Some(k) = text.lines().next().and_then(scan_of) {
+                    if let Some(k) = text.lines().next().and_then(|l| scan_of(l.as_bytes())) {
                         note(&received, k, Instant::now(), true);
                     }
                 }
@@ -467,8 +474,7 @@ mod tests {
         crate::message::encode_report(&t, &mut line);
         let back = crate::message::parse_report(&line).expect("valid");
         assert_eq!(back, t);
-        let text = String::from_utf8(line).expect("utf8");
-        assert_eq!(scan_of(&text), Some(17));
+        assert_eq!(scan_of(&line), Some(17));
         assert!(noise(1) >= -1.0 && noise(1) < 1.0);
     }
 }
