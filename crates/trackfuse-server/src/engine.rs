@@ -438,7 +438,13 @@ pub fn replay(journal: &std::path::Path, out: &mut dyn Write) -> Result<EngineSt
     for (i, line) in lines.enumerate() {
         let line = line?;
         let at = || format!("{}:{}", journal.display(), i + 2);
-        if let Ok(r) = serde_json::from_str::<ReleaseLine>(&line) {
+        // a release line is the only one that starts with its key (reports start with
+        // `scan`, as `encode_report` writes them)
+        let release = line
+            .starts_with("{\"release_through\"")
+            .then(|| serde_json::from_str::<ReleaseLine>(&line).ok())
+            .flatten();
+        if let Some(r) = release {
             engine.release_through(r.release_through)?;
         } else {
             let t = crate::message::parse_report(line.as_bytes())

@@ -188,7 +188,11 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
             let mut r = BufReader::with_capacity(1 << 20, sub);
             let mut line = Vec::new();
             let mut last_scan = None;
-            while r.read_until(b'\n', &mut line).map(|n| n > 0).unwrap_or(false) {
+            while r
+                .read_until(b'\n', &mut line)
+                .map(|n| n > 0)
+                .unwrap_or(false)
+            {
                 recv_lines.fetch_add(1, Ordering::Relaxed);
                 if let Some(k) = scan_of(&line) {
                     if last_scan != Some(k) {

@@ -317,34 +317,61 @@ fn mentions_non_finite(line: &[u8], e: &serde_json::Error) -> bool {
     text.contains("NaN") || text.contains("Infinity")
 }
 
-/// One report as a line (no newline), the inverse of [`parse_report`]: floats in
-/// shortest round-trip form.
-pub fn encode_report(t: &LocalTrack, out: &mut Vec<u8>) {
-    #[derive(Serialize)]
-    struct Out<'a> {
-        scan: u32,
-        time: f64,
-        sensor_id: Id,
-        track_id: Id,
-        state: &'a [f64],
-        cov: [f64; 16],
+/// Numbers and arrays written as serde_json writes them (integers with `itoa`, finite
+/// floats with `zmij`, the crates serde_json itself uses, so the bytes are the same;
+/// a non-finite float as `null`), for the line encoders below.
+///
+/// Hand-written encoders: serde_json's generic serializer spent about 10 000
+/// instructions on a fused line (key escaping, the `sources` string built through
+/// `format!` and `join`), more than the center spent fusing it; these write the fixed
+/// shapes straight into the buffer (property tests `*_encodes_as_serde_json`).
+mod put {
+    pub(super) fn int<I: itoa::Integer>(out: &mut Vec<u8>, v: I) {
+        out.extend_from_slice(itoa::Buffer::new().format(v).as_bytes());
     }
-    let mut cov = [0.0; 16];
-    for r in 0..4 {
-        for c in 0..4 {
-            cov[r * 4 + c] = t.cov[(r, c)];
+
+    pub(super) fn float(out: &mut Vec<u8>, v: f64) {
+        if v.is_finite() {
+            out.extend_from_slice(zmij::Buffer::new().format_finite(v).as_bytes());
+        } else {
+            out.extend_from_slice(b"null");
         }
     }
-    let o = Out {
-        scan: t.scan,
-        time: t.time,
-        sensor_id: t.sensor_id,
-        track_id: t.track_id,
-        state: t.state.as_slice(),
-        cov,
-    };
-    // serialising plain numbers into a Vec cannot fail
-    let _ = serde_json::to_writer(&mut *out, &o);
+
+    /// `[v0,v1,...]`
+    pub(super) fn floats(out: &mut Vec<u8>, vals: impl IntoIterator<Item = f64>) {
+        out.push(b'[');
+        for (k, v) in vals.into_iter().enumerate() {
+            if k > 0 {
+                out.push(b',');
+            }
+            float(out, v);
+        }
+        out.push(b']');
+    }
+
+    /// A covariance row-major (FORMATS.md: P00 P01 ... P33).
+    pub(super) fn cov(out: &mut Vec<u8>, c: &trackfuse::types::StateCov) {
+        floats(out, (0..4).flat_map(|r| (0..4).map(move |k| c[(r, k)])));
+    }
+}
+
+/// One report as a line (no newline), the inverse of [`parse_report`]: floats in
+/// shortest round-trip form, the fields in FORMATS.md's order.
+pub fn encode_report(t: &LocalTrack, out: &mut Vec<u8>) {
+    out.extend_from_slice(b"{\"scan\":");
+    put::int(out, t.scan);
+    out.extend_from_slice(b",\"time\":");
+    put::float(out, t.time);
+    out.extend_from_slice(b",\"sensor_id\":");
+    put::int(out, t.sensor_id);
+    out.extend_from_slice(b",\"track_id\":");
+    put::int(out, t.track_id);
+    out.extend_from_slice(b",\"state\":");
+    put::floats(out, t.state.iter().copied());
+    out.extend_from_slice(b",\"cov\":");
+    put::cov(out, &t.cov);
+    out.push(b'}');
 }
 
 /// A fused track as it goes out: the report's fields with `fused_id`, `n_sources`,
@@ -372,41 +399,48 @@ pub struct AssociationLine {
     pub fused_id: Id,
 }
 
-/// Append one fused track's line (with newline).
+/// Append one fused track's line (with newline): the fields of [`FusedLine`] in its
+/// order.
 pub fn encode_fused(f: &FusedTrack, out: &mut Vec<u8>) {
-    let mut cov = [0.0; 16];
-    for r in 0..4 {
-        for c in 0..4 {
-            cov[r * 4 + c] = f.cov[(r, c)];
+    out.extend_from_slice(b"{\"kind\":\"fused\",\"scan\":");
+    put::int(out, f.scan);
+    out.extend_from_slice(b",\"time\":");
+    put::float(out, f.time);
+    out.extend_from_slice(b",\"fused_id\":");
+    put::int(out, f.fused_id);
+    out.extend_from_slice(b",\"state\":");
+    put::floats(out, f.state.iter().copied());
+    out.extend_from_slice(b",\"cov\":");
+    put::cov(out, &f.cov);
+    out.extend_from_slice(b",\"n_sources\":");
+    put::int(out, f.sources.len());
+    out.extend_from_slice(b",\"status\":\"");
+    // plain ASCII words and digits: nothing to escape
+    out.extend_from_slice(f.status.as_str().as_bytes());
+    out.extend_from_slice(b"\",\"sources\":\"");
+    for (k, (sensor, track)) in f.sources.iter().enumerate() {
+        if k > 0 {
+            out.push(b'|');
         }
+        put::int(out, *sensor);
+        out.push(b':');
+        put::int(out, *track);
     }
-    let sources: Vec<String> = f.sources.iter().map(|(s, t)| format!("{s}:{t}")).collect();
-    let line = FusedLine {
-        kind: "fused".into(),
-        scan: f.scan,
-        time: f.time,
-        fused_id: f.fused_id,
-        state: [f.state[0], f.state[1], f.state[2], f.state[3]],
-        cov,
-        n_sources: f.sources.len(),
-        status: f.status.as_str().into(),
-        sources: sources.join("|"),
-    };
-    let _ = serde_json::to_writer(&mut *out, &line);
-    out.push(b'\n');
+    out.extend_from_slice(b"\"}\n");
 }
 
-/// Append one association's line (with newline).
+/// Append one association's line (with newline): the fields of [`AssociationLine`] in
+/// its order.
 pub fn encode_association(a: &Association, out: &mut Vec<u8>) {
-    let line = AssociationLine {
-        kind: "association".into(),
-        scan: a.scan,
-        sensor_id: a.sensor_id,
-        track_id: a.track_id,
-        fused_id: a.fused_id,
-    };
-    let _ = serde_json::to_writer(&mut *out, &line);
-    out.push(b'\n');
+    out.extend_from_slice(b"{\"kind\":\"association\",\"scan\":");
+    put::int(out, a.scan);
+    out.extend_from_slice(b",\"sensor_id\":");
+    put::int(out, a.sensor_id);
+    out.extend_from_slice(b",\"track_id\":");
+    put::int(out, a.track_id);
+    out.extend_from_slice(b",\"fused_id\":");
+    put::int(out, a.fused_id);
+    out.extend_from_slice(b"}\n");
 }
 
 /// Read a fused-stream line back (for clients and tests): a fused track, an
@@ -696,5 +730,107 @@ mod tests {
             parse_report(spaced.as_bytes()).expect("valid"),
             parse_report(good_canonical().as_bytes()).expect("valid")
         );
+    }
+
+    /// The serde_json encodings the hand-written encoders replace.
+    fn serde_report(t: &LocalTrack) -> Vec<u8> {
+        #[derive(Serialize)]
+        struct Out<'a> {
+            scan: u32,
+            time: f64,
+            sensor_id: Id,
+            track_id: Id,
+            state: &'a [f64],
+            cov: Vec<f64>,
+        }
+        let cov = (0..4)
+            .flat_map(|r| (0..4).map(move |c| t.cov[(r, c)]))
+            .collect();
+        serde_json::to_vec(&Out {
+            scan: t.scan,
+            time: t.time,
+            sensor_id: t.sensor_id,
+            track_id: t.track_id,
+            state: t.state.as_slice(),
+            cov,
+        })
+        .expect("encodes")
+    }
+
+    fn any_float() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            8 => any::<f64>(),
+            1 => Just(f64::NAN),
+            1 => Just(-0.0),
+            1 => (-1000i32..1000).prop_map(f64::from),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+
+        #[test]
+        fn reports_encode_as_serde_json(
+            scan in any::<u32>(), sensor in any::<i64>(), track in any::<i64>(),
+            vals in proptest::collection::vec(any_float(), 21),
+        ) {
+            let t = LocalTrack {
+                scan,
+                time: vals[0],
+                sensor_id: sensor,
+                track_id: track,
+                state: StateVec::from_column_slice(&vals[1..5]),
+                cov: StateCov::from_row_slice(&vals[5..21]),
+            };
+            let mut line = Vec::new();
+            encode_report(&t, &mut line);
+            let want = serde_report(&t);
+            prop_assert_eq!(String::from_utf8_lossy(&line), String::from_utf8_lossy(&want));
+        }
+
+        #[test]
+        fn fused_and_association_lines_encode_as_serde_json(
+            scan in any::<u32>(), id in any::<i64>(), confirmed in any::<bool>(),
+            sources in proptest::collection::vec((any::<i64>(), any::<i64>()), 0..5),
+            vals in proptest::collection::vec(any_float(), 21),
+        ) {
+            let f = FusedTrack {
+                scan,
+                time: vals[0],
+                fused_id: id,
+                state: StateVec::from_column_slice(&vals[1..5]),
+                cov: StateCov::from_row_slice(&vals[5..21]),
+                sources: sources.clone(),
+                status: if confirmed { trackfuse::types::TrackStatus::Confirmed } else { trackfuse::types::TrackStatus::Tentative },
+            };
+            let reference = FusedLine {
+                kind: "fused".into(),
+                scan,
+                time: f.time,
+                fused_id: id,
+                state: [vals[1], vals[2], vals[3], vals[4]],
+                cov: std::array::from_fn(|k| vals[5 + k]),
+                n_sources: sources.len(),
+                status: f.status.as_str().into(),
+                sources: sources.iter().map(|(s, t)| format!("{s}:{t}")).collect::<Vec<_>>().join("|"),
+            };
+            let mut want = serde_json::to_vec(&reference).expect("encodes");
+            want.push(b'\n');
+            let mut line = Vec::new();
+            encode_fused(&f, &mut line);
+            prop_assert_eq!(String::from_utf8_lossy(&line), String::from_utf8_lossy(&want));
+            let a = Association { scan, sensor_id: sources.first().map_or(3, |s| s.0), track_id: id, fused_id: -id.saturating_abs() };
+            let mut want = serde_json::to_vec(&AssociationLine {
+                kind: "association".into(),
+                scan,
+                sensor_id: a.sensor_id,
+                track_id: a.track_id,
+                fused_id: a.fused_id,
+            }).expect("encodes");
+            want.push(b'\n');
+            let mut line = Vec::new();
+            encode_association(&a, &mut line);
+            prop_assert_eq!(line, want);
+        }
     }
 }
