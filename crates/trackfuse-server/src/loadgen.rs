@@ -109,8 +109,17 @@ fn synthetic(sensor: u32, target: u32, k: u32, period: f64) -> LocalTrack {
 
 /// The value of `"scan":N` in an output line, without decoding the rest.
 fn scan_of(line: &[u8]) -> Option<u32> {
+    const FUSED: &[u8] = b"{\"kind\":\"fused\",\"scan\":";
+    const ASSOCIATION: &[u8] = b"{\"kind\":\"association\",\"scan\":";
     let key = b"\"scan\":";
-    let i = line.windows(key.len()).position(|w| w == key)? + key.len();
+    // the service writes the scan at a fixed place: no search for its lines
+    let i = if line.starts_with(FUSED) {
+        FUSED.len()
+    } else if line.starts_with(ASSOCIATION) {
+        ASSOCIATION.len()
+    } else {
+        line.windows(key.len()).position(|w| w == key)? + key.len()
+    };
     let rest = &line[i..];
     let end = rest
         .iter()
@@ -479,6 +488,17 @@ mod tests {
         let back = crate::message::parse_report(&line).expect("valid");
         assert_eq!(back, t);
         assert_eq!(scan_of(&line), Some(17));
+        let mut fused = Vec::new();
+        crate::message::encode_association(
+            &trackfuse::types::Association {
+                scan: 23,
+                sensor_id: 1,
+                track_id: 2,
+                fused_id: 3,
+            },
+            &mut fused,
+        );
+        assert_eq!(scan_of(&fused), Some(23));
         assert!(noise(1) >= -1.0 && noise(1) < 1.0);
     }
 }
