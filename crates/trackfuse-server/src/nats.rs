@@ -208,6 +208,7 @@ pub async fn start_nats(cfg: &ServiceConfig, outputs: Outputs) -> Result<NatsSer
         accepted: HashMap::new(),
         last: EngineStats::default(),
         requested: None,
+        acks: futures_util::stream::FuturesOrdered::new(),
     };
     let center = tokio::spawn(center.run(messages, stop_rx));
     Ok(NatsService {
@@ -238,7 +239,19 @@ struct Center {
     last: EngineStats,
     /// The release this center published and has not yet read back.
     requested: Option<f64>,
+    /// Acknowledgements of published output not yet received, oldest first: awaited
+    /// beside the input (at most [`MAX_UNACKED`] outstanding), so that reading the
+    /// input does not stop for a round trip per instant.
+    acks: futures_util::stream::FuturesOrdered<
+        futures_util::future::BoxFuture<
+            'static,
+            Result<jetstream::publish::PublishAck, jetstream::context::PublishError>,
+        >,
+    >,
 }
+
+/// Output messages a center may have published without their acknowledgement.
+const MAX_UNACKED: usize = 256;
 
 impl Center {
     async fn run(
@@ -291,6 +304,9 @@ impl Center {
                         self.request_release(t).await?;
                     }
                 }
+                Some(ack) = self.acks.next(), if !self.acks.is_empty() => {
+                    ack.map_err(|e| anyhow!("nats: the output stream did not take an instant: {e}"))?;
+                }
                 _ = async {
                     match stopping {
                         Some(d) => tokio::time::sleep_until(d).await,
@@ -310,6 +326,9 @@ impl Center {
         }
         self.engine.release_all()?;
         self.publish().await?;
+        while let Some(ack) = self.acks.next().await {
+            ack.map_err(|e| anyhow!("nats: the output stream did not take an instant: {e}"))?;
+        }
         if let Some(o) = self.output.as_mut() {
             o.flush().context("flushing the output")?;
         }
@@ -399,11 +418,11 @@ impl Center {
     }
 
     /// Publish the instants fused since the last call (module docs), skipping what the
-    /// output stream already has; wait for the acknowledgements.
+    /// output stream already has; their acknowledgements are awaited in the main loop
+    /// (here only while more than [`MAX_UNACKED`] are outstanding).
     async fn publish(&mut self) -> Result<()> {
         let chunks = self.engine.take_output_lines();
         update_metrics(&mut self.engine, &self.metrics, &mut self.last);
-        let mut acks = Vec::new();
         for chunk in chunks {
             let i = self.instant;
             self.instant += 1;
@@ -429,12 +448,16 @@ impl Center {
                     )
                     .await
                     .map_err(|e| anyhow!("nats: publishing instant {i}: {e}"))?;
-                acks.push(ack);
+                self.acks
+                    .push_back(Box::pin(std::future::IntoFuture::into_future(ack)));
+                while self.acks.len() > MAX_UNACKED {
+                    if let Some(ack) = self.acks.next().await {
+                        ack.map_err(|e| {
+                            anyhow!("nats: the output stream did not take an instant: {e}")
+                        })?;
+                    }
+                }
             }
-        }
-        for ack in acks {
-            ack.await
-                .map_err(|e| anyhow!("nats: the output stream did not take an instant: {e}"))?;
         }
         Ok(())
     }
