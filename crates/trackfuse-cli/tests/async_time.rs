@@ -5,36 +5,20 @@
 //! error of a scan-index pairing. A local_tracks.csv without a scan column fuses like
 //! the same file with one.
 
-use assert_cmd::Command;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use trackfuse::io::{read_fused_tracks, read_truth};
 use trackfuse::metrics::{evaluate_run, EvalInput, EvaluationConfig};
 use trackfuse::{FusedTrack, Id, TruthState};
 
-fn trackfuse(args: &[&str]) -> String {
-    let out = Command::cargo_bin("trackfuse")
-        .expect("binary")
-        .args(args)
-        .output()
-        .expect("run");
-    assert!(
-        out.status.success(),
-        "trackfuse {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
+mod common;
+use common::service::{s, trackfuse};
 
 fn scenario() -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../scenarios/async-radars.toml")
         .display()
         .to_string()
-}
-
-fn s(p: &Path) -> String {
-    p.display().to_string()
 }
 
 /// simulate + track the scenario into `dir`: (sim folder, local_tracks.csv).

@@ -14,104 +14,24 @@
 
 use assert_cmd::cargo::CommandCargoExt;
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{BufRead, BufReader};
 use std::net::TcpStream;
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use trackfuse::clock::ReportTimes;
 use trackfuse::io::{read_local_tracks, AssociationWriter, FusedTrackWriter};
 use trackfuse::LocalTrack;
 use trackfuse_server::async_nats;
-use trackfuse_server::message::{decode_output, encode_report, Output};
+use trackfuse_server::message::{decode_output, Output};
+
+mod common;
+use common::service::{bad_line, http_get, line_of, metric, s, trackfuse, KillOnDrop};
+
+/// The kinds of [`bad_line`] this test sends (all but `line_too_long` and
+/// `time_backwards`, which tests/serve.rs covers over TCP).
+const NATS_BAD_KINDS: [usize; 6] = [0, 1, 2, 3, 4, 6];
 use trackfuse_server::nats::instant_of;
-
-fn s(p: &Path) -> String {
-    p.display().to_string()
-}
-
-fn trackfuse(args: &[&str]) {
-    let out = Command::cargo_bin("trackfuse")
-        .expect("binary")
-        .args(args)
-        .output()
-        .expect("run");
-    assert!(
-        out.status.success(),
-        "trackfuse {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-/// `GET path` on the HTTP endpoint: the body.
-fn http_get(addr: &str, path: &str) -> String {
-    let mut c = TcpStream::connect(addr).expect("http connect");
-    write!(
-        c,
-        "GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n"
-    )
-    .expect("http write");
-    let mut text = String::new();
-    c.read_to_string(&mut text).expect("http read");
-    assert!(text.starts_with("HTTP/1.1 200"), "{text}");
-    text.split_once("\r\n\r\n")
-        .map(|x| x.1.to_string())
-        .unwrap_or_default()
-}
-
-/// The sum of a metric's rows whose labels contain every one of `labels`.
-fn metric(text: &str, name: &str, labels: &[&str]) -> u64 {
-    text.lines()
-        .filter(|l| l.starts_with(name) && labels.iter().all(|x| l.contains(x)))
-        .filter_map(|l| l.rsplit(' ').next()?.parse::<u64>().ok())
-        .sum()
-}
-
-fn line_of(t: &LocalTrack) -> String {
-    let mut v = Vec::new();
-    encode_report(t, &mut v);
-    v.push(b'\n');
-    String::from_utf8(v).expect("utf8")
-}
-
-/// The bad lines of kind `k` (a rotation) next to report `t`: (line, reason).
-fn bad_line(k: usize, t: &LocalTrack) -> (String, &'static str) {
-    let good = line_of(t);
-    match k % 6 {
-        0 => ("{\"scan\": 3, \"time\":\n".into(), "malformed_json"),
-        1 => (
-            good.replacen("\"track_id\":", "\"track_id\":\"x\",\"o\":", 1),
-            "wrong_type",
-        ),
-        2 => (
-            good.replacen("\"state\":[", "\"state\":[NaN,", 1),
-            "non_finite",
-        ),
-        3 => {
-            let mut b = *t;
-            b.cov[(0, 1)] += 1e3 * (1.0 + b.cov[(0, 0)].abs());
-            (line_of(&b), "invalid_covariance")
-        }
-        4 => {
-            let mut b = *t;
-            b.sensor_id = 99;
-            (line_of(&b), "unknown_sensor")
-        }
-        _ => (good, "duplicate"),
-    }
-}
-
-/// A process killed when the test ends, however it ends.
-struct KillOnDrop(Child);
-
-impl Drop for KillOnDrop {
-    fn drop(&mut self) {
-        if matches!(self.0.try_wait(), Ok(None)) {
-            let _ = self.0.kill();
-            let _ = self.0.wait();
-        }
-    }
-}
 
 /// A port nobody listens on now.
 fn free_port() -> u16 {
@@ -285,7 +205,7 @@ fn over_nats_a_center_killed_mid_run_is_replaced_and_the_output_equals_fuse() {
         for (i, scan) in scans.iter().enumerate() {
             let mut text: String = scan.iter().map(line_of).collect();
             if i % 8 == 7 {
-                let (line, reason) = bad_line(k, &scan[0]);
+                let (line, reason) = bad_line(NATS_BAD_KINDS[k % NATS_BAD_KINDS.len()], &scan[0]);
                 k += 1;
                 let label = if reason == "unknown_sensor" {
                     99

@@ -2,6 +2,8 @@
 //! assert them inside a band.
 #![allow(dead_code)] // each test file uses a part of it
 
+pub mod service;
+
 /// The cells of the first table row of `md` that starts with `lead` (a row's opening,
 /// `| FDBSC-TA |` or `| FDBSC-TA | \`track-pair-ls\` | sensor 2 |`), every cell of the
 /// row trimmed, the lead's own included (cell 0 is the row label).
