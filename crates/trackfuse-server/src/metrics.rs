@@ -138,7 +138,7 @@ impl Metrics {
         );
         registry.register(
             "end_to_end_latency_seconds",
-            "From the first report of a batch arriving to its fused output published",
+            "From the first report of a batch arriving to its fused output handed to the publisher (TCP) or published (NATS)",
             m.latency_seconds.clone(),
         );
         Metrics { registry, ..m }
