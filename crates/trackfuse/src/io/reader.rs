@@ -362,6 +362,33 @@ impl Row<'_> {
     }
 }
 
+/// A float column whose cell repeats from row to row (a scan's time): the last cell's
+/// bytes and value are kept, and a cell with the same bytes takes that value without
+/// being parsed again. The same bytes give the same value and the same checks, so what
+/// is accepted and every error are those of [`Row::f64`].
+#[derive(Debug, Default)]
+struct RepeatedF64 {
+    cell: Vec<u8>,
+    value: Option<f64>,
+}
+
+impl RepeatedF64 {
+    #[inline]
+    fn get(&mut self, row: &Row<'_>, col: usize) -> Result<f64, InputError> {
+        let cell = row.cell(col);
+        if let Some(v) = self.value {
+            if self.cell == cell {
+                return Ok(v);
+            }
+        }
+        let v = row.f64(col)?;
+        self.cell.clear();
+        self.cell.extend_from_slice(cell);
+        self.value = Some(v);
+        Ok(v)
+    }
+}
+
 /// `-?[0-9]{1,18}` as an `i64` (hand-written: the common cell of an id or scan column,
 /// without `str::parse`'s UTF-8 check and sign and overflow handling); `None` for
 /// anything else.
@@ -894,6 +921,7 @@ struct MeasurementRows {
     sensors: SensorSlots,
     /// `(sensor, range|x bits, bearing|y bits)` of the current scan.
     seen: HashSet<(Id, u64, u64)>,
+    time: RepeatedF64,
 }
 
 /// What the measurements reader keeps per sensor.
@@ -954,7 +982,7 @@ impl ScanRows for MeasurementRows {
         }
     }
     fn parse(&mut self, row: &Row<'_>, scan: u32) -> Result<Measurement, InputError> {
-        let time = row.f64(self.c_time)?;
+        let time = self.time.get(row, self.c_time)?;
         let sensor_id = row.int(self.c_sid)?;
         let has_rb = self
             .rb_cols
@@ -1121,6 +1149,7 @@ impl<R: Read> MeasurementStream<R> {
                 slots
             },
             seen: HashSet::default(),
+            time: RepeatedF64::default(),
         };
         Ok(MeasurementStream(ScanReader::new(t, rows)))
     }
@@ -1152,9 +1181,35 @@ struct LocalTrackRows {
     c_sid: usize,
     c_tid: usize,
     sc: StateCols,
-    /// `(sensor, track)` of the current scan and its line.
+    /// `(sensor, track)` of the current scan and its line, once the scan's rows are
+    /// out of `(sensor, track)` order ([`LocalTrackRows::ascending`]).
     seen: HashMap<(Id, Id), u64>,
+    /// While the current scan's keys have been strictly increasing (files this project
+    /// writes: always), they are distinct by that alone: the keys and lines go here
+    /// instead of `seen`, a push rather than a hash per row, and move into `seen` at the
+    /// first key that does not increase (so the same row fails, with the same message).
+    ascending: Vec<((Id, Id), u64)>,
+    /// Whether the current scan's keys are still strictly increasing.
+    in_order: bool,
     last: HashMap<(Id, Id), (f64, u64)>,
+    time: RepeatedF64,
+}
+
+impl LocalTrackRows {
+    /// Record `key` at `line` for the current scan; the line of an earlier row of this
+    /// scan with the same key, if any.
+    #[inline]
+    fn see(&mut self, key: (Id, Id), line: u64) -> Option<u64> {
+        if self.in_order {
+            if self.ascending.last().is_none_or(|&(k, _)| k < key) {
+                self.ascending.push((key, line));
+                return None;
+            }
+            self.in_order = false;
+            self.seen.extend(self.ascending.drain(..));
+        }
+        self.seen.insert(key, line)
+    }
 }
 
 impl ScanRows for LocalTrackRows {
@@ -1167,12 +1222,14 @@ impl ScanRows for LocalTrackRows {
     }
     fn start_scan(&mut self) {
         self.seen.clear();
+        self.ascending.clear();
+        self.in_order = true;
     }
     fn parse(&mut self, row: &Row<'_>, scan: u32) -> Result<LocalTrack, InputError> {
-        let time = row.f64(self.c_time)?;
+        let time = self.time.get(row, self.c_time)?;
         let sensor_id = row.int(self.c_sid)?;
         let track_id = row.int(self.c_tid)?;
-        if let Some(prev) = self.seen.insert((sensor_id, track_id), row.line) {
+        if let Some(prev) = self.see((sensor_id, track_id), row.line) {
             return Err(InputError::line(
                 &row.table.path,
                 row.line,
@@ -1232,7 +1289,10 @@ impl<R: Read> LocalTrackStream<R> {
             c_tid: t.col("track_id")?,
             sc: StateCols::find(&t)?,
             seen: HashMap::default(),
+            ascending: Vec::new(),
+            in_order: true,
             last: HashMap::default(),
+            time: RepeatedF64::default(),
         };
         Ok(LocalTrackStream(ScanReader::new(t, rows)))
     }
