@@ -217,55 +217,72 @@ fn bench_io(
         read_sensors, LocalTrackStream, LocalTrackWriter, MeasurementStream, MeasurementWriter,
     };
     let sensors = read_sensors(&data.join("sensors.csv"))?;
-    let meas_path = data.join("measurements.csv");
-    let bytes = std::fs::metadata(&meas_path)?.len();
-    // reading: scan by scan into one reused buffer, as `track` reads
+    bench_file(
+        repeat,
+        &data.join("measurements.csv"),
+        |p| MeasurementStream::open(p, Some(&sensors)),
+        |s, buf| s.next_scan(buf),
+        |rows| {
+            let mut w = MeasurementWriter::new(CountingSink::default(), &sensors)?;
+            for m in rows {
+                w.write(m)?;
+            }
+            Ok(w.finish()?)
+        },
+    )?;
+    if let Some(path) = local_tracks {
+        bench_file(
+            repeat,
+            path,
+            LocalTrackStream::open,
+            |s, buf| s.next_scan(buf),
+            |rows| {
+                let mut w = LocalTrackWriter::new(CountingSink::default())?;
+                for t in rows {
+                    w.write(t)?;
+                }
+                Ok(w.finish()?)
+            },
+        )?;
+    }
+    Ok(())
+}
+
+/// One file of `bench io`: read it with the validating stream scan by scan into one
+/// reused buffer (as `track` and `fuse` read), the quick pass, then write the rows read
+/// into a counting sink; best of `repeat` in this thread's CPU time, one line each.
+fn bench_file<S, T>(
+    repeat: u32,
+    path: &std::path::Path,
+    open: impl Fn(&std::path::Path) -> Result<S, trackfuse::io::InputError>,
+    next: impl Fn(&mut S, &mut Vec<T>) -> Result<Option<u32>, trackfuse::io::InputError>,
+    write: impl Fn(&[T]) -> Result<u64>,
+) -> Result<()> {
+    let name = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    let bytes = std::fs::metadata(path)?.len();
     let (secs, n) = best_cpu(repeat, || {
-        let mut s = MeasurementStream::open(&meas_path, Some(&sensors))?;
+        let mut s = open(path)?;
         let mut buf = Vec::new();
         let mut n = 0;
-        while s.next_scan(&mut buf)?.is_some() {
+        while next(&mut s, &mut buf)?.is_some() {
             n += buf.len();
         }
         Ok(n)
     })?;
-    print_io("read measurements.csv", bytes, n, secs);
-    let (secs, n) = best_cpu(repeat, || quick_rows(&meas_path))?;
-    print_io("quick pass measurements.csv", bytes, n, secs);
-    let rows = MeasurementStream::open(&meas_path, Some(&sensors))?.collect_rows()?;
-    let (secs, written) = best_cpu(repeat, || {
-        let mut w = MeasurementWriter::new(CountingSink::default(), &sensors)?;
-        for m in &rows {
-            w.write(m)?;
-        }
-        Ok(w.finish()?)
-    })?;
-    print_io("write measurements.csv", written, rows.len(), secs);
-    drop(rows);
-    if let Some(path) = local_tracks {
-        let bytes = std::fs::metadata(path)?.len();
-        let (secs, n) = best_cpu(repeat, || {
-            let mut s = LocalTrackStream::open(path)?;
-            let mut buf = Vec::new();
-            let mut n = 0;
-            while s.next_scan(&mut buf)?.is_some() {
-                n += buf.len();
-            }
-            Ok(n)
-        })?;
-        print_io("read local_tracks.csv", bytes, n, secs);
-        let (secs, n) = best_cpu(repeat, || quick_rows(path))?;
-        print_io("quick pass local_tracks.csv", bytes, n, secs);
-        let rows = LocalTrackStream::open(path)?.collect_rows()?;
-        let (secs, written) = best_cpu(repeat, || {
-            let mut w = LocalTrackWriter::new(CountingSink::default())?;
-            for t in &rows {
-                w.write(t)?;
-            }
-            Ok(w.finish()?)
-        })?;
-        print_io("write local_tracks.csv", written, rows.len(), secs);
+    print_io(&format!("read {name}"), bytes, n, secs);
+    let (secs, n) = best_cpu(repeat, || quick_rows(path))?;
+    print_io(&format!("quick pass {name}"), bytes, n, secs);
+    let mut rows = Vec::new();
+    let mut s = open(path)?;
+    let mut buf = Vec::new();
+    while next(&mut s, &mut buf)?.is_some() {
+        rows.append(&mut buf);
     }
+    let (secs, written) = best_cpu(repeat, || write(&rows))?;
+    print_io(&format!("write {name}"), written, rows.len(), secs);
     Ok(())
 }
 

@@ -42,6 +42,23 @@ impl<R> LineCounter<R> {
         }
     }
 
+    /// A counter for input that continues a file: `passed` terminators came before
+    /// it, and `after_cr` tells whether the byte before it was a `\r`.
+    pub(crate) fn resume(inner: R, passed: u64, after_cr: bool) -> Self {
+        LineCounter {
+            inner,
+            offset: 0,
+            ends: VecDeque::new(),
+            passed,
+            after_cr,
+        }
+    }
+
+    /// The input, and the bytes read so far.
+    pub(crate) fn into_inner(self) -> R {
+        self.inner
+    }
+
     /// The 1-based line holding byte `byte` (one more than the count of terminators
     /// that end at or before it). Queries must not decrease.
     pub(crate) fn line_of(&mut self, byte: u64) -> u64 {

@@ -59,6 +59,7 @@ mod error;
 mod lines;
 mod quick;
 mod reader;
+mod records;
 mod writer;
 
 pub use error::InputError;

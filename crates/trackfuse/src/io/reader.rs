@@ -1,6 +1,7 @@
 //! CSV readers with validation. See the module docs of [`crate::io`].
 
 use crate::io::lines::LineCounter;
+use crate::io::records::{Fields, Records};
 use crate::io::{InputError, COV_COLUMNS};
 use crate::models::wrap_angle;
 use crate::types::{
@@ -62,9 +63,7 @@ struct Meta {
 /// A CSV input with its header resolved, read one record at a time.
 struct Table<R: Read> {
     meta: Meta,
-    reader: csv::Reader<LineCounter<R>>,
-    /// The record last read.
-    rec: csv::ByteRecord,
+    records: Records<R>,
     /// Data rows read so far.
     rows: u64,
 }
@@ -72,8 +71,29 @@ struct Table<R: Read> {
 /// One row being parsed, with enough context to report errors.
 struct Row<'a> {
     table: &'a Meta,
-    rec: &'a csv::ByteRecord,
+    rec: Fields<'a>,
     line: u64,
+}
+
+/// An input that keeps a copy of the bytes read through it (the header's read: the
+/// bytes the csv crate has read past the header go to [`Records`]).
+struct Kept<R> {
+    inner: R,
+    bytes: Vec<u8>,
+}
+
+impl<R: Read> Read for Kept<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.bytes.extend_from_slice(&buf[..n]);
+        Ok(n)
+    }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Tests: read every data row with the csv crate (the reference of [`Records`]).
+    static CSV_ONLY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 /// Open `path` for a reader.
@@ -92,7 +112,10 @@ impl<R: Read> Table<R> {
             .trim(csv::Trim::Headers)
             // 256 KiB reads instead of the default 8 KiB: a 20th of the read calls
             .buffer_capacity(1 << 18)
-            .from_reader(LineCounter::new(input));
+            .from_reader(LineCounter::new(Kept {
+                inner: input,
+                bytes: Vec::new(),
+            }));
         let header = match reader.byte_headers() {
             Ok(h) => h.clone(),
             Err(e) => return Err(csv_error(path, e, reader.get_mut())),
@@ -139,14 +162,26 @@ impl<R: Read> Table<R> {
                 });
             }
         }
+        // the data rows start where the header's read stopped
+        let next = reader.position().byte();
+        let mut lines = reader.into_inner();
+        let line = lines.line_of(next);
+        let Kept { inner, mut bytes } = lines.into_inner();
+        let next = usize::try_from(next).unwrap_or(usize::MAX).min(bytes.len());
+        let after_cr = next > 0 && bytes[next - 1] == b'\r';
+        bytes.drain(..next);
+        #[cfg(test)]
+        let plain = !CSV_ONLY.get();
+        #[cfg(not(test))]
+        let plain = true;
+        let records = Records::new(bytes, inner, line, after_cr, headers.len(), plain);
         Ok(Table {
             meta: Meta {
                 path: path.to_path_buf(),
                 headers,
                 header_line,
             },
-            reader,
-            rec: csv::ByteRecord::new(),
+            records,
             rows: 0,
         })
     }
@@ -176,22 +211,18 @@ impl<R: Read> Table<R> {
 
     /// Read the next data record into `self.rec`: its 1-based line, or `None` at the end.
     fn next_record(&mut self) -> Result<Option<u64>, InputError> {
-        match self.reader.read_byte_record(&mut self.rec) {
-            Ok(false) => Ok(None),
-            Ok(true) => {
-                self.rows += 1;
-                let byte = self.rec.position().map_or(0, |p| p.byte());
-                Ok(Some(self.reader.get_mut().line_of(byte)))
-            }
-            Err(e) => Err(csv_error(&self.meta.path, e, self.reader.get_mut())),
+        let line = self.records.next(&self.meta.path)?;
+        if line.is_some() {
+            self.rows += 1;
         }
+        Ok(line)
     }
 
     /// The record last read, as a row at `line`.
     fn row(&self, line: u64) -> Row<'_> {
         Row {
             table: &self.meta,
-            rec: &self.rec,
+            rec: self.records.fields(),
             line,
         }
     }
@@ -210,7 +241,7 @@ impl<R: Read> Table<R> {
 
 /// A csv crate error, with the line counted by `lines` (the crate's own line is wrong
 /// for CRLF files).
-fn csv_error<R>(path: &Path, e: csv::Error, lines: &mut LineCounter<R>) -> InputError {
+pub(crate) fn csv_error<R>(path: &Path, e: csv::Error, lines: &mut LineCounter<R>) -> InputError {
     let line = e.position().map(|p| lines.line_of(p.byte()));
     let reason = match e.kind() {
         csv::ErrorKind::UnequalLengths {
@@ -358,6 +389,33 @@ impl Row<'_> {
         if v <= 0.0 {
             return Err(self.err(col, format!("{v} must be a positive number")));
         }
+        Ok(v)
+    }
+}
+
+/// A float column whose cell repeats from row to row (a scan's time): the last cell's
+/// bytes and value are kept, and a cell with the same bytes takes that value without
+/// being parsed again. The same bytes give the same value and the same checks, so what
+/// is accepted and every error are those of [`Row::f64`].
+#[derive(Debug, Default)]
+struct RepeatedF64 {
+    cell: Vec<u8>,
+    value: Option<f64>,
+}
+
+impl RepeatedF64 {
+    #[inline]
+    fn get(&mut self, row: &Row<'_>, col: usize) -> Result<f64, InputError> {
+        let cell = row.cell(col);
+        if let Some(v) = self.value {
+            if self.cell == cell {
+                return Ok(v);
+            }
+        }
+        let v = row.f64(col)?;
+        self.cell.clear();
+        self.cell.extend_from_slice(cell);
+        self.value = Some(v);
         Ok(v)
     }
 }
@@ -894,6 +952,7 @@ struct MeasurementRows {
     sensors: SensorSlots,
     /// `(sensor, range|x bits, bearing|y bits)` of the current scan.
     seen: HashSet<(Id, u64, u64)>,
+    time: RepeatedF64,
 }
 
 /// What the measurements reader keeps per sensor.
@@ -954,7 +1013,7 @@ impl ScanRows for MeasurementRows {
         }
     }
     fn parse(&mut self, row: &Row<'_>, scan: u32) -> Result<Measurement, InputError> {
-        let time = row.f64(self.c_time)?;
+        let time = self.time.get(row, self.c_time)?;
         let sensor_id = row.int(self.c_sid)?;
         let has_rb = self
             .rb_cols
@@ -1121,6 +1180,7 @@ impl<R: Read> MeasurementStream<R> {
                 slots
             },
             seen: HashSet::default(),
+            time: RepeatedF64::default(),
         };
         Ok(MeasurementStream(ScanReader::new(t, rows)))
     }
@@ -1152,9 +1212,35 @@ struct LocalTrackRows {
     c_sid: usize,
     c_tid: usize,
     sc: StateCols,
-    /// `(sensor, track)` of the current scan and its line.
+    /// `(sensor, track)` of the current scan and its line, once the scan's rows are
+    /// out of `(sensor, track)` order ([`LocalTrackRows::ascending`]).
     seen: HashMap<(Id, Id), u64>,
+    /// While the current scan's keys have been strictly increasing (files this project
+    /// writes: always), they are distinct by that alone: the keys and lines go here
+    /// instead of `seen`, a push rather than a hash per row, and move into `seen` at the
+    /// first key that does not increase (so the same row fails, with the same message).
+    ascending: Vec<((Id, Id), u64)>,
+    /// Whether the current scan's keys are still strictly increasing.
+    in_order: bool,
     last: HashMap<(Id, Id), (f64, u64)>,
+    time: RepeatedF64,
+}
+
+impl LocalTrackRows {
+    /// Record `key` at `line` for the current scan; the line of an earlier row of this
+    /// scan with the same key, if any.
+    #[inline]
+    fn see(&mut self, key: (Id, Id), line: u64) -> Option<u64> {
+        if self.in_order {
+            if self.ascending.last().is_none_or(|&(k, _)| k < key) {
+                self.ascending.push((key, line));
+                return None;
+            }
+            self.in_order = false;
+            self.seen.extend(self.ascending.drain(..));
+        }
+        self.seen.insert(key, line)
+    }
 }
 
 impl ScanRows for LocalTrackRows {
@@ -1167,12 +1253,14 @@ impl ScanRows for LocalTrackRows {
     }
     fn start_scan(&mut self) {
         self.seen.clear();
+        self.ascending.clear();
+        self.in_order = true;
     }
     fn parse(&mut self, row: &Row<'_>, scan: u32) -> Result<LocalTrack, InputError> {
-        let time = row.f64(self.c_time)?;
+        let time = self.time.get(row, self.c_time)?;
         let sensor_id = row.int(self.c_sid)?;
         let track_id = row.int(self.c_tid)?;
-        if let Some(prev) = self.seen.insert((sensor_id, track_id), row.line) {
+        if let Some(prev) = self.see((sensor_id, track_id), row.line) {
             return Err(InputError::line(
                 &row.table.path,
                 row.line,
@@ -1232,7 +1320,10 @@ impl<R: Read> LocalTrackStream<R> {
             c_tid: t.col("track_id")?,
             sc: StateCols::find(&t)?,
             seen: HashMap::default(),
+            ascending: Vec::new(),
+            in_order: true,
             last: HashMap::default(),
+            time: RepeatedF64::default(),
         };
         Ok(LocalTrackStream(ScanReader::new(t, rows)))
     }
@@ -1548,6 +1639,194 @@ mod tests {
             if t.trim_start_matches('-').len() <= 18 {
                 prop_assert_eq!(small_int(t.as_bytes()), Some(v));
             }
+        }
+    }
+
+    /// An input handing out at most `chunk` bytes per read (0: all at once).
+    struct Chunks(std::io::Cursor<Vec<u8>>, usize);
+
+    impl Read for Chunks {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let n = if self.1 == 0 {
+                buf.len()
+            } else {
+                self.1.min(buf.len())
+            };
+            self.0.read(&mut buf[..n])
+        }
+    }
+
+    /// Everything a stream returns (each scan's rows and lines, then the error or the
+    /// end), as text; with `csv_only` every data row read by the csv crate.
+    fn stream_all(text: &[u8], chunk: usize, local: bool, csv_only: bool) -> String {
+        CSV_ONLY.set(csv_only);
+        let input = Chunks(std::io::Cursor::new(text.to_vec()), chunk);
+        let mut out = String::new();
+        macro_rules! drain {
+            ($open:expr) => {
+                match $open {
+                    Err(e) => out.push_str(&format!("open: {e:?}")),
+                    Ok(mut s) => {
+                        let mut buf = Vec::new();
+                        loop {
+                            match s.next_scan(&mut buf) {
+                                Ok(Some(scan)) => out.push_str(&format!(
+                                    "scan {scan}: {buf:?} lines {:?}\n",
+                                    s.lines()
+                                )),
+                                Ok(None) => break,
+                                Err(e) => {
+                                    out.push_str(&format!("error: {e:?} / {e}"));
+                                    break;
+                                }
+                            }
+                        }
+                    }
+                }
+            };
+        }
+        if local {
+            drain!(LocalTrackStream::from_reader(input, "local_tracks.csv"));
+        } else {
+            drain!(MeasurementStream::from_reader(
+                input,
+                "measurements.csv",
+                None
+            ));
+        }
+        CSV_ONLY.set(false);
+        out
+    }
+
+    /// A CSV text: a header, then rows of valid cells, some replaced by near misses
+    /// (quotes, commas, CR, LF, blanks, junk), joined by any line terminator.
+    fn csv_text(local: bool) -> impl Strategy<Value = Vec<u8>> {
+        let cell = prop_oneof![
+            8 => Just(None),
+            1 => prop::collection::vec(
+                prop::sample::select(vec![
+                    "0", "1", "-", ".", "e", " ", "\"", ",", "\r", "\n", "x", "\"\"", "7.5",
+                ]),
+                0..4,
+            )
+            .prop_map(|v| Some(v.concat())),
+        ];
+        let n = if local { 24 } else { 6 };
+        let row = (
+            0u32..3,
+            0i64..3,
+            0i64..4,
+            1.0f64..1e5,
+            -3.0f64..3.0,
+            prop::collection::vec(cell, n),
+            prop::sample::select(vec![
+                "\n", "\n", "\n", "\n", "\r\n", "\r", "\n\n", "", " \n",
+            ]),
+        );
+        (
+            prop::collection::vec(row, 0..40),
+            any::<bool>(),
+            any::<bool>(),
+        )
+            .prop_map(move |(rows, crlf_header, last_terminator)| {
+                let mut text = if local {
+                    crate::io::LocalTrackWriter::<Vec<u8>>::header()
+                } else {
+                    "scan,time,sensor_id,range,bearing,target_id".to_string()
+                };
+                text.push_str(if crlf_header { "\r\n" } else { "\n" });
+                let mut scan = 0;
+                let count = rows.len();
+                for (k, (step, sensor, id, a, b, junk, end)) in rows.into_iter().enumerate() {
+                    scan += step / 2;
+                    let mut cells: Vec<String> = if local {
+                        let mut c = vec![
+                            scan.to_string(),
+                            format!("{scan}.0"),
+                            sensor.to_string(),
+                            id.to_string(),
+                            a.to_string(),
+                            b.to_string(),
+                            (-a).to_string(),
+                            "1.5".to_string(),
+                        ];
+                        for i in 0..16 {
+                            c.push(if i % 5 == 0 {
+                                format!("{}", a + 1.0)
+                            } else {
+                                "0.0".into()
+                            });
+                        }
+                        c
+                    } else {
+                        vec![
+                            scan.to_string(),
+                            format!("{scan}.0"),
+                            sensor.to_string(),
+                            a.to_string(),
+                            b.to_string(),
+                            id.to_string(),
+                        ]
+                    };
+                    for (c, j) in cells.iter_mut().zip(junk) {
+                        if let Some(j) = j {
+                            *c = j;
+                        }
+                    }
+                    text.push_str(&cells.join(","));
+                    if k + 1 < count || last_terminator {
+                        text.push_str(end);
+                    }
+                }
+                text.into_bytes()
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(1500))]
+
+        /// The plain-line splitter (`io::records`) and the csv crate give the same rows,
+        /// lines and located errors, on valid and invalid files, in any read chunking.
+        #[test]
+        fn plain_lines_split_as_the_csv_crate_splits_them(
+            local in any::<bool>(),
+            text in csv_text(false),
+            ltext in csv_text(true),
+            chunk in prop::sample::select(vec![0usize, 1, 3, 17, 64]),
+        ) {
+            let text = if local { ltext } else { text };
+            let plain = stream_all(&text, chunk, local, false);
+            let csv = stream_all(&text, chunk, local, true);
+            prop_assert_eq!(plain, csv, "{}", String::from_utf8_lossy(&text));
+        }
+    }
+
+    /// A file larger than the splitter's buffer, read in odd chunks, with a quote late
+    /// in it: the same rows and lines as the csv crate's.
+    #[test]
+    fn plain_lines_across_buffer_refills_and_a_late_switch() {
+        let mut text = String::from("scan,time,sensor_id,range,bearing,target_id\n");
+        for k in 0..25_000 {
+            text.push_str(&format!(
+                "{},{}.0,{},{}.25,0.{},{}\n",
+                k / 40,
+                k / 40,
+                k % 4,
+                1000 + k,
+                k,
+                k
+            ));
+        }
+        text.push_str("700,700.0,1,\"5.5\",0.5,1\n700,700.0,1,6.5,0.5,1\n");
+        assert!(text.len() > 2 * (1 << 18));
+        for chunk in [0, 7, 4096] {
+            let plain = stream_all(text.as_bytes(), chunk, false, false);
+            assert_eq!(plain, stream_all(text.as_bytes(), chunk, false, true));
+            assert!(
+                plain.contains("scan 700"),
+                "{}",
+                &plain[plain.len().saturating_sub(300)..]
+            );
         }
     }
 }
