@@ -343,6 +343,7 @@ pub fn evaluate_run_with(
     // buffers of the per-scan assignments (GOSPA and OSPA share one), reused
     let mut scores = GospaScratch::default();
     let mut assigner = GatedAssigner::default();
+    let mut inverse: Vec<Option<usize>> = Vec::new();
     for &(time, scan) in &times {
         let key = TimeKey(time);
         let fs = fused_t.get(&key).map_or(&empty_f, |v| &v.1);
@@ -368,7 +369,20 @@ pub fn evaluate_run_with(
         m.gospa_n_false.add(g.n_false as f64);
         m.ospa.add(ospa);
         m.truth_points += ts.len() as u64;
-        for (fi, &ti) in assigner.solve(&fpos, &tpos, c).iter().enumerate() {
+        // the fused tracks' truth: GOSPA's pairs when they are the unique optimum of
+        // the same problem (p = 2, gate c), else solved
+        let fused_truth: &[Option<usize>] = match scores.unique_gated_pairs() {
+            Some(pairs) => {
+                inverse.clear();
+                inverse.resize(fpos.len(), None);
+                for &(ti, fi, _) in pairs {
+                    inverse[fi] = Some(ti);
+                }
+                &inverse
+            }
+            None => assigner.solve(&fpos, &tpos, c),
+        };
+        for (fi, &ti) in fused_truth.iter().enumerate() {
             if let Some(ti) = ti {
                 let e2 = (fpos[fi] - tpos[ti]).norm_squared();
                 m.fused_per_target
