@@ -210,13 +210,27 @@ pub fn fuse_all_at_instants(
         // the error fuse_all names
         return super::fuse_all(tracks, cfg, sensors, labels);
     }
-    let mut by_scan: BTreeMap<u32, Vec<LocalTrack>> = BTreeMap::new();
-    let mut times = ReportTimes::default();
-    for t in tracks {
-        by_scan.entry(t.scan).or_default().push(*t);
+    // the rows of each scan, scans ascending: slices of `tracks` when it is sorted by
+    // scan (the pipeline's order; no copy), else copies grouped by scan
+    let mut by_scan: Vec<(u32, &[LocalTrack])> = Vec::new();
+    let grouped: BTreeMap<u32, Vec<LocalTrack>>;
+    if tracks.is_sorted_by_key(|t| t.scan) {
+        by_scan.extend(
+            tracks
+                .chunk_by(|a, b| a.scan == b.scan)
+                .map(|ts| (ts[0].scan, ts)),
+        );
+    } else {
+        let mut g: BTreeMap<u32, Vec<LocalTrack>> = BTreeMap::new();
+        for t in tracks {
+            g.entry(t.scan).or_default().push(*t);
+        }
+        grouped = g;
+        by_scan.extend(grouped.iter().map(|(&s, ts)| (s, ts.as_slice())));
     }
-    for ts in by_scan.values() {
-        for t in ts {
+    let mut times = ReportTimes::default();
+    for (_, ts) in &by_scan {
+        for t in *ts {
             times.add(t.sensor_id, t.time);
         }
     }
@@ -228,7 +242,7 @@ pub fn fuse_all_at_instants(
     let mut batcher = InstantBatcher::new(period, &clocks);
     let mut run = FusedRun::default();
     let mut out = ScanOutput::default();
-    for (&scan, ts) in &by_scan {
+    for &(scan, ts) in &by_scan {
         let time = ts.iter().map(|t| t.time).fold(f64::NEG_INFINITY, f64::max);
         batcher.push(scan, time, ts, |s, t, tr| {
             center.process_at_into(s, t, tr, &mut out)?;
