@@ -85,19 +85,41 @@ impl GatedAssigner {
         self.best.clear();
         self.claims.clear();
         self.claims.resize(cols.len(), 0);
+        // Each row's nearest candidate: from its own grid cell alone when a point there
+        // is nearer than any point outside the cell can be (most rows: the targets are
+        // far apart compared with their estimates' errors), else from every candidate
+        // within the gate. When every row has its own strict nearest, that is the answer.
         let mut all_nearest = true;
         for r in rows {
-            let start = self.edges.len();
-            self.edge_start.push(start as u32);
-            let edges = &mut self.edges;
-            // the grid's disc is inclusive; the gate is not
-            self.grid.for_each_within(r, |j, _| {
+            let (mut bj, mut bd, mut tied) = (NO_BEST, f64::INFINITY, false);
+            let margin = self.grid.for_each_in_cell_of(r, |j| {
                 let d2 = (r - cols[j]).norm_squared();
-                if d2 < gate2 {
-                    edges.push((j as u32, d2));
+                if d2 < bd {
+                    (bj, bd, tied) = (j as u32, d2, false);
+                } else if d2 == bd {
+                    tied = true;
                 }
             });
-            let best = nearest(&self.edges[start..]);
+            let best = if bd < gate2 && bd < margin * margin {
+                if tied {
+                    TIED
+                } else {
+                    bj
+                }
+            } else {
+                let start = self.edges.len();
+                let edges = &mut self.edges;
+                // the grid's disc is inclusive; the gate is not
+                self.grid.for_each_within(r, |j, _| {
+                    let d2 = (r - cols[j]).norm_squared();
+                    if d2 < gate2 {
+                        edges.push((j as u32, d2));
+                    }
+                });
+                let best = nearest(&self.edges[start..]);
+                self.edges.truncate(start);
+                best
+            };
             if best < TIED {
                 let c = &mut self.claims[best as usize];
                 *c = c.saturating_add(1);
@@ -107,7 +129,6 @@ impl GatedAssigner {
             }
             self.best.push(best);
         }
-        self.edge_start.push(self.edges.len() as u32);
         if all_nearest {
             for (o, &b) in self.out.iter_mut().zip(&self.best) {
                 if b < TIED {
@@ -116,6 +137,19 @@ impl GatedAssigner {
             }
             return &self.out;
         }
+        // the candidate lists of every row, for the components
+        for r in rows {
+            self.edge_start.push(self.edges.len() as u32);
+            let edges = &mut self.edges;
+            // the grid's disc is inclusive; the gate is not
+            self.grid.for_each_within(r, |j, _| {
+                let d2 = (r - cols[j]).norm_squared();
+                if d2 < gate2 {
+                    edges.push((j as u32, d2));
+                }
+            });
+        }
+        self.edge_start.push(self.edges.len() as u32);
         // union-find over rows (0..n) and cols (n..n+m); a component's smallest member
         // is its smallest row, so components are solved in the order of their first row
         self.sets.reset(n + cols.len());
