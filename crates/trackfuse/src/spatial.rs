@@ -195,7 +195,7 @@ impl EpsGrid {
             }
         }
         let edge = |v: f64, c: i64| {
-            if !(CELL_MIN < c && c < CELL_MAX) || !v.is_finite() {
+            if !(CELL_MIN < c && c < CELL_MAX && v.is_finite()) {
                 return 0.0;
             }
             let side = 1.0 / self.inv_cell;

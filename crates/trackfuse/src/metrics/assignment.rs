@@ -255,6 +255,66 @@ mod tests {
         assert_eq!(a, vec![Some(0), Some(1), Some(2)]);
     }
 
+    /// The dense solution: `lsap` on the whole `min(d^2, gate^2)` matrix.
+    fn dense(rows: &[Vec2], cols: &[Vec2], gate: f64) -> Vec<Option<usize>> {
+        let (n, m) = (rows.len(), cols.len());
+        let g2 = gate * gate;
+        let cost: Vec<f64> = rows
+            .iter()
+            .flat_map(|r| cols.iter().map(move |c| (r - c).norm_squared().min(g2)))
+            .collect();
+        let mut out = vec![None; n];
+        let (rr, cc) = lsap::solve(n, m, &cost, false).expect("finite costs");
+        for (a, b) in rr.into_iter().zip(cc) {
+            if cost[a * m + b] < g2 {
+                out[a] = Some(b);
+            }
+        }
+        out
+    }
+
+    /// Estimates scattered around a grid of targets, some missing, some false: the
+    /// shortcuts (own-cell nearest, nearest test per component) give the dense answer,
+    /// and a proven-unique answer is the transposed problem's too.
+    #[test]
+    fn shortcuts_match_the_dense_solution() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut a = GatedAssigner::default();
+        let mut t = GatedAssigner::default();
+        for case in 0..300 {
+            let spread = [20.0, 150.0, 500.0][case % 3];
+            let targets: Vec<Vec2> = (0..30)
+                .map(|k| Vec2::new((k % 6) as f64 * 800.0, (k / 6) as f64 * 800.0))
+                .collect();
+            let mut est: Vec<Vec2> = Vec::new();
+            for p in &targets {
+                if uniform() < 0.9 {
+                    let (dx, dy) = (uniform() - 0.5, uniform() - 0.5);
+                    est.push(p + Vec2::new(spread * dx, spread * dy));
+                }
+            }
+            est.push(Vec2::new(5000.0 * uniform(), 4000.0 * uniform()));
+            for gate in [300.0, 1000.0, 2000.0] {
+                let got = a.solve(&est, &targets, gate).to_vec();
+                assert_eq!(got, dense(&est, &targets, gate), "case {case} gate {gate}");
+                if a.is_unique() {
+                    let back = t.solve(&targets, &est, gate).to_vec();
+                    for (i, j) in got.iter().enumerate() {
+                        if let Some(j) = *j {
+                            assert_eq!(back[j], Some(i));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn gate_excludes_far_pairs_and_resolves_conflicts() {
         let rows = [
