@@ -179,6 +179,33 @@ impl EpsGrid {
         }
     }
 
+    /// Call `f(index)` for every point in `p`'s own cell (in grid order), and return a
+    /// distance from `p` within which every point of the grid lies in that cell: a point
+    /// outside it is at least that far from `p`. Conservative (the cell's edges less a
+    /// relative `1e-9` for the rounding in the cell arithmetic); 0 when `p` is not finite
+    /// or its cell is at the edge of the index range. A nearest-point search that finds a
+    /// point nearer than this margin need look no further.
+    pub fn for_each_in_cell_of(&self, p: &Vec2, mut f: impl FnMut(usize)) -> f64 {
+        let (cx, cy) = cell_of(p, self.inv_cell);
+        let k = pack(cx, cy);
+        let i = self.dir_keys.partition_point(|&d| d < k);
+        if self.dir_keys.get(i) == Some(&k) {
+            for &c in &self.cells[self.dir_start[i] as usize..self.dir_start[i + 1] as usize] {
+                f(index(c) as usize);
+            }
+        }
+        let edge = |v: f64, c: i64| {
+            if !(CELL_MIN < c && c < CELL_MAX && v.is_finite()) {
+                return 0.0;
+            }
+            let side = 1.0 / self.inv_cell;
+            let (lo, hi) = (c as f64 * side, (c + 1) as f64 * side);
+            let slack = 1e-9 * (v.abs() + side);
+            ((v - lo).min(hi - v) - slack).max(0.0)
+        };
+        edge(p[0], cx).min(edge(p[1], cy))
+    }
+
     /// Call `f(a, b)` once for every pair of distinct points within the radius of each
     /// other (inclusive), in grid order: the edges of the Eps graph.
     ///

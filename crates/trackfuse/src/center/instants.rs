@@ -59,8 +59,11 @@ pub struct InstantBatcher {
     /// Each sensor's staleness limit (its report interval).
     /// Fx-hashed, as `sensor_last`: looked up per report, never iterated.
     stale: FxHashMap<Id, f64>,
-    /// The latest report of each `(sensor_id, track_id)`.
-    latest: BTreeMap<(Id, Id), LocalTrack>,
+    /// The latest report of each `(sensor_id, track_id)`, sorted by that key (a sorted
+    /// `Vec` rather than a `BTreeMap`: on synchronous data every report replaces the
+    /// one before, in key order, so the map was emptied and refilled each scan, and a
+    /// `Vec` does that with appends; see [`InstantBatcher::insert`]).
+    latest: Vec<LocalTrack>,
     /// Each sensor's latest report time.
     sensor_last: FxHashMap<Id, f64>,
     /// The next instant's time (`None` before the first report).
@@ -80,7 +83,7 @@ impl InstantBatcher {
         InstantBatcher {
             period,
             stale: clocks.iter().map(|(&s, c)| (s, c.period)).collect(),
-            latest: BTreeMap::new(),
+            latest: Vec::new(),
             sensor_last: FxHashMap::default(),
             next: None,
             last_scan: None,
@@ -114,7 +117,7 @@ impl InstantBatcher {
         if backwards {
             for r in rows {
                 self.sensor_last.insert(r.sensor_id, r.time);
-                self.latest.insert((r.sensor_id, r.track_id), *r);
+                self.insert(r);
             }
             return self.emit(Some(scan), time, &mut fuse);
         }
@@ -130,9 +133,9 @@ impl InstantBatcher {
         // a track its sensor reported before but not now is gone
         let last = &self.sensor_last;
         self.latest
-            .retain(|&(s, _), t| last.get(&s).is_none_or(|&l| t.time >= l));
+            .retain(|t| last.get(&t.sensor_id).is_none_or(|&l| t.time >= l));
         for r in rows {
-            self.latest.insert((r.sensor_id, r.track_id), *r);
+            self.insert(r);
         }
         if (next - time).abs() <= tol {
             self.emit(Some(scan), time, &mut fuse)?;
@@ -140,6 +143,25 @@ impl InstantBatcher {
         }
         self.next = Some(next);
         Ok(())
+    }
+
+    /// Insert `r` as the latest report of its `(sensor_id, track_id)`, replacing the one
+    /// before, keeping `latest` sorted by that key: an append when it sorts last (reports
+    /// in key order), else a binary search.
+    fn insert(&mut self, r: &LocalTrack) {
+        let key = (r.sensor_id, r.track_id);
+        match self.latest.last() {
+            Some(t) if (t.sensor_id, t.track_id) >= key => {
+                match self
+                    .latest
+                    .binary_search_by(|t| (t.sensor_id, t.track_id).cmp(&key))
+                {
+                    Ok(i) => self.latest[i] = *r,
+                    Err(i) => self.latest.insert(i, *r),
+                }
+            }
+            _ => self.latest.push(*r),
+        }
     }
 
     /// Hand over instant `time`: `file_scan` is the batch's scan when the instant is a
@@ -151,7 +173,7 @@ impl InstantBatcher {
         fuse: &mut impl FnMut(u32, f64, &mut Vec<LocalTrack>) -> Result<(), E>,
     ) -> Result<(), E> {
         self.out.clear();
-        for t in self.latest.values() {
+        for t in &self.latest {
             let limit = self.stale.get(&t.sensor_id).copied().unwrap_or(self.period);
             let fresh = t.time <= time && time - t.time < limit * (1.0 - CLOCK_TOLERANCE);
             if fresh && self.sensor_last.get(&t.sensor_id) == Some(&t.time) {
@@ -188,13 +210,27 @@ pub fn fuse_all_at_instants(
         // the error fuse_all names
         return super::fuse_all(tracks, cfg, sensors, labels);
     }
-    let mut by_scan: BTreeMap<u32, Vec<LocalTrack>> = BTreeMap::new();
-    let mut times = ReportTimes::default();
-    for t in tracks {
-        by_scan.entry(t.scan).or_default().push(*t);
+    // the rows of each scan, scans ascending: slices of `tracks` when it is sorted by
+    // scan (the pipeline's order; no copy), else copies grouped by scan
+    let mut by_scan: Vec<(u32, &[LocalTrack])> = Vec::new();
+    let grouped: BTreeMap<u32, Vec<LocalTrack>>;
+    if tracks.is_sorted_by_key(|t| t.scan) {
+        by_scan.extend(
+            tracks
+                .chunk_by(|a, b| a.scan == b.scan)
+                .map(|ts| (ts[0].scan, ts)),
+        );
+    } else {
+        let mut g: BTreeMap<u32, Vec<LocalTrack>> = BTreeMap::new();
+        for t in tracks {
+            g.entry(t.scan).or_default().push(*t);
+        }
+        grouped = g;
+        by_scan.extend(grouped.iter().map(|(&s, ts)| (s, ts.as_slice())));
     }
-    for ts in by_scan.values() {
-        for t in ts {
+    let mut times = ReportTimes::default();
+    for (_, ts) in &by_scan {
+        for t in *ts {
             times.add(t.sensor_id, t.time);
         }
     }
@@ -206,7 +242,7 @@ pub fn fuse_all_at_instants(
     let mut batcher = InstantBatcher::new(period, &clocks);
     let mut run = FusedRun::default();
     let mut out = ScanOutput::default();
-    for (&scan, ts) in &by_scan {
+    for &(scan, ts) in &by_scan {
         let time = ts.iter().map(|t| t.time).fold(f64::NEG_INFINITY, f64::max);
         batcher.push(scan, time, ts, |s, t, tr| {
             center.process_at_into(s, t, tr, &mut out)?;

@@ -343,6 +343,7 @@ pub fn evaluate_run_with(
     // buffers of the per-scan assignments (GOSPA and OSPA share one), reused
     let mut scores = GospaScratch::default();
     let mut assigner = GatedAssigner::default();
+    let mut inverse: Vec<Option<usize>> = Vec::new();
     for &(time, scan) in &times {
         let key = TimeKey(time);
         let fs = fused_t.get(&key).map_or(&empty_f, |v| &v.1);
@@ -368,7 +369,20 @@ pub fn evaluate_run_with(
         m.gospa_n_false.add(g.n_false as f64);
         m.ospa.add(ospa);
         m.truth_points += ts.len() as u64;
-        for (fi, &ti) in assigner.solve(&fpos, &tpos, c).iter().enumerate() {
+        // the fused tracks' truth: GOSPA's pairs when they are the unique optimum of
+        // the same problem (p = 2, gate c), else solved
+        let fused_truth: &[Option<usize>] = match scores.unique_gated_pairs() {
+            Some(pairs) => {
+                inverse.clear();
+                inverse.resize(fpos.len(), None);
+                for &(ti, fi, _) in pairs {
+                    inverse[fi] = Some(ti);
+                }
+                &inverse
+            }
+            None => assigner.solve(&fpos, &tpos, c),
+        };
+        for (fi, &ti) in fused_truth.iter().enumerate() {
             if let Some(ti) = ti {
                 let e2 = (fpos[fi] - tpos[ti]).norm_squared();
                 m.fused_per_target
@@ -414,27 +428,34 @@ pub fn evaluate_run_with(
         return m;
     }
     let mut counts = AssociationCounts::default();
+    let mut groups = ScanGroups::default();
     for (scan, rows) in group_by_scan(assoc, |a| a.scan) {
-        let (members, followers) = scan_groups(scan, &rows, &labels);
-        if let Some(pc) = scan_probability_correct(&members, &followers) {
+        groups.build(scan, &rows, &labels);
+        if let Some(pc) = groups.probability_correct() {
             m.pc.add(pc);
         }
         // rates
-        for a in &rows {
-            let label = labels.get(&(scan, a.sensor_id, a.track_id)).copied();
-            let group = &members[&a.fused_id];
-            let partners = group.iter().filter(|(s, _)| *s != a.sensor_id);
+        for (k, a) in rows.iter().enumerate() {
+            let label = groups.labels[k];
+            let partners = groups
+                .members_of(a.fused_id)
+                .iter()
+                .filter(|x| x.sensor != a.sensor_id);
             let mut wrong = false;
             let mut right = false;
-            for &(_, l) in partners {
-                if l.is_some() && l == label {
+            for x in partners {
+                if x.label.is_some() && x.label == label {
                     right = true;
                 } else {
                     wrong = true;
                 }
             }
-            let true_partner_exists =
-                label.is_some_and(|t| followers[&t].iter().any(|&(s, _)| s != a.sensor_id));
+            let true_partner_exists = label.is_some_and(|t| {
+                groups
+                    .followers_of(t)
+                    .iter()
+                    .any(|x| x.sensor != a.sensor_id)
+            });
             if wrong {
                 counts.false_ += 1;
             } else if right {
@@ -448,67 +469,111 @@ pub fn evaluate_run_with(
     m
 }
 
-/// Fused id -> members `(sensor, label)`, and target -> `(sensor, fused id)` of the local
-/// tracks following it, of one scan's associations (in their order).
-///
-/// Fx-hashed: the maps are only looked up, and iterated where the order cannot matter
-/// (counts), so the quicker hash changes no output.
-type ScanGroups = (
-    FxHashMap<Id, Vec<(Id, Option<Id>)>>,
-    FxHashMap<Id, Vec<(Id, Id)>>,
-);
-
-/// [`ScanGroups`] of the associations `rows` of scan `scan` under `labels`.
-fn scan_groups<S: BuildHasher>(
-    scan: u32,
-    rows: &[&Association],
-    labels: &HashMap<(u32, Id, Id), Id, S>,
-) -> ScanGroups {
-    let mut members: FxHashMap<Id, Vec<(Id, Option<Id>)>> = FxHashMap::default();
-    let mut followers: FxHashMap<Id, Vec<(Id, Id)>> = FxHashMap::default();
-    for a in rows {
-        let label = labels.get(&(scan, a.sensor_id, a.track_id)).copied();
-        members
-            .entry(a.fused_id)
-            .or_default()
-            .push((a.sensor_id, label));
-        if let Some(t) = label {
-            followers
-                .entry(t)
-                .or_default()
-                .push((a.sensor_id, a.fused_id));
-        }
-    }
-    (members, followers)
+/// One association row of a scan, in a [`ScanGroups`] list: `key` is the fused id (in
+/// `members`) or the target followed (in `followers`); `row` its place in the scan's
+/// association order.
+#[derive(Debug, Clone, Copy)]
+struct GroupRow {
+    key: Id,
+    row: u32,
+    sensor: Id,
+    /// In `members`: the row's label; in `followers`: `None`.
+    label: Option<Id>,
+    /// In `followers`: the row's fused id; in `members`: unused (the key).
+    fused: Id,
 }
 
-/// `N_c / N_public` of one scan (000 eq. 19), from `members` (fused id -> `(sensor,
-/// label)` of its local tracks) and `followers` (target -> `(sensor, fused id)` of the
-/// local tracks following it, in association order); `None` without a common target.
-fn scan_probability_correct(
-    members: &FxHashMap<Id, Vec<(Id, Option<Id>)>>,
-    followers: &FxHashMap<Id, Vec<(Id, Id)>>,
-) -> Option<f64> {
-    let mut n_public = 0u64;
-    let mut n_correct = 0u64;
-    for (t, fl) in followers {
-        let mut sensors: Vec<Id> = fl.iter().map(|x| x.0).collect();
-        sensors.sort_unstable();
-        sensors.dedup();
-        if sensors.len() < 2 {
-            continue;
+/// Fused id -> members `(sensor, label)`, and target -> `(sensor, fused id)` of the
+/// local tracks following it, of one scan's associations, each group in association
+/// order.
+///
+/// Two flat lists sorted by `(key, row)` and searched by key, rebuilt in place scan after
+/// scan: the hash maps of `Vec`s they replace allocated two vectors per fused track and
+/// target every scan. The groups hold the same rows in the same order, so no output
+/// changes.
+#[derive(Debug, Clone, Default)]
+struct ScanGroups {
+    members: Vec<GroupRow>,
+    followers: Vec<GroupRow>,
+    /// The label of each association row.
+    labels: Vec<Option<Id>>,
+}
+
+impl ScanGroups {
+    /// The groups of the associations `rows` of scan `scan` under `labels`.
+    fn build<S: BuildHasher>(
+        &mut self,
+        scan: u32,
+        rows: &[&Association],
+        labels: &HashMap<(u32, Id, Id), Id, S>,
+    ) {
+        self.members.clear();
+        self.followers.clear();
+        self.labels.clear();
+        for (k, a) in rows.iter().enumerate() {
+            let label = labels.get(&(scan, a.sensor_id, a.track_id)).copied();
+            self.labels.push(label);
+            self.members.push(GroupRow {
+                key: a.fused_id,
+                row: k as u32,
+                sensor: a.sensor_id,
+                label,
+                fused: a.fused_id,
+            });
+            if let Some(t) = label {
+                self.followers.push(GroupRow {
+                    key: t,
+                    row: k as u32,
+                    sensor: a.sensor_id,
+                    label: None,
+                    fused: a.fused_id,
+                });
+            }
         }
-        n_public += 1;
-        let f0 = fl[0].1;
-        let same = fl.iter().all(|x| x.1 == f0);
-        let clean = members
-            .get(&f0)
-            .is_some_and(|m| m.iter().all(|&(_, l)| l == Some(*t)));
-        if same && clean {
-            n_correct += 1;
-        }
+        // (key, row) is unique: the order is fixed
+        self.members.sort_unstable_by_key(|x| (x.key, x.row));
+        self.followers.sort_unstable_by_key(|x| (x.key, x.row));
     }
-    (n_public > 0).then(|| n_correct as f64 / n_public as f64)
+
+    /// The rows of the group `key` of a list sorted by key.
+    fn group(list: &[GroupRow], key: Id) -> &[GroupRow] {
+        let lo = list.partition_point(|x| x.key < key);
+        let hi = lo + list[lo..].partition_point(|x| x.key == key);
+        &list[lo..hi]
+    }
+
+    /// The members of fused track `fused`, in association order.
+    fn members_of(&self, fused: Id) -> &[GroupRow] {
+        Self::group(&self.members, fused)
+    }
+
+    /// The local tracks following target `t`, in association order.
+    fn followers_of(&self, t: Id) -> &[GroupRow] {
+        Self::group(&self.followers, t)
+    }
+
+    /// `N_c / N_public` of the scan (000 eq. 19); `None` without a common target (one
+    /// followed by local tracks of at least two sensors). A common target is correctly
+    /// associated when all its followers went to one fused track and every member of
+    /// that fused track follows it.
+    fn probability_correct(&self) -> Option<f64> {
+        let mut n_public = 0u64;
+        let mut n_correct = 0u64;
+        for fl in self.followers.chunk_by(|a, b| a.key == b.key) {
+            let t = fl[0].key;
+            if fl.iter().all(|x| x.sensor == fl[0].sensor) {
+                continue; // one sensor
+            }
+            n_public += 1;
+            let f0 = fl[0].fused;
+            let same = fl.iter().all(|x| x.fused == f0);
+            let clean = self.members_of(f0).iter().all(|x| x.label == Some(t));
+            if same && clean {
+                n_correct += 1;
+            }
+        }
+        (n_public > 0).then(|| n_correct as f64 / n_public as f64)
+    }
 }
 
 /// P_c (000 eq. 19) of one run's associations under the given local-track labels
@@ -521,9 +586,10 @@ pub fn probability_correct(
     labels: &HashMap<(u32, Id, Id), Id>,
 ) -> SumCount {
     let mut pc = SumCount::default();
+    let mut groups = ScanGroups::default();
     for (scan, rows) in group_by_scan(associations, |a| a.scan) {
-        let (members, followers) = scan_groups(scan, &rows, labels);
-        if let Some(v) = scan_probability_correct(&members, &followers) {
+        groups.build(scan, &rows, labels);
+        if let Some(v) = groups.probability_correct() {
             pc.add(v);
         }
     }

@@ -129,7 +129,12 @@ pub fn gospa_and_ospa(
     c: f64,
     p: f64,
 ) -> (Gospa, f64) {
-    let GospaScratch { assigner, pairs } = scratch;
+    let GospaScratch {
+        assigner,
+        pairs,
+        gated,
+    } = scratch;
+    *gated = (p - 2.0).abs() < 1e-12;
     optimal_pairs_into(assigner, truth, est, c, p, pairs);
     let (m, n) = (truth.len(), est.len());
     (
@@ -143,6 +148,18 @@ pub fn gospa_and_ospa(
 pub struct GospaScratch {
     assigner: GatedAssigner,
     pairs: Vec<(usize, usize, f64)>,
+    /// The last call solved the gated squared-distance assignment (`p = 2`).
+    gated: bool,
+}
+
+impl GospaScratch {
+    /// The last [`gospa_and_ospa`]'s optimal pairs `(truth, estimate, distance)` when they
+    /// are those of the gated squared-distance assignment within `c` (`p = 2`) and proven
+    /// its unique optimum ([`GatedAssigner::is_unique`]): then the assignment of the
+    /// estimates to the truth within `c` is the same pairs, and need not be solved again.
+    pub fn unique_gated_pairs(&self) -> Option<&[(usize, usize, f64)]> {
+        (self.gated && self.assigner.is_unique()).then_some(&self.pairs[..])
+    }
 }
 
 #[cfg(test)]
