@@ -88,22 +88,30 @@ impl InstantOutput {
     /// (`usize::MAX`: one chunk). The chunks joined are the same bytes whatever
     /// `min_chunk` is.
     pub fn encode_chunks(&self, min_chunk: usize, mut emit: impl FnMut(Vec<u8>)) {
+        for chunk in self.chunks(min_chunk) {
+            emit(chunk);
+        }
+    }
+
+    /// [`InstantOutput::encode_chunks`] as an iterator: each chunk is encoded when it is
+    /// asked for.
+    pub fn chunks(&self, min_chunk: usize) -> impl Iterator<Item = Vec<u8>> + '_ {
         let cap = min_chunk.min(256 * (self.fused.len() + self.associations.len())) + 512;
-        let mut chunk = Vec::with_capacity(cap);
-        let mut flush = |chunk: &mut Vec<u8>, last: bool| {
-            if (last && !chunk.is_empty()) || chunk.len() >= min_chunk {
-                emit(std::mem::replace(chunk, Vec::with_capacity(cap)));
+        let mut fused = self.fused.iter();
+        let mut associations = self.associations.iter();
+        std::iter::from_fn(move || {
+            let mut chunk = Vec::with_capacity(cap);
+            while chunk.len() < min_chunk {
+                if let Some(f) = fused.next() {
+                    encode_fused(f, &mut chunk);
+                } else if let Some(a) = associations.next() {
+                    encode_association(a, &mut chunk);
+                } else {
+                    break;
+                }
             }
-        };
-        for f in &self.fused {
-            encode_fused(f, &mut chunk);
-            flush(&mut chunk, false);
-        }
-        for a in &self.associations {
-            encode_association(a, &mut chunk);
-            flush(&mut chunk, false);
-        }
-        flush(&mut chunk, true);
+            (!chunk.is_empty()).then_some(chunk)
+        })
     }
 }
 

@@ -21,6 +21,12 @@
 //!   queue cannot take are dropped for it (counted,
 //!   `trackfuse_subscriber_missed_instants`), and when it reads again it first gets a
 //!   `{"kind":"gap","missed":N}` line.
+//! - Yield points: a tokio task woken by another runs, on that worker, only once the
+//!   waker yields. So a connection yields after handing over a report of a new time (it
+//!   may complete an instant), the center after handing an instant to the publisher,
+//!   the publisher after each chunk: measured with `loadgen`, without them an instant's
+//!   first lines waited for a whole scan to be parsed, for the center's next batches,
+//!   and for the whole instant to be encoded.
 //! - Shutdown (SIGTERM / SIGINT for `serve`, [`Service::shutdown`] for a library user):
 //!   the listeners stop, the queue is drained, every batch held is fused, the journal and
 //!   the output file are flushed, the subscribers get the last lines and EOF (shutdown
@@ -447,6 +453,9 @@ async fn sensor_connection(
         if newest.is_none_or(|t| track.time > t) {
             newest = Some(track.time);
             flush!();
+            // and the center runs now: woken by the queue, it would otherwise wait on
+            // this worker until this task has parsed all it has read (yield_points)
+            tokio::task::yield_now().await;
         }
     }
 }
@@ -547,14 +556,14 @@ async fn run_publisher(
             instant = instants.recv() => {
                 let Some(instant) = instant else { break };
                 admit(&mut subs, &mut takes, buffer, &metrics);
-                let mut pending: Option<Bytes> = None;
-                let mut write_err = None;
-                // each chunk leaves when the next one is encoded (the last is marked)
-                let mut send = |chunk: &Bytes, last: bool, subs: &[Subscriber]| {
+                // chunk by chunk: each leaves once encoded (the last is marked), and the
+                // subscribers' writers run before the next is encoded (yield_points)
+                let mut chunks = instant.chunks(CHUNK).peekable();
+                while let Some(chunk) = chunks.next() {
+                    let chunk = Bytes::from(chunk);
+                    let last = chunks.peek().is_none();
                     if let Some(o) = output.as_mut() {
-                        if let Err(e) = o.write_all(chunk) {
-                            write_err.get_or_insert(e);
-                        }
+                        o.write_all(&chunk).context("writing the output")?;
                     }
                     for (s, &take) in subs.iter().zip(&takes) {
                         if take {
@@ -562,17 +571,7 @@ async fn run_publisher(
                             let _ = s.tx.send(Piece { bytes: chunk.clone(), ends_instant: last });
                         }
                     }
-                };
-                instant.encode_chunks(CHUNK, |c| {
-                    if let Some(p) = pending.replace(Bytes::from(c)) {
-                        send(&p, false, &subs);
-                    }
-                });
-                if let Some(p) = pending {
-                    send(&p, true, &subs);
-                }
-                if let Some(e) = write_err {
-                    return Err(e).context("writing the output");
+                    tokio::task::yield_now().await;
                 }
             }
         }
@@ -786,8 +785,13 @@ async fn publish(
 ) {
     let out = engine.take_output();
     update_metrics(engine, metrics, last);
+    let any = !out.is_empty();
     for instant in out {
         // the publisher ends only after this sender is dropped
         let _ = instants.send(instant).await;
+    }
+    if any {
+        // let the publisher start on it (yield_points)
+        tokio::task::yield_now().await;
     }
 }

@@ -117,8 +117,8 @@ impl InstantBatcher {
         if backwards {
             for r in rows {
                 self.sensor_last.insert(r.sensor_id, r.time);
-                self.insert(r);
             }
+            self.insert_all(rows);
             return self.emit(Some(scan), time, &mut fuse);
         }
         let mut next = self.next.unwrap_or(time);
@@ -134,9 +134,7 @@ impl InstantBatcher {
         let last = &self.sensor_last;
         self.latest
             .retain(|t| last.get(&t.sensor_id).is_none_or(|&l| t.time >= l));
-        for r in rows {
-            self.insert(r);
-        }
+        self.insert_all(rows);
         if (next - time).abs() <= tol {
             self.emit(Some(scan), time, &mut fuse)?;
             next = time + self.period;
@@ -145,23 +143,34 @@ impl InstantBatcher {
         Ok(())
     }
 
-    /// Insert `r` as the latest report of its `(sensor_id, track_id)`, replacing the one
-    /// before, keeping `latest` sorted by that key: an append when it sorts last (reports
-    /// in key order), else a binary search.
-    fn insert(&mut self, r: &LocalTrack) {
-        let key = (r.sensor_id, r.track_id);
-        match self.latest.last() {
-            Some(t) if (t.sensor_id, t.track_id) >= key => {
-                match self
-                    .latest
-                    .binary_search_by(|t| (t.sensor_id, t.track_id).cmp(&key))
-                {
-                    Ok(i) => self.latest[i] = *r,
-                    Err(i) => self.latest.insert(i, *r),
-                }
-            }
-            _ => self.latest.push(*r),
+    /// Insert `rows` as the latest reports of their `(sensor_id, track_id)`, each
+    /// replacing the one before (a later row of one key wins, as in a map), keeping
+    /// `latest` sorted by that key: appends while the rows come in key order (files
+    /// sorted that way), else one stable sort of the whole and the last of each key
+    /// kept. Not one binary-search insert per row: rows in another order (a file sorted
+    /// by track, then sensor; a service's reports in arrival order) made that quadratic.
+    fn insert_all(&mut self, rows: &[LocalTrack]) {
+        let key = |t: &LocalTrack| (t.sensor_id, t.track_id);
+        let mut ordered = true;
+        for r in rows {
+            ordered &= self.latest.last().is_none_or(|t| key(t) < key(r));
+            self.latest.push(*r);
         }
+        if ordered {
+            return;
+        }
+        self.latest.sort_by_key(key);
+        // the last of each run of equal keys (the newest: the sort is stable)
+        let n = self.latest.len();
+        let mut w = 0;
+        for i in 0..n {
+            if i + 1 < n && key(&self.latest[i]) == key(&self.latest[i + 1]) {
+                continue;
+            }
+            self.latest[w] = self.latest[i];
+            w += 1;
+        }
+        self.latest.truncate(w);
     }
 
     /// Hand over instant `time`: `file_scan` is the batch's scan when the instant is a
@@ -298,6 +307,41 @@ mod tests {
             .expect("no error");
         }
         got
+    }
+
+    #[test]
+    fn the_order_of_a_batch_rows_does_not_matter() {
+        // three sensors, 40 tracks each, with an asynchronous one; rows in key order,
+        // reversed, and interleaved by sensor as a service takes them
+        let clk = clocks(&[(0, 1.0), (1, 1.0), (2, 2.0)]);
+        let batches = |order: usize| -> Vec<(u32, f64, Vec<LocalTrack>)> {
+            (0..6u32)
+                .map(|k| {
+                    let t = f64::from(k);
+                    let mut rows: Vec<LocalTrack> = (0..3)
+                        .filter(|&s| s != 2 || k % 2 == 0)
+                        .flat_map(|s| (0..40).map(move |id| track(s, id, t)))
+                        .collect();
+                    match order {
+                        1 => rows.reverse(),
+                        2 => rows.sort_by_key(|r| (r.track_id, r.sensor_id)),
+                        _ => {}
+                    }
+                    (k, t, rows)
+                })
+                .collect()
+        };
+        let sorted = run(&mut InstantBatcher::new(1.0, &clk), &batches(0));
+        assert_eq!(sorted.len(), 6);
+        assert_eq!(
+            sorted[1].2.len(),
+            120,
+            "sensor 2's report of time 0 is still fresh"
+        );
+        for order in [1, 2] {
+            let got = run(&mut InstantBatcher::new(1.0, &clk), &batches(order));
+            assert_eq!(got, sorted, "order {order}");
+        }
     }
 
     #[test]
