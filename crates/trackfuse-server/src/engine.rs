@@ -74,7 +74,7 @@ struct Batch {
 
 /// One fused instant's output: its fused tracks (sorted by `fused_id`), then one
 /// association per local track (sorted by sensor and track), as the center gave them.
-/// Encoding is left to whoever publishes it ([`InstantOutput::encode_chunks`]), so that
+/// Encoding is left to whoever publishes it ([`InstantOutput::chunks`]), so that
 /// the TCP service encodes off the center's task while the next reports come in.
 #[derive(Debug, Clone, Default)]
 pub struct InstantOutput {
@@ -83,18 +83,10 @@ pub struct InstantOutput {
 }
 
 impl InstantOutput {
-    /// The instant's NDJSON lines (FORMATS.md "Streaming"), fused tracks first, handed
-    /// to `emit` in chunks of whole lines, each at least `min_chunk` bytes but the last
-    /// (`usize::MAX`: one chunk). The chunks joined are the same bytes whatever
-    /// `min_chunk` is.
-    pub fn encode_chunks(&self, min_chunk: usize, mut emit: impl FnMut(Vec<u8>)) {
-        for chunk in self.chunks(min_chunk) {
-            emit(chunk);
-        }
-    }
-
-    /// [`InstantOutput::encode_chunks`] as an iterator: each chunk is encoded when it is
-    /// asked for.
+    /// The instant's NDJSON lines (FORMATS.md "Streaming"), fused tracks first, in
+    /// chunks of whole lines, each at least `min_chunk` bytes but the last
+    /// (`usize::MAX`: one chunk), each encoded when it is asked for. The chunks joined
+    /// are the same bytes whatever `min_chunk` is.
     pub fn chunks(&self, min_chunk: usize) -> impl Iterator<Item = Vec<u8>> + '_ {
         let cap = min_chunk.min(256 * (self.fused.len() + self.associations.len())) + 512;
         let mut fused = self.fused.iter();
@@ -410,11 +402,7 @@ impl Engine {
     pub fn take_output_lines(&mut self) -> Vec<Vec<u8>> {
         self.take_output()
             .iter()
-            .map(|o| {
-                let mut chunk = Vec::new();
-                o.encode_chunks(usize::MAX, |c| chunk = c);
-                chunk
-            })
+            .map(|o| o.chunks(usize::MAX).next().unwrap_or_default())
             .collect()
     }
 

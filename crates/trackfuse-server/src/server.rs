@@ -503,7 +503,8 @@ async fn accept_subscribers(
     }
 }
 
-/// A chunk of output on its way to one subscriber; `ends_instant` on an instant's last.
+/// A chunk of output on its way to one subscriber, or (empty, `ends_instant`) the end
+/// of an instant.
 struct Piece {
     bytes: Bytes,
     ends_instant: bool,
@@ -518,7 +519,7 @@ async fn subscriber(
 ) {
     let _ = sock.set_nodelay(true);
     while let Some(piece) = rx.recv().await {
-        if sock.write_all(&piece.bytes).await.is_err() {
+        if !piece.bytes.is_empty() && sock.write_all(&piece.bytes).await.is_err() {
             return;
         }
         if piece.ends_instant {
@@ -556,23 +557,18 @@ async fn run_publisher(
             instant = instants.recv() => {
                 let Some(instant) = instant else { break };
                 admit(&mut subs, &mut takes, buffer, &metrics);
-                // chunk by chunk: each leaves once encoded (the last is marked), and the
-                // subscribers' writers run before the next is encoded (yield_points)
-                let mut chunks = instant.chunks(CHUNK).peekable();
-                while let Some(chunk) = chunks.next() {
+                // chunk by chunk: each leaves once encoded, and the subscribers' writers
+                // run before the next is encoded (yield_points); then an empty piece
+                // marks the instant's end
+                for chunk in instant.chunks(CHUNK) {
                     let chunk = Bytes::from(chunk);
-                    let last = chunks.peek().is_none();
                     if let Some(o) = output.as_mut() {
                         o.write_all(&chunk).context("writing the output")?;
                     }
-                    for (s, &take) in subs.iter().zip(&takes) {
-                        if take {
-                            // a closed queue is dropped at the next admission
-                            let _ = s.tx.send(Piece { bytes: chunk.clone(), ends_instant: last });
-                        }
-                    }
+                    send_to(&subs, &takes, &chunk, false);
                     tokio::task::yield_now().await;
                 }
+                send_to(&subs, &takes, &Bytes::new(), true);
             }
         }
     }
@@ -580,6 +576,19 @@ async fn run_publisher(
         o.flush().context("flushing the output")?;
     }
     Ok(())
+}
+
+/// Queue `bytes` for the subscribers that take the instant in hand (a closed queue is
+/// dropped at the next admission).
+fn send_to(subs: &[Subscriber], takes: &[bool], bytes: &Bytes, ends_instant: bool) {
+    for (s, &take) in subs.iter().zip(takes) {
+        if take {
+            let _ = s.tx.send(Piece {
+                bytes: bytes.clone(),
+                ends_instant,
+            });
+        }
+    }
 }
 
 /// Decide which subscribers take the next instant (module docs): those whose queue has
@@ -688,25 +697,21 @@ async fn run_center(
             _ = stop.changed() => break,
             batch = queue.recv() => {
                 let Some(batch) = batch else { break };
-                for item in batch {
-                    handle(&mut engine, item)?;
-                    // an instant fused leaves at once, not after the rest of the batch
-                    if engine.has_output() {
-                        publish(&mut engine, &instants, &metrics, &mut last).await;
-                    }
-                }
-                // take what is queued before the metrics, up to a bound
-                for _ in 0..16 {
-                    match queue.try_recv() {
-                        Ok(batch) => {
-                            for item in batch {
-                                handle(&mut engine, item)?;
-                                if engine.has_output() {
-                                    publish(&mut engine, &instants, &metrics, &mut last).await;
-                                }
-                            }
+                // this batch and what is queued behind it, up to a bound, before the
+                // loop's metrics update
+                let mut next = Some(batch);
+                let mut taken = 0;
+                while let Some(batch) = next.take() {
+                    for item in batch {
+                        handle(&mut engine, item)?;
+                        // an instant fused leaves at once, not after the rest of the batch
+                        if engine.has_output() {
+                            publish(&mut engine, &instants, &metrics, &mut last).await;
                         }
-                        Err(_) => break,
+                    }
+                    taken += 1;
+                    if taken <= 16 {
+                        next = queue.try_recv().ok();
                     }
                 }
             }
