@@ -31,7 +31,7 @@ use common::service::{bad_line, http_get, line_of, metric, s, trackfuse, KillOnD
 /// The kinds of [`bad_line`] this test sends (all but `line_too_long` and
 /// `time_backwards`, which tests/serve.rs covers over TCP).
 const NATS_BAD_KINDS: [usize; 6] = [0, 1, 2, 3, 4, 6];
-use trackfuse_server::nats::instant_of;
+use trackfuse_server::nats::{instant_of, INSTANT_HEADER};
 
 /// A port nobody listens on now.
 fn free_port() -> u16 {
@@ -89,15 +89,20 @@ fn until(http: &str, what: &str, cond: impl Fn(&str) -> bool) -> String {
     }
 }
 
-/// Every message of the output stream, in order: (instant, part) and payload.
-async fn output_messages(js: &async_nats::jetstream::Context) -> Vec<((u64, u64), Vec<u8>)> {
+/// Every message of the output stream, in order: (instant, part), whether it is its
+/// instant's last part, and payload.
+async fn output_messages(js: &async_nats::jetstream::Context) -> Vec<((u64, u64), bool, Vec<u8>)> {
     let mut stream = js.get_stream("FUSED").await.expect("output stream");
     let last = stream.info().await.expect("info").state.last_sequence;
     let mut out = Vec::new();
     for seq in 1..=last {
         let m = stream.get_raw_message(seq).await.expect("message");
         let id = instant_of(Some(&m.headers)).expect("instant header");
-        out.push((id, m.payload.to_vec()));
+        let last = m
+            .headers
+            .get(INSTANT_HEADER)
+            .is_some_and(|h| h.as_str().ends_with(" last"));
+        out.push((id, last, m.payload.to_vec()));
     }
     out
 }
@@ -313,21 +318,33 @@ fn over_nats_a_center_killed_mid_run_is_replaced_and_the_output_equals_fuse() {
         published_by_a[..],
         "the first center's messages changed"
     );
-    let mut prev: Option<(u64, u64)> = None;
+    let mut prev: Option<((u64, u64), bool)> = None;
     let mut streamed = Vec::new();
-    for (id, payload) in &all {
-        // the first is part 0 of instant 0; then the next part, or part 0 of the next
+    for (id, last, payload) in &all {
+        // the first is part 0 of instant 0; then the next part, or after a last part,
+        // part 0 of the next instant
         let ok = match prev {
             None => *id == (0, 0),
-            Some((i, p)) => *id == (i, p + 1) || *id == (i + 1, 0),
+            Some(((i, p), false)) => *id == (i, p + 1),
+            Some(((i, _), true)) => *id == (i + 1, 0),
         };
         assert!(
             ok,
-            "output message {id:?} after {prev:?}: a gap or a duplicate"
+            "output message {id:?} (last: {last}) after {prev:?}: a gap, a duplicate or a part after the last"
         );
-        prev = Some(*id);
+        // parts of whole lines, cut at the first line end from 32 KiB on
+        assert!(
+            payload.ends_with(b"\n") && payload.len() < 40 * 1024,
+            "output message {id:?}: {} bytes",
+            payload.len()
+        );
+        prev = Some((*id, *last));
         streamed.extend_from_slice(payload);
     }
+    assert!(
+        prev.is_some_and(|(_, last)| last),
+        "the output stream ends inside an instant"
+    );
     let streamed = String::from_utf8(streamed).expect("utf8");
 
     // written as fuse writes its files, it is fuse's files byte for byte

@@ -72,9 +72,11 @@ pub struct NatsConfig {
     /// when missing.
     pub output_stream: String,
     /// Where each fused instant is published (default `fused`): its NDJSON lines, in
-    /// messages of at most half the server's max_payload, with the headers
+    /// parts of about 32 KiB of whole lines (at most half the server's max_payload),
+    /// each sent as soon as it is encoded, with the headers
     /// `Nats-Msg-Id: <output_subject>.<instant>.<part>` and
-    /// `Trackfuse-Instant: <instant> <part> <parts>`.
+    /// `Trackfuse-Instant: <instant> <part>` (`<instant> <part> last` on an instant's
+    /// last part).
     pub output_subject: String,
 }
 

@@ -84,7 +84,7 @@ fn noise(key: u64) -> f64 {
 }
 
 /// Sensor `sensor`'s local track of target `target` at scan `k`.
-fn synthetic(sensor: u32, target: u32, k: u32, period: f64) -> LocalTrack {
+pub(crate) fn synthetic(sensor: u32, target: u32, k: u32, period: f64) -> LocalTrack {
     let t = f64::from(k) * period;
     let side = 32;
     let x0 = f64::from(target % side) * 1000.0;

@@ -184,65 +184,130 @@ mod canonical {
             }
         }
 
-        fn digits(&mut self) -> usize {
-            let start = self.i;
-            while self.b.get(self.i).is_some_and(u8::is_ascii_digit) {
-                self.i += 1;
-            }
-            self.i - start
-        }
-
         /// A JSON number token: `-?(0|[1-9][0-9]*)(.[0-9]+)?([eE][+-]?[0-9]+)?`; the
         /// token, whether it has a fraction or an exponent, and its significant digits
-        /// (integer and fraction digits from the first non-zero one).
+        /// (integer and fraction digits from the first non-zero one). One pass over the
+        /// token's bytes.
         fn number(&mut self) -> Option<(&'a [u8], bool, usize)> {
+            let b = self.b;
+            let at = |i: usize| b.get(i).copied().unwrap_or(0);
+            let digits = |mut i: usize| {
+                while at(i).is_ascii_digit() {
+                    i += 1;
+                }
+                i
+            };
             let start = self.i;
-            if self.b.get(self.i) == Some(&b'-') {
-                self.i += 1;
-            }
-            let int_start = self.i;
-            let n_int = self.digits();
-            if n_int == 0 || (n_int > 1 && self.b[int_start] == b'0') {
+            let int_start = start + usize::from(at(start) == b'-');
+            let mut i = digits(int_start);
+            let n_int = i - int_start;
+            if n_int == 0 || (n_int > 1 && b[int_start] == b'0') {
                 return None;
             }
             let mut n_digits = n_int;
+            // a leading `0` (the whole integer part) and the fraction's zeros after it
+            // are not significant
+            let mut lead = usize::from(b[int_start] == b'0');
             let mut float = false;
-            if self.b.get(self.i) == Some(&b'.') {
-                self.i += 1;
-                let n = self.digits();
-                if n == 0 {
+            if at(i) == b'.' {
+                let f = i + 1;
+                i = digits(f);
+                if i == f {
                     return None;
                 }
-                n_digits += n;
+                n_digits += i - f;
                 float = true;
-            }
-            if matches!(self.b.get(self.i), Some(b'e' | b'E')) {
-                self.i += 1;
-                if matches!(self.b.get(self.i), Some(b'+' | b'-')) {
-                    self.i += 1;
+                if lead == 1 {
+                    lead += b[f..i].iter().take_while(|&&d| d == b'0').count();
                 }
-                if self.digits() == 0 {
+            }
+            if matches!(at(i), b'e' | b'E') {
+                i += 1;
+                if matches!(at(i), b'+' | b'-') {
+                    i += 1;
+                }
+                let e = i;
+                i = digits(e);
+                if i == e {
                     return None;
                 }
                 float = true;
             }
-            // significant digits: those from the first non-zero one (the mantissa's)
-            let lead = self.b[int_start..self.i]
-                .iter()
-                .take_while(|&&d| d == b'0' || d == b'.')
-                .filter(|&&d| d == b'0')
-                .count();
-            Some((&self.b[start..self.i], float, n_digits - lead.min(n_digits)))
+            self.i = i;
+            Some((&b[start..i], float, n_digits - lead.min(n_digits)))
         }
 
         /// A number for an `f64` field: written with a fraction or an exponent, at
-        /// most 19 digits, finite.
+        /// most 19 significant digits, finite. One pass over the token, which checks
+        /// the grammar of [`Cursor::number`] and accumulates the digits; a value
+        /// without exponent whose digits fit 2^53 and whose fraction has at most 22
+        /// digits is `m / 10^f`, exact operands and one rounding (Clinger's fast path,
+        /// correctly rounded as serde_json's `float_roundtrip` parser is), any other by
+        /// `fast-float2` on the token.
         fn float(&mut self) -> Option<f64> {
-            let (tok, float, n_digits) = self.number()?;
-            if !float || n_digits > 19 {
+            let b = self.b;
+            let at = |i: usize| b.get(i).copied().unwrap_or(0);
+            let start = self.i;
+            let neg = at(start) == b'-';
+            let int_start = start + usize::from(neg);
+            let (mut i, mut m) = accumulate(b, int_start, 0);
+            let n_int = i - int_start;
+            if n_int == 0 || (n_int > 1 && b[int_start] == b'0') {
                 return None;
             }
-            let v: f64 = fast_float2::parse(tok).ok()?;
+            let mut n_frac = 0;
+            if at(i) == b'.' {
+                let f = i + 1;
+                (i, m) = accumulate(b, f, m);
+                n_frac = i - f;
+                if n_frac == 0 {
+                    return None;
+                }
+            }
+            let mut has_exp = false;
+            if matches!(at(i), b'e' | b'E') {
+                i += 1;
+                if matches!(at(i), b'+' | b'-') {
+                    i += 1;
+                }
+                let e = i;
+                while at(i).is_ascii_digit() {
+                    i += 1;
+                }
+                if i == e {
+                    return None;
+                }
+                has_exp = true;
+            }
+            if n_frac == 0 && !has_exp {
+                return None;
+            }
+            let n_digits = n_int + n_frac;
+            let v = if !has_exp && n_digits <= 19 && m <= 1 << 53 && n_frac <= 22 {
+                let v = m as f64 / POW10[n_frac];
+                if neg {
+                    -v
+                } else {
+                    v
+                }
+            } else {
+                if n_digits > 19 {
+                    // a leading `0` and the fraction's zeros after it are not significant
+                    let lead = if b[int_start] == b'0' {
+                        1 + b[int_start + 2..]
+                            .iter()
+                            .take_while(|&&d| d == b'0')
+                            .count()
+                    } else {
+                        0
+                    };
+                    if n_digits - lead.min(n_digits) > 19 {
+                        return None;
+                    }
+                }
+                fast_float2::parse(&b[start..i]).ok()?
+            };
+            self.i = i;
             v.is_finite().then_some(v)
         }
 
@@ -279,6 +344,43 @@ mod canonical {
             self.lit(b"]")?;
             Some(out)
         }
+    }
+
+    /// 10^0 ..= 10^22, each exactly an `f64`.
+    const POW10: [f64; 23] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+        1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+    ];
+
+    /// Eight ASCII digits at `b[i..i + 8]`, if they are: their value (eight at a time
+    /// in one `u64`: a byte is a digit when its high nibble is 3 and adding 6 keeps
+    /// it so; then pairs, quads and the eight combined by three multiplications).
+    pub(super) fn eight_digits(b: &[u8], i: usize) -> Option<u64> {
+        let chunk: [u8; 8] = b.get(i..i + 8)?.try_into().ok()?;
+        let v = u64::from_le_bytes(chunk);
+        let high = 0xF0F0_F0F0_F0F0_F0F0;
+        if (v & high) | ((v.wrapping_add(0x0606_0606_0606_0606) & high) >> 4)
+            != 0x3333_3333_3333_3333
+        {
+            return None;
+        }
+        let v = (v & 0x0F0F_0F0F_0F0F_0F0F).wrapping_mul(2561) >> 8;
+        let v = (v & 0x00FF_00FF_00FF_00FF).wrapping_mul(6_553_601) >> 16;
+        Some((v & 0x0000_FFFF_0000_FFFF).wrapping_mul(42_949_672_960_001) >> 32)
+    }
+
+    /// The digits from `b[i]` on appended to `m` (`m * 10^n + digits`, wrapping: the
+    /// caller uses `m` only for at most 19 digits); the index after them and `m`.
+    fn accumulate(b: &[u8], mut i: usize, mut m: u64) -> (usize, u64) {
+        while let Some(v) = eight_digits(b, i) {
+            m = m.wrapping_mul(100_000_000).wrapping_add(v);
+            i += 8;
+        }
+        while let Some(d) = b.get(i).map(|d| d.wrapping_sub(b'0')).filter(|d| *d <= 9) {
+            m = m.wrapping_mul(10).wrapping_add(u64::from(d));
+            i += 1;
+        }
+        (i, m)
     }
 
     pub(super) fn parse(line: &[u8]) -> Option<WireTrack> {
@@ -511,6 +613,21 @@ mod tests {
 
     fn reason(line: &str) -> Reason {
         parse_report(line.as_bytes()).expect_err("rejected").reason
+    }
+
+    #[test]
+    fn eight_digits_reads_eight_digits_and_nothing_else() {
+        assert_eq!(canonical::eight_digits(b"12345678", 0), Some(12_345_678));
+        assert_eq!(canonical::eight_digits(b"x00000009", 1), Some(9));
+        assert_eq!(canonical::eight_digits(b"99999999", 0), Some(99_999_999));
+        assert_eq!(canonical::eight_digits(b"1234567", 0), None);
+        for bad in [b'/', b':', b'.', b'e', 0xFF, 0x06, b' '] {
+            for at in 0..8 {
+                let mut s = *b"12345678";
+                s[at] = bad;
+                assert_eq!(canonical::eight_digits(&s, 0), None, "{s:?}");
+            }
+        }
     }
 
     #[test]

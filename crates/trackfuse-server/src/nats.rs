@@ -19,10 +19,15 @@
 //!
 //! # Output without duplicates
 //! Each fused instant's lines are published on `output_subject` (into the output
-//! stream), split at line boundaries into messages of at most half the server's
-//! `max_payload`, with the headers `Nats-Msg-Id: <output_subject>.<n>.<part>` and
-//! `Trackfuse-Instant: <n> <part> <parts>`, where `n` counts the instants with output
-//! from the start of the input stream. A center starting up reads the output stream's
+//! stream) by a publisher task beside the center, in parts of whole lines of about
+//! [`PART`] bytes (at most half the server's `max_payload`; parts are cut in the same
+//! places whoever fuses the instant), each sent as soon as it is encoded, with the
+//! headers `Nats-Msg-Id: <output_subject>.<n>.<part>` and `Trackfuse-Instant: <n>
+//! <part>`, plus ` last` on an instant's last part (`<n> <part> last`), where `n`
+//! counts the instants with output from the start of the input stream. Small parts sent
+//! at once are what keeps the latency low: the first fused lines of an instant leave
+//! before the rest is encoded, and a subscriber gets them without waiting for hundreds
+//! of kilobytes to pass through the server. A center starting up reads the output stream's
 //! last message and publishes only the parts after it: a center restarted after a crash
 //! re-fuses everything from the stream but republishes nothing that is already there,
 //! whatever the time since. The message ids also let JetStream drop, within its
@@ -35,7 +40,7 @@
 //! publishes none.
 
 use crate::config::{NatsConfig, ServiceConfig};
-use crate::engine::{Engine, EngineStats, ReleaseLine};
+use crate::engine::{Engine, EngineStats, InstantOutput, ReleaseLine};
 use crate::message::{parse_report, Reason};
 use crate::metrics::Metrics;
 use crate::server::{count_verdict, update_metrics, Outputs};
@@ -56,7 +61,8 @@ use trackfuse::types::Id;
 /// How long a stopping center waits for its own final release to come back.
 const STOP_WAIT: Duration = Duration::from_secs(5);
 
-/// The header with an output message's instant, part and parts.
+/// The header with an output message's instant and part (and `last` on an instant's
+/// last part).
 pub const INSTANT_HEADER: &str = "Trackfuse-Instant";
 
 /// A running center on NATS.
@@ -102,7 +108,8 @@ pub async fn ensure_streams(
     Ok((input, output))
 }
 
-/// `(instant, part)` of an output message's [`INSTANT_HEADER`].
+/// `(instant, part)` of an output message's [`INSTANT_HEADER`] (a third field, `last`
+/// now, an instant's number of parts in streams written before, is not read).
 pub fn instant_of(headers: Option<&async_nats::HeaderMap>) -> Option<(u64, u64)> {
     let v = headers?.get(INSTANT_HEADER)?.as_str().to_string();
     let mut it = v.split(' ');
@@ -121,6 +128,11 @@ async fn last_published(output: &stream::Stream, subject: &str) -> Result<Option
         Err(e) => Err(anyhow!("nats: reading the last output message: {e}")),
     }
 }
+
+/// The size an output part is cut at: the first line end at or after it ends a part
+/// (parts are split further, by [`parts`], only where a single line is so long that
+/// this would pass half the server's `max_payload`).
+pub const PART: usize = 32 * 1024;
 
 /// Split an instant's lines into parts of at most `max` bytes, at line ends (a single
 /// longer line is its own part).
@@ -193,6 +205,17 @@ pub async fn start_nats(cfg: &ServiceConfig, outputs: Outputs) -> Result<NatsSer
         metrics.clone(),
         stop_rx.clone(),
     ));
+    let (to_publisher, from_center) = tokio::sync::mpsc::channel(PUBLISH_QUEUE);
+    let publisher = Publisher {
+        js: js.clone(),
+        subject: n.output_subject.clone(),
+        max_part,
+        resume,
+        instant: 0,
+        output,
+        acks: futures_util::stream::FuturesOrdered::new(),
+    };
+    let publisher = tokio::spawn(publisher.run(from_center));
     let center = Center {
         engine,
         js,
@@ -200,15 +223,13 @@ pub async fn start_nats(cfg: &ServiceConfig, outputs: Outputs) -> Result<NatsSer
         expected: setup.expected.iter().map(|s| s.id).collect(),
         max_line: cfg.limits.max_line_bytes,
         budget: Duration::from_secs_f64(cfg.latency_budget),
-        max_part,
         resume,
-        instant: 0,
-        output,
+        to_publisher: Some(to_publisher),
+        publisher: Some(publisher),
         metrics: metrics.clone(),
         accepted: HashMap::new(),
         last: EngineStats::default(),
         requested: None,
-        acks: futures_util::stream::FuturesOrdered::new(),
     };
     let center = tokio::spawn(center.run(messages, stop_rx));
     Ok(NatsService {
@@ -228,20 +249,38 @@ struct Center {
     expected: BTreeSet<Id>,
     max_line: usize,
     budget: Duration,
+    /// The last `(instant, part)` already in the output stream at the start.
+    resume: Option<(u64, u64)>,
+    /// Fused instants to the publisher (taken at the end, to close it).
+    to_publisher: Option<tokio::sync::mpsc::Sender<Vec<InstantOutput>>>,
+    publisher: Option<JoinHandle<Result<()>>>,
+    metrics: Arc<Metrics>,
+    accepted: HashMap<Id, prometheus_client::metrics::counter::Counter>,
+    last: EngineStats,
+    /// The release this center published and has not yet read back.
+    requested: Option<f64>,
+}
+
+/// Batches of fused instants the center may hand the publisher before it waits for
+/// the publisher to take one (the output stream's pace bounds the center's).
+const PUBLISH_QUEUE: usize = 64;
+
+/// Output messages the publisher may have published without their acknowledgement.
+const MAX_UNACKED: usize = 256;
+
+/// The publisher task (module docs): encodes each fused instant in parts and publishes
+/// each part as soon as it is encoded, skipping what the output stream already has;
+/// awaits the acknowledgements beside the next instants (at most [`MAX_UNACKED`]
+/// outstanding), so that nothing waits a round trip per instant.
+struct Publisher {
+    js: jetstream::Context,
+    subject: String,
     max_part: usize,
     /// The last `(instant, part)` already in the output stream at the start.
     resume: Option<(u64, u64)>,
     /// Instants with output so far (the next one's number).
     instant: u64,
     output: Option<std::io::BufWriter<std::fs::File>>,
-    metrics: Arc<Metrics>,
-    accepted: HashMap<Id, prometheus_client::metrics::counter::Counter>,
-    last: EngineStats,
-    /// The release this center published and has not yet read back.
-    requested: Option<f64>,
-    /// Acknowledgements of published output not yet received, oldest first: awaited
-    /// beside the input (at most [`MAX_UNACKED`] outstanding), so that reading the
-    /// input does not stop for a round trip per instant.
     acks: futures_util::stream::FuturesOrdered<
         futures_util::future::BoxFuture<
             'static,
@@ -250,8 +289,91 @@ struct Center {
     >,
 }
 
-/// Output messages a center may have published without their acknowledgement.
-const MAX_UNACKED: usize = 256;
+impl Publisher {
+    async fn run(
+        mut self,
+        mut from_center: tokio::sync::mpsc::Receiver<Vec<InstantOutput>>,
+    ) -> Result<()> {
+        loop {
+            tokio::select! {
+                biased;
+                batch = from_center.recv() => match batch {
+                    Some(batch) => {
+                        for o in batch {
+                            self.instant(&o).await?;
+                        }
+                    }
+                    None => break,
+                },
+                Some(ack) = self.acks.next(), if !self.acks.is_empty() => {
+                    ack.map_err(|e| anyhow!("nats: the output stream did not take an instant: {e}"))?;
+                }
+            }
+        }
+        while let Some(ack) = self.acks.next().await {
+            ack.map_err(|e| anyhow!("nats: the output stream did not take an instant: {e}"))?;
+        }
+        if let Some(o) = self.output.as_mut() {
+            o.flush().context("flushing the output")?;
+        }
+        Ok(())
+    }
+
+    /// Encode and publish one instant, part by part (a part is published once the next
+    /// one is encoded, so that the last part can say so).
+    async fn instant(&mut self, o: &InstantOutput) -> Result<()> {
+        let i = self.instant;
+        self.instant += 1;
+        let max = self.max_part;
+        let mut ps = o
+            .chunks(PART.min(max / 2))
+            .flat_map(|c| {
+                if c.len() > max {
+                    parts(&c, max)
+                } else {
+                    vec![Bytes::from(c)]
+                }
+            })
+            .peekable();
+        let mut p = 0u64;
+        while let Some(part) = ps.next() {
+            if let Some(out) = self.output.as_mut() {
+                out.write_all(&part).context("writing the output")?;
+            }
+            let last = ps.peek().is_none();
+            if !self.resume.is_some_and(|r| (i, p) <= r) {
+                let id = format!("{}.{i}.{p}", self.subject);
+                let header = if last {
+                    format!("{i} {p} last")
+                } else {
+                    format!("{i} {p}")
+                };
+                let ack = self
+                    .js
+                    .send_publish(
+                        self.subject.clone(),
+                        jetstream::message::PublishMessage::build()
+                            .payload(part)
+                            .message_id(id)
+                            .header(INSTANT_HEADER, header.as_str()),
+                    )
+                    .await
+                    .map_err(|e| anyhow!("nats: publishing instant {i}: {e}"))?;
+                self.acks
+                    .push_back(Box::pin(std::future::IntoFuture::into_future(ack)));
+                while self.acks.len() > MAX_UNACKED {
+                    if let Some(ack) = self.acks.next().await {
+                        ack.map_err(|e| {
+                            anyhow!("nats: the output stream did not take an instant: {e}")
+                        })?;
+                    }
+                }
+            }
+            p += 1;
+        }
+        Ok(())
+    }
+}
 
 impl Center {
     async fn run(
@@ -290,7 +412,14 @@ impl Center {
                         if m.subject.as_str() == control {
                             self.control(&m.payload)?;
                         } else {
-                            self.reports(m.subject.as_str(), &m.payload)?;
+                            // an instant fused part-way through a message goes to the
+                            // publisher before the message's other lines are read
+                            let mut rest: &[u8] = &m.payload;
+                            while !rest.is_empty() {
+                                let read = self.reports(m.subject.as_str(), rest)?;
+                                rest = &rest[read..];
+                                self.publish().await?;
+                            }
                         }
                     }
                 },
@@ -303,9 +432,6 @@ impl Center {
                     if let Some((t, _)) = deadline {
                         self.request_release(t).await?;
                     }
-                }
-                Some(ack) = self.acks.next(), if !self.acks.is_empty() => {
-                    ack.map_err(|e| anyhow!("nats: the output stream did not take an instant: {e}"))?;
                 }
                 _ = async {
                     match stopping {
@@ -326,12 +452,8 @@ impl Center {
         }
         self.engine.release_all()?;
         self.publish().await?;
-        while let Some(ack) = self.acks.next().await {
-            ack.map_err(|e| anyhow!("nats: the output stream did not take an instant: {e}"))?;
-        }
-        if let Some(o) = self.output.as_mut() {
-            o.flush().context("flushing the output")?;
-        }
+        self.to_publisher = None;
+        self.publisher_result().await?;
         Ok(self.engine.stats.clone())
     }
 
@@ -372,15 +494,22 @@ impl Center {
         Ok(())
     }
 
-    /// A sensor's message: its report lines.
-    fn reports(&mut self, subject: &str, payload: &[u8]) -> Result<()> {
+    /// A sensor's message: its report lines, up to and including one whose acceptance
+    /// fused an instant (so that it is published before the rest is read); the bytes
+    /// read.
+    fn reports(&mut self, subject: &str, payload: &[u8]) -> Result<usize> {
         // the subject's sensor labels what has no readable sensor id
         let from_subject: Option<Id> = subject
             .strip_prefix(&self.n.subject_prefix)
             .and_then(|s| s.strip_prefix('.'))
             .and_then(|s| s.parse().ok());
         let m = self.metrics.clone();
+        let mut start = 0;
         for line in payload.split(|&b| b == b'\n') {
+            if self.engine.has_output() {
+                return Ok(start);
+            }
+            start = (start + line.len() + 1).min(payload.len());
             if line.iter().all(|b| b.is_ascii_whitespace()) {
                 continue;
             }
@@ -414,52 +543,36 @@ impl Center {
             let verdict = self.engine.accept(track, Instant::now())?;
             count_verdict(&m, &mut self.accepted, &track, verdict);
         }
+        Ok(payload.len())
+    }
+
+    /// Hand the instants fused since the last call to the publisher (waiting while it
+    /// has [`PUBLISH_QUEUE`] batches in hand).
+    async fn publish(&mut self) -> Result<()> {
+        let fused = self.engine.take_output();
+        update_metrics(&mut self.engine, &self.metrics, &mut self.last);
+        if fused.is_empty() {
+            return Ok(());
+        }
+        let sent = match self.to_publisher.as_ref() {
+            Some(tx) => tx.send(fused).await.is_ok(),
+            None => false,
+        };
+        if !sent {
+            // the publisher stopped: its error says why
+            self.to_publisher = None;
+            self.publisher_result().await?;
+            return Err(anyhow!("nats: the publisher stopped"));
+        }
         Ok(())
     }
 
-    /// Publish the instants fused since the last call (module docs), skipping what the
-    /// output stream already has; their acknowledgements are awaited in the main loop
-    /// (here only while more than [`MAX_UNACKED`] are outstanding).
-    async fn publish(&mut self) -> Result<()> {
-        let chunks = self.engine.take_output_lines();
-        update_metrics(&mut self.engine, &self.metrics, &mut self.last);
-        for chunk in chunks {
-            let i = self.instant;
-            self.instant += 1;
-            if let Some(o) = self.output.as_mut() {
-                o.write_all(&chunk).context("writing the output")?;
-            }
-            let ps = parts(&chunk, self.max_part);
-            let n_parts = ps.len();
-            for (p, part) in ps.into_iter().enumerate() {
-                let p = p as u64;
-                if self.resume.is_some_and(|r| (i, p) <= r) {
-                    continue;
-                }
-                let id = format!("{}.{i}.{p}", self.n.output_subject);
-                let ack = self
-                    .js
-                    .send_publish(
-                        self.n.output_subject.clone(),
-                        jetstream::message::PublishMessage::build()
-                            .payload(part)
-                            .message_id(id)
-                            .header(INSTANT_HEADER, format!("{i} {p} {n_parts}").as_str()),
-                    )
-                    .await
-                    .map_err(|e| anyhow!("nats: publishing instant {i}: {e}"))?;
-                self.acks
-                    .push_back(Box::pin(std::future::IntoFuture::into_future(ack)));
-                while self.acks.len() > MAX_UNACKED {
-                    if let Some(ack) = self.acks.next().await {
-                        ack.map_err(|e| {
-                            anyhow!("nats: the output stream did not take an instant: {e}")
-                        })?;
-                    }
-                }
-            }
+    /// Wait for the publisher task to end; its error, if it failed.
+    async fn publisher_result(&mut self) -> Result<()> {
+        match self.publisher.take() {
+            Some(h) => h.await.context("the publisher task")?,
+            None => Ok(()),
         }
-        Ok(())
     }
 }
 
