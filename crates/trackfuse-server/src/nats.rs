@@ -341,7 +341,7 @@ impl Publisher {
                 out.write_all(&part).context("writing the output")?;
             }
             let last = ps.peek().is_none();
-            if !self.resume.is_some_and(|r| (i, p) <= r) {
+            if self.resume.is_none_or(|r| (i, p) > r) {
                 let id = format!("{}.{i}.{p}", self.subject);
                 let header = if last {
                     format!("{i} {p} last")
