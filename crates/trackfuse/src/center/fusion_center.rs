@@ -128,6 +128,8 @@ struct ScanBuffers {
     continued: Vec<bool>,
     /// Scratch of [`check_groups`].
     seen: Vec<bool>,
+    /// The fused id of each of the scan's (sorted) local tracks.
+    fused_of: Vec<Id>,
 }
 
 /// Whether `cfg` asks for the true association (rule `mmse`, or method `truth`): the
@@ -427,10 +429,11 @@ impl FusionCenter {
         self.update_globals(
             scan,
             time,
+            sorted,
             &buf.groups,
             &buf.fused_est,
             &buf.keys,
-            &mut buf.continued,
+            (&mut buf.continued, &mut buf.fused_of),
             out,
         );
         if let (Some(b), Some(s)) = (&mut self.bias, &self.sensors) {
@@ -625,17 +628,23 @@ impl FusionCenter {
     /// new ids; each group's fused track and its members' associations go to `out` (its
     /// rows are overwritten in place, so their `sources` buffers are reused).
     /// `continued[i]`: whether global track `i` was continued or started this scan.
+    /// The associations are written in the order of `tracks` (sorted by
+    /// `(sensor_id, track_id)`, every one in exactly one group): the published order,
+    /// without a sort; `fused_of` is scratch.
     #[allow(clippy::too_many_arguments)]
     fn update_globals(
         &mut self,
         scan: u32,
         time: f64,
+        tracks: &[LocalTrack],
         groups: &[TrackGroup],
         fused_est: &[(StateVec, StateCov)],
         keys: &[(Id, Id)],
-        continued: &mut Vec<bool>,
+        (continued, fused_of): (&mut Vec<bool>, &mut Vec<Id>),
         out: &mut ScanOutput,
     ) {
+        fused_of.clear();
+        fused_of.resize(tracks.len(), 0);
         continued.clear();
         continued.resize(self.globals.len(), false);
         out.fused.truncate(groups.len());
@@ -711,13 +720,8 @@ impl FusionCenter {
                     (id, status)
                 }
             };
-            for &(sensor_id, track_id) in src {
-                out.associations.push(Association {
-                    scan,
-                    sensor_id,
-                    track_id,
-                    fused_id: id,
-                });
+            for &m in &g.members {
+                fused_of[m] = id;
             }
             row.scan = scan;
             row.time = time;
@@ -730,6 +734,18 @@ impl FusionCenter {
             }
         }
         out.fused.truncate(k);
+        out.associations
+            .extend(
+                tracks
+                    .iter()
+                    .zip(fused_of.iter())
+                    .map(|(t, &fused_id)| Association {
+                        scan,
+                        sensor_id: t.sensor_id,
+                        track_id: t.track_id,
+                        fused_id,
+                    }),
+            );
     }
 
     /// Count a miss for every global track not continued, and delete those missed
@@ -890,10 +906,21 @@ fn order_members(groups: &mut [TrackGroup]) {
 
 /// The published order: fused tracks by `fused_id`, associations by
 /// `(sensor_id, track_id)`.
+///
+/// The keys are unique, so an order already right is kept as it is (the rows are large:
+/// a sort that moves none of them is still a pass of comparisons and swaps), and the
+/// associations come in it ([`FusionCenter::update_globals`]).
 fn publish(out: &mut ScanOutput) {
-    out.fused.sort_unstable_by_key(|f| f.fused_id);
-    out.associations
-        .sort_unstable_by_key(|a| (a.sensor_id, a.track_id));
+    if !out.fused.is_sorted_by_key(|f| f.fused_id) {
+        out.fused.sort_unstable_by_key(|f| f.fused_id);
+    }
+    if !out
+        .associations
+        .is_sorted_by_key(|a| (a.sensor_id, a.track_id))
+    {
+        out.associations
+            .sort_unstable_by_key(|a| (a.sensor_id, a.track_id));
+    }
 }
 
 /// The invariants every association method keeps (`center/mod.rs`); a method that breaks

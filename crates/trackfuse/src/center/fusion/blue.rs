@@ -211,7 +211,7 @@ pub(crate) fn floored_informations(members: &[&LocalTrack]) -> Result<(f64, Vec<
 /// A total order on local tracks: `(sensor_id, track_id)`, then the state and covariance
 /// entries. Rules fuse their members in this order, so the result (to the last bit) does
 /// not depend on the order the members were given in.
-fn canonical_cmp(a: &LocalTrack, b: &LocalTrack) -> Ordering {
+pub(crate) fn canonical_cmp(a: &LocalTrack, b: &LocalTrack) -> Ordering {
     (a.sensor_id, a.track_id)
         .cmp(&(b.sensor_id, b.track_id))
         .then_with(|| {
@@ -226,7 +226,7 @@ fn canonical_cmp(a: &LocalTrack, b: &LocalTrack) -> Ordering {
 }
 
 /// Groups up to this size are put in canonical order without allocating.
-const CANONICAL_INLINE: usize = 16;
+pub(crate) const CANONICAL_INLINE: usize = 16;
 
 /// The members of a group in canonical order ([`canonical`]); derefs to the slice.
 pub(crate) enum Canonical<'a> {

@@ -33,7 +33,8 @@
 //! Campo (1986) is not among the five seed papers, so no equation numbers are cited.
 
 use super::blue::{
-    blue, canonical, finish_fused, floored_information_fusion, non_finite, validate,
+    blue, canonical, canonical_cmp, check_members, finish_fused, floored_information_fusion,
+    non_finite, validate, CANONICAL_INLINE,
 };
 use crate::center::linalg::{chol_inverse4, cholesky4};
 use crate::center::{CenterError, FusionContext, FusionRule};
@@ -108,6 +109,72 @@ pub(crate) fn convex_combination(members: &[&LocalTrack]) -> Option<(StateVec, S
     floored_information_fusion(members, &vec![1.0; members.len()])
 }
 
+/// Whether `p` is accepted by [`crate::covariance::check_covariance`] without computing
+/// it, given `l = cholesky4(p)`: every entry finite and at most half the largest double
+/// (so `(p + p^T) / 2` cannot overflow), `p` exactly symmetric (so `(p + p^T) / 2` is `p`
+/// bit for bit and the symmetry test passes) and `l` found (so the check's own Cholesky
+/// of the symmetrised matrix, the same matrix, succeeds).
+#[inline]
+fn valid_by_factor(p: &StateCov, l: &Option<StateCov>) -> bool {
+    l.is_some()
+        && p.iter().all(|v| v.abs() <= f64::MAX / 2.0)
+        && (0..4).all(|r| ((r + 1)..4).all(|c| p[(r, c)].to_bits() == p[(c, r)].to_bits()))
+}
+
+/// `cc` for a group of 2 to [`CANONICAL_INLINE`] members, with each member's Cholesky
+/// factor computed once, for its validation and its information matrix: the same checks
+/// in the same order and the same arithmetic as [`validate`], [`canonical`],
+/// [`convex_combination`] and [`finish_fused`] (so the same bits and the same errors),
+/// without factorising a member twice or checking the fused covariance twice. `Ok(None)`
+/// when the group is not of that kind or the information form does not give a valid
+/// estimate: the caller then takes the general path.
+#[allow(clippy::type_complexity)]
+fn fast_convex_combination(
+    members: &[&LocalTrack],
+    weights: &[f64],
+) -> Result<Option<(StateVec, StateCov)>, CenterError> {
+    let n = members.len();
+    if !(2..=CANONICAL_INLINE).contains(&n) || weights.len() != n {
+        return Ok(None);
+    }
+    // validation in the members' order (the first bad member is the error)
+    let mut factors = [None; CANONICAL_INLINE];
+    for (m, f) in members.iter().zip(factors.iter_mut()) {
+        let finite = m.state.iter().all(|v| v.is_finite());
+        let l = if finite { cholesky4(&m.cov) } else { None };
+        if !(finite && valid_by_factor(&m.cov, &l)) {
+            check_members("cc", std::slice::from_ref(m))?;
+        }
+        *f = l;
+    }
+    // the canonical order as indices (the members sorted by [`canonical_cmp`]; members
+    // that compare equal are equal bit for bit, so their order does not matter)
+    let mut order = [0usize; CANONICAL_INLINE];
+    for (k, o) in order.iter_mut().enumerate().take(n) {
+        *o = k;
+    }
+    order[..n].sort_by(|&a, &b| canonical_cmp(members[a], members[b]));
+    let mut info = StateCov::zeros();
+    let mut info_state = StateVec::zeros();
+    for &k in &order[..n] {
+        let Some(l) = &factors[k] else {
+            return Ok(None);
+        };
+        let inv = chol_inverse4(l);
+        info += inv;
+        info_state += inv * members[k].state;
+    }
+    if let Some(l) = cholesky4(&symmetrize(&info)) {
+        let p = symmetrize(&chol_inverse4(&l));
+        let x = p * info_state;
+        // finite and valid: what `finish_fused` would check again
+        if x.iter().all(|v| v.is_finite()) && is_valid(&p) {
+            return Ok(Some((x, p)));
+        }
+    }
+    Ok(None)
+}
+
 impl FusionRule for ConvexCombination {
     fn name(&self) -> &'static str {
         NAME
@@ -119,6 +186,9 @@ impl FusionRule for ConvexCombination {
         weights: &[f64],
         _ctx: &FusionContext<'_>,
     ) -> Result<(StateVec, StateCov), CenterError> {
+        if let Some(fused) = fast_convex_combination(members, weights)? {
+            return Ok(fused);
+        }
         validate("cc", members, weights)?;
         let members = canonical(members);
         let fused = convex_combination(&members).ok_or_else(|| non_finite("cc", &members))?;
