@@ -101,6 +101,9 @@ impl<R: Read> Read for Kept<R> {
 thread_local! {
     /// Tests: read every data row with the csv crate (the reference of [`Records`]).
     static CSV_ONLY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// Tests: parse every row with the general path (the reference of the fast path,
+    /// [`ScanRows::parse_line`]).
+    static NO_FAST: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 /// Open `path` for a reader.
@@ -1288,6 +1291,10 @@ impl ScanRows for MeasurementRows {
         })
     }
     fn parse_line(&mut self, b: &[u8]) -> Option<(usize, Option<u32>, f64)> {
+        #[cfg(test)]
+        if NO_FAST.get() {
+            return None;
+        }
         let mut r = KeptRow {
             target_id: -1,
             ..KeptRow::default()
@@ -2107,6 +2114,195 @@ mod tests {
             let plain = stream_all(&text, chunk, local, false);
             let csv = stream_all(&text, chunk, local, true);
             prop_assert_eq!(plain, csv, "{}", String::from_utf8_lossy(&text));
+        }
+    }
+
+    /// A measurements.csv text for the fast path's test: the header's columns in any
+    /// order (scan, target_id, x/y, range/bearing and an unknown column each optional),
+    /// rows of valid cells from small value sets (so duplicates, two times per scan and
+    /// time going backwards occur) with some cells replaced by near misses of what the
+    /// fast path reads (blanks, signs, exponents, 19 digits, non-finite words, quotes,
+    /// CR, extra commas), LF or CRLF or no terminator.
+    fn measurement_text() -> impl Strategy<Value = Vec<u8>> {
+        let junk = prop::sample::select(vec![
+            "",
+            " ",
+            " 1",
+            "1 ",
+            "+1",
+            "-1",
+            "-0",
+            "1e",
+            "1e3",
+            "1.5e-2",
+            "0x1",
+            ".5",
+            "5.",
+            "-",
+            "nan",
+            "inf",
+            "-inf",
+            "1e400",
+            "1234567890123456789",
+            "123456789012345678",
+            "-4294967296",
+            "4294967296",
+            "\"1\"",
+            "1\r",
+            ",",
+            "1,2",
+            "\"",
+            "é",
+            "_1",
+        ]);
+        let cell = prop_oneof![40 => Just(None), 1 => junk.prop_map(|j| Some(j.to_string()))];
+        let row = (
+            0u32..3,
+            prop::sample::select(vec![0i64, 1, 2, 3]),
+            prop_oneof![
+                8 => Just(None),
+                1 => prop::sample::select(vec!["0.0", "0.5", "1.0", "1", "2.25"]).prop_map(Some),
+            ],
+            prop_oneof![
+                8 => Just(None),
+                1 => prop::sample::select(vec![0.0f64, 1.5, 1e5, 14167.515651117861, -2.0]).prop_map(Some),
+            ],
+            prop::sample::select(vec![0.0f64, -3.0, 0.788787128797067, 7.0, 1e-300]),
+            any::<bool>(),
+            prop::collection::vec(cell, 9),
+            prop::sample::select(vec!["\n", "\n", "\n", "\n", "\r\n", "\n\n"]),
+        );
+        (
+            Just(vec![
+                "scan",
+                "time",
+                "sensor_id",
+                "range",
+                "bearing",
+                "x",
+                "y",
+                "target_id",
+                "is_clutter",
+            ])
+            .prop_shuffle(),
+            prop::collection::vec(any::<bool>(), 9),
+            prop::collection::vec(row, 0..40),
+            any::<bool>(),
+        )
+            .prop_map(|(cols, keep, rows, last_terminator)| {
+                // time and sensor_id always; the others as drawn
+                let cols: Vec<&str> = cols
+                    .into_iter()
+                    .zip(keep)
+                    .filter(|(c, k)| *k || *c == "time" || *c == "sensor_id")
+                    .map(|(c, _)| c)
+                    .collect();
+                let mut text = cols.join(",");
+                text.push('\n');
+                let mut scan = 0;
+                let count = rows.len();
+                for (k, (step, sensor, time, a, b, pos, junk, end)) in rows.into_iter().enumerate()
+                {
+                    scan += step / 2;
+                    let cells: Vec<String> = cols
+                        .iter()
+                        .zip(junk)
+                        .map(|(c, j)| {
+                            j.unwrap_or_else(|| match *c {
+                                "scan" => scan.to_string(),
+                                // a sensor's scans at its own phase, or a drawn time
+                                "time" => time.map_or_else(
+                                    || format!("{scan}.{}", sensor * 25),
+                                    str::to_string,
+                                ),
+                                "sensor_id" => sensor.to_string(),
+                                "range" if !pos => a.unwrap_or(1000.0 + k as f64 / 3.0).to_string(),
+                                "bearing" if !pos => b.to_string(),
+                                "x" if pos => a.unwrap_or(k as f64 / 7.0).to_string(),
+                                "y" if pos => b.to_string(),
+                                "target_id" => (k % 3).to_string(),
+                                "is_clutter" => "false".to_string(),
+                                _ => String::new(),
+                            })
+                        })
+                        .collect();
+                    text.push_str(&cells.join(","));
+                    if k + 1 < count || last_terminator {
+                        text.push_str(end);
+                    }
+                }
+                text.into_bytes()
+            })
+    }
+
+    /// Everything a measurement stream returns (as [`stream_all`]), with or without the
+    /// fast path, with or without sensors (0 and 2 range-bearing, 1 position).
+    fn measurements_all(text: &[u8], chunk: usize, with_sensors: bool, fast: bool) -> String {
+        NO_FAST.set(!fast);
+        let sensors: Vec<Sensor> = (0..3)
+            .map(|id| Sensor {
+                id,
+                kind: if id == 1 {
+                    SensorKind::Position
+                } else {
+                    SensorKind::RangeBearing
+                },
+                x: 0.0,
+                y: 0.0,
+                sigma_a: 1.0,
+                sigma_b: 1.0,
+                pd: 1.0,
+                bias_r: 0.0,
+                bias_theta: 0.0,
+                max_range: 0.0,
+                clutter_density: None,
+            })
+            .collect();
+        let input = Chunks(std::io::Cursor::new(text.to_vec()), chunk);
+        let mut out = String::new();
+        match MeasurementStream::from_reader(
+            input,
+            "measurements.csv",
+            with_sensors.then_some(&sensors[..]),
+        ) {
+            Err(e) => out.push_str(&format!("open: {e:?}")),
+            Ok(mut s) => {
+                let mut buf = Vec::new();
+                loop {
+                    match s.next_scan(&mut buf) {
+                        Ok(Some(scan)) => out.push_str(&format!(
+                            "scan {scan}: {buf:?} lines {:?} rows {}\n",
+                            s.lines(),
+                            s.rows_read()
+                        )),
+                        Ok(None) => break,
+                        Err(e) => {
+                            out.push_str(&format!("error: {e:?} / {e}"));
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+        NO_FAST.set(false);
+        out
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(3000))]
+
+        /// The fast path of measurements.csv and the general path give the same rows,
+        /// lines, row counts and located errors, on valid and invalid files, with any
+        /// column order, in any read chunking.
+        #[test]
+        fn measurement_fast_path_is_the_general_path(
+            text in measurement_text(),
+            sensors in any::<bool>(),
+            chunk in prop::sample::select(vec![0usize, 1, 7, 64]),
+        ) {
+            let fast = measurements_all(&text, chunk, sensors, true);
+            let general = measurements_all(&text, chunk, sensors, false);
+            prop_assert_eq!(fast, general, "{}", String::from_utf8_lossy(&text));
         }
     }
 
