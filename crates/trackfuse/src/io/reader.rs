@@ -60,6 +60,13 @@ struct Meta {
     header_line: u64,
 }
 
+impl Meta {
+    /// An error about cell `col` (0-based) of line `line`.
+    fn err(&self, line: u64, col: usize, reason: impl Into<String>) -> InputError {
+        InputError::cell(&self.path, line, col + 1, &self.headers[col], reason)
+    }
+}
+
 /// A CSV input with its header resolved, read one record at a time.
 struct Table<R: Read> {
     meta: Meta,
@@ -94,6 +101,9 @@ impl<R: Read> Read for Kept<R> {
 thread_local! {
     /// Tests: read every data row with the csv crate (the reference of [`Records`]).
     static CSV_ONLY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// Tests: parse every row with the general path (the reference of the fast path,
+    /// [`ScanRows::parse_line`]).
+    static NO_FAST: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 /// Open `path` for a reader.
@@ -218,6 +228,16 @@ impl<R: Read> Table<R> {
         Ok(line)
     }
 
+    /// The next data record through the caller's own parse of a plain line (see
+    /// [`Records::next_parsed`]): its line, or `None` when `parse` refused it (then
+    /// nothing was read).
+    #[inline]
+    fn next_parsed(&mut self, parse: impl FnOnce(&[u8]) -> Option<usize>) -> Option<u64> {
+        let line = self.records.next_parsed(parse)?;
+        self.rows += 1;
+        Some(line)
+    }
+
     /// The record last read, as a row at `line`.
     fn row(&self, line: u64) -> Row<'_> {
         Row {
@@ -291,13 +311,7 @@ impl Row<'_> {
     }
 
     fn err(&self, col: usize, reason: impl Into<String>) -> InputError {
-        InputError::cell(
-            &self.table.path,
-            self.line,
-            col + 1,
-            &self.table.headers[col],
-            reason,
-        )
+        self.table.err(self.line, col, reason)
     }
 
     /// Whether the cell is empty (or blank); a cell with any other byte is not.
@@ -519,15 +533,35 @@ trait ScanRows {
     /// Whether one scan's rows are in that order already (then [`ScanRows::order`] is
     /// not called and the rows are not moved again: files written by this project are).
     fn in_order(rows: &[Self::Item]) -> bool;
+    /// The fast path of a file kind that has one: parse the plain line at the start of
+    /// `bytes` (the unread input) if it has the common shape, every cell read without
+    /// error, and keep its values for [`ScanRows::parse_kept`]; return the line's length
+    /// (without its `\n`), its scan (`None` for a file without a scan column) and its
+    /// time. `None` for anything else: the row is then read and parsed by the general
+    /// path ([`ScanRows::parse`]), which gives every value and every error.
+    #[inline]
+    fn parse_line(&mut self, _bytes: &[u8]) -> Option<(usize, Option<u32>, f64)> {
+        None
+    }
+    /// The row [`ScanRows::parse_line`] read last, of scan `scan` at line `line`,
+    /// checked as [`ScanRows::parse`] checks a row.
+    fn parse_kept(&mut self, meta: &Meta, line: u64, _scan: u32) -> Result<Self::Item, InputError> {
+        Err(InputError::line(
+            &meta.path,
+            line,
+            "internal error: no row parsed on the fast path",
+        ))
+    }
 }
 
 /// The scan-at-a-time reader behind every `*Stream`.
 struct ScanReader<P: ScanRows, R: Read> {
     table: Table<R>,
     rows: P,
-    /// `table.rec` holds a record already read that starts the next scan: its line and
-    /// scan.
-    pending: Option<(u64, u32)>,
+    /// A record already read that starts the next scan: its line, its scan and whether
+    /// the fast path ([`ScanRows::parse_line`]) read it (then `rows` keeps its values,
+    /// else `table` holds the record).
+    pending: Option<(u64, u32, bool)>,
     /// Scan and line of the last row read (the ordering rule).
     prev: Option<(u32, u64)>,
     /// A file without a scan column: the time, scan (batch count) and line of the last
@@ -587,59 +621,37 @@ impl<P: ScanRows, R: Read> ScanReader<P, R> {
     fn fill(&mut self, buf: &mut Vec<P::Item>) -> Result<Option<u32>, InputError> {
         let mut current = None;
         loop {
-            let (line, scan) = match self.pending.take() {
+            let (line, scan, fast) = match self.pending.take() {
                 Some(p) => p,
                 None => {
-                    let Some(line) = self.table.next_record()? else {
-                        break;
-                    };
-                    let row = self.table.row(line);
-                    if self.rows.scan_col().is_none() {
-                        // no scan column: one batch per distinct time, numbered from 0
-                        let c = self.rows.time_col();
-                        let time = row.f64(c)?;
-                        let scan = match self.prev_time {
-                            None => 0,
-                            Some((t, s, _)) if t == time => s,
-                            Some((t, s, l)) => {
-                                if time < t {
-                                    return Err(row.err(
-                                        c,
-                                        format!(
-                                            "time {time} comes after time {t} (line {l}): \
-                                             {TIME_SORT_HINT}"
-                                        ),
-                                    ));
-                                }
-                                s.checked_add(1).ok_or_else(|| {
-                                    row.err(c, "more than 4294967296 distinct times")
-                                })?
-                            }
-                        };
-                        self.prev_time = Some((time, scan, line));
-                        (line, scan)
-                    } else {
-                        let c = self.rows.scan_col().unwrap_or(0);
-                        let scan = row.scan(c)?;
-                        if let Some((prev_scan, prev_line)) = self.prev {
-                            if scan < prev_scan {
-                                return Err(row.err(
-                                    c,
-                                    format!(
-                                        "scan {scan} comes after scan {prev_scan} (line \
-                                     {prev_line}): {SORT_HINT}"
-                                    ),
-                                ));
-                            }
+                    let rows = &mut self.rows;
+                    let mut key = (None, 0.0);
+                    let fast = self.table.next_parsed(|bytes| {
+                        let (n, scan, time) = rows.parse_line(bytes)?;
+                        key = (scan, time);
+                        Some(n)
+                    });
+                    let line = match fast {
+                        Some(line) => line,
+                        None => {
+                            let Some(line) = self.table.next_record()? else {
+                                break;
+                            };
+                            let row = self.table.row(line);
+                            key = match self.rows.scan_col() {
+                                Some(c) => (Some(row.scan(c)?), 0.0),
+                                None => (None, row.f64(self.rows.time_col())?),
+                            };
+                            line
                         }
-                        self.prev = Some((scan, line));
-                        (line, scan)
-                    }
+                    };
+                    let scan = self.scan_of(line, key)?;
+                    (line, scan, fast.is_some())
                 }
             };
             match current {
                 Some(c) if c != scan => {
-                    self.pending = Some((line, scan));
+                    self.pending = Some((line, scan, fast));
                     break;
                 }
                 Some(_) => {}
@@ -648,11 +660,66 @@ impl<P: ScanRows, R: Read> ScanReader<P, R> {
                     self.rows.start_scan();
                 }
             }
-            let item = self.rows.parse(&self.table.row(line), scan)?;
+            let item = if fast {
+                self.rows.parse_kept(&self.table.meta, line, scan)?
+            } else {
+                self.rows.parse(&self.table.row(line), scan)?
+            };
             buf.push(item);
             self.lines.push(line);
         }
         Ok(current)
+    }
+
+    /// The scan of the row at `line`, whose scan cell holds `key.0` or, in a file without
+    /// a scan column, whose time is `key.1`; checks the ordering rule.
+    #[inline]
+    fn scan_of(&mut self, line: u64, key: (Option<u32>, f64)) -> Result<u32, InputError> {
+        let meta = &self.table.meta;
+        match key {
+            (Some(scan), _) => {
+                let c = self.rows.scan_col().unwrap_or(0);
+                if let Some((prev_scan, prev_line)) = self.prev {
+                    if scan < prev_scan {
+                        return Err(meta.err(
+                            line,
+                            c,
+                            format!(
+                                "scan {scan} comes after scan {prev_scan} (line \
+                                 {prev_line}): {SORT_HINT}"
+                            ),
+                        ));
+                    }
+                }
+                self.prev = Some((scan, line));
+                Ok(scan)
+            }
+            // no scan column: one batch per distinct time, numbered from 0
+            (None, time) => {
+                let c = self.rows.time_col();
+                let scan = match self.prev_time {
+                    None => 0,
+                    Some((t, s, _)) if t == time => s,
+                    Some((t, s, l)) => {
+                        if time < t {
+                            return Err(meta.err(
+                                line,
+                                c,
+                                format!(
+                                    "time {time} comes after time {t} (line {l}): \
+                                     {TIME_SORT_HINT}"
+                                ),
+                            ));
+                        }
+                        s.checked_add(1).ok_or_else(|| {
+                            meta.err(line, c, "more than 4294967296 distinct times")
+                        })?
+                    }
+                };
+                self.prev_time = Some((time, scan, line));
+                Ok(scan)
+            }
+        }
     }
 }
 
@@ -953,6 +1020,80 @@ struct MeasurementRows {
     /// `(sensor, range|x bits, bearing|y bits)` of the current scan.
     seen: HashSet<(Id, u64, u64)>,
     time: RepeatedF64,
+    /// What each column is to the fast path ([`MeasurementRows::parse_line`]).
+    roles: Vec<Role>,
+    /// The values of the row the fast path read last.
+    kept: KeptRow,
+}
+
+/// A measurements.csv column, for the fast path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Role {
+    /// A column no reader reads (its cell is only stepped over).
+    Other,
+    Scan,
+    Time,
+    Sensor,
+    Range,
+    Bearing,
+    X,
+    Y,
+    Target,
+}
+
+/// The cells of one row as the fast path read them (`None`: an empty cell, or the
+/// column is not read).
+#[derive(Debug, Clone, Copy, Default)]
+struct KeptRow {
+    time: f64,
+    sensor_id: Id,
+    range: Option<f64>,
+    bearing: Option<f64>,
+    x: Option<f64>,
+    y: Option<f64>,
+    target_id: Id,
+}
+
+/// The fast path's integer cell: `-?[0-9]{1,18}` at the start of `b` (the cells
+/// [`small_int`] reads), its value and length; `None` for anything else.
+#[inline]
+fn int_prefix(b: &[u8]) -> Option<(i64, usize)> {
+    let neg = b.first() == Some(&b'-');
+    let start = usize::from(neg);
+    let mut v = 0i64;
+    let mut i = start;
+    while let Some(&c) = b.get(i) {
+        let d = c.wrapping_sub(b'0');
+        if d > 9 {
+            break;
+        }
+        if i - start == 18 {
+            return None;
+        }
+        v = v * 10 + i64::from(d);
+        i += 1;
+    }
+    if i == start {
+        return None;
+    }
+    Some((if neg { -v } else { v }, i))
+}
+
+/// The fast path's float cell: what `fast-float2` reads at the start of `b`, if finite,
+/// and its length; `None` for anything else. Followed by a field's end, the number is
+/// the whole cell, which [`Row::f64`] reads with the same parser to the same value.
+#[inline]
+fn float_prefix(b: &[u8]) -> Option<(f64, usize)> {
+    match fast_float2::parse_partial::<f64, _>(b) {
+        Ok((v, n)) if v.is_finite() && n > 0 => Some((v, n)),
+        _ => None,
+    }
+}
+
+/// Whether `b` starts with an empty cell (a field's end right away).
+#[inline]
+fn empty_cell(b: &[u8]) -> bool {
+    matches!(b.first(), Some(b',' | b'\n'))
 }
 
 /// What the measurements reader keeps per sensor.
@@ -998,6 +1139,98 @@ impl SensorSlots {
     }
 }
 
+impl MeasurementRows {
+    /// The checks of a row whose time, sensor and kind are read: the sensor (known, of
+    /// that kind), then `cells` (the value and target id, read after the sensor's
+    /// checks, so that a row's first problem is named as before), one time per sensor
+    /// and scan, no duplicate, time not going backwards per sensor.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn check(
+        &mut self,
+        meta: &Meta,
+        line: u64,
+        scan: u32,
+        time: f64,
+        sensor_id: Id,
+        kind: SensorKind,
+        cells: impl FnOnce() -> Result<(Vec2, Id), InputError>,
+    ) -> Result<Measurement, InputError> {
+        let Some(slot) = self.sensors.get(sensor_id, !self.known_sensors) else {
+            return Err(meta.err(
+                line,
+                self.c_sid,
+                format!("sensor_id {sensor_id} is not in sensors.csv"),
+            ));
+        };
+        if let Some(sk) = slot.kind.filter(|&sk| sk != kind) {
+            return Err(meta.err(
+                line,
+                self.c_sid,
+                format!(
+                    "sensor {sensor_id} is a {} sensor but this row has {} cells",
+                    sk.as_str(),
+                    kind.as_str()
+                ),
+            ));
+        }
+        let (value, target_id) = cells()?;
+        match slot.scan_time {
+            Some(t0) if t0 != time => {
+                return Err(meta.err(
+                    line,
+                    self.c_time,
+                    format!("scan {scan} of sensor {sensor_id} has two times: {t0} and {time}"),
+                ))
+            }
+            Some(_) => {}
+            None => slot.scan_time = Some(time),
+        }
+        if !self
+            .seen
+            .insert((sensor_id, value[0].to_bits(), value[1].to_bits()))
+        {
+            return Err(InputError::line(
+                &meta.path,
+                line,
+                "duplicate row (same scan, sensor and measurement as an earlier row)",
+            ));
+        }
+        // time must not go backwards as the scan index grows, per sensor
+        if let Some((t_prev, s_prev, l_prev)) = slot.last {
+            if s_prev != scan && time < t_prev {
+                return Err(meta.err(
+                    line,
+                    self.c_time,
+                    format!(
+                        "time goes backwards for sensor {sensor_id}: scan {scan} at {time} but \
+                         an earlier scan (line {l_prev}) at {t_prev}"
+                    ),
+                ));
+            }
+        }
+        slot.last = Some((time, scan, line));
+        Ok(Measurement {
+            scan,
+            time,
+            sensor_id,
+            kind,
+            value,
+            target_id,
+        })
+    }
+
+    /// Never: the fast path keeps only rows with the cells of one kind.
+    #[cold]
+    fn kept_none(&self, meta: &Meta, line: u64) -> Result<Measurement, InputError> {
+        Err(InputError::line(
+            &meta.path,
+            line,
+            "internal error: fast path kept a row without measurement cells",
+        ))
+    }
+}
+
 impl ScanRows for MeasurementRows {
     type Item = Measurement;
     fn scan_col(&self) -> Option<usize> {
@@ -1037,77 +1270,142 @@ impl ScanRows for MeasurementRows {
                 ))
             }
         };
-        let Some(slot) = self.sensors.get(sensor_id, !self.known_sensors) else {
-            return Err(row.err(
-                self.c_sid,
-                format!("sensor_id {sensor_id} is not in sensors.csv"),
-            ));
+        let (rb_cols, pos_cols, c_tid) = (self.rb_cols, self.pos_cols, self.c_tid);
+        self.check(row.table, row.line, scan, time, sensor_id, kind, || {
+            let value = match kind {
+                SensorKind::RangeBearing => {
+                    let (cr, cb) = rb_cols.unwrap_or((0, 0));
+                    let r = row.nonneg(cr)?;
+                    Vec2::new(r, wrap_angle(row.f64(cb)?))
+                }
+                SensorKind::Position => {
+                    let (cx, cy) = pos_cols.unwrap_or((0, 0));
+                    Vec2::new(row.f64(cx)?, row.f64(cy)?)
+                }
+            };
+            let target_id = match c_tid {
+                Some(c) if !row.is_empty(c) => row.int(c)?,
+                _ => -1,
+            };
+            Ok((value, target_id))
+        })
+    }
+    fn parse_line(&mut self, b: &[u8]) -> Option<(usize, Option<u32>, f64)> {
+        #[cfg(test)]
+        if NO_FAST.get() {
+            return None;
+        }
+        let mut r = KeptRow {
+            target_id: -1,
+            ..KeptRow::default()
         };
-        if let Some(sk) = slot.kind.filter(|&sk| sk != kind) {
-            return Err(row.err(
-                self.c_sid,
-                format!(
-                    "sensor {sensor_id} is a {} sensor but this row has {} cells",
-                    sk.as_str(),
-                    kind.as_str()
-                ),
-            ));
+        let mut scan = None;
+        let last = self.roles.len().checked_sub(1)?;
+        let mut p = 0;
+        for (i, &role) in self.roles.iter().enumerate() {
+            let rest = b.get(p..)?;
+            let n = match role {
+                Role::Scan => {
+                    let (v, n) = int_prefix(rest)?;
+                    scan = Some(u32::try_from(v).ok()?);
+                    n
+                }
+                Role::Sensor => {
+                    let (v, n) = int_prefix(rest)?;
+                    r.sensor_id = v;
+                    n
+                }
+                Role::Target => {
+                    if empty_cell(rest) {
+                        0
+                    } else {
+                        let (v, n) = int_prefix(rest)?;
+                        r.target_id = v;
+                        n
+                    }
+                }
+                Role::Time => {
+                    // the cell of an earlier row, whose value is kept ([`RepeatedF64`];
+                    // the same cell only if a field's end follows, checked below)
+                    let t = &mut self.time;
+                    match t.value {
+                        Some(v)
+                            if !t.cell.is_empty()
+                                && rest.starts_with(&t.cell)
+                                && empty_cell(&rest[t.cell.len()..]) =>
+                        {
+                            r.time = v;
+                            t.cell.len()
+                        }
+                        _ => {
+                            let (v, n) = float_prefix(rest)?;
+                            if empty_cell(&rest[n..]) {
+                                t.cell.clear();
+                                t.cell.extend_from_slice(&rest[..n]);
+                                t.value = Some(v);
+                            }
+                            r.time = v;
+                            n
+                        }
+                    }
+                }
+                Role::Range | Role::Bearing | Role::X | Role::Y => {
+                    if empty_cell(rest) {
+                        0
+                    } else {
+                        let (v, n) = float_prefix(rest)?;
+                        *match role {
+                            Role::Range => &mut r.range,
+                            Role::Bearing => &mut r.bearing,
+                            Role::X => &mut r.x,
+                            _ => &mut r.y,
+                        } = Some(v);
+                        n
+                    }
+                }
+                Role::Other => {
+                    let n = memchr::memchr3(b',', b'\n', b'"', rest)?;
+                    if rest[..n].contains(&b'\r') {
+                        return None;
+                    }
+                    n
+                }
+            };
+            p += n;
+            let end = if i == last { b'\n' } else { b',' };
+            if *b.get(p)? != end {
+                return None;
+            }
+            p += 1;
         }
-        let value = match kind {
-            SensorKind::RangeBearing => {
-                let (cr, cb) = self.rb_cols.unwrap_or((0, 0));
-                let r = row.nonneg(cr)?;
-                Vec2::new(r, wrap_angle(row.f64(cb)?))
-            }
-            SensorKind::Position => {
-                let (cx, cy) = self.pos_cols.unwrap_or((0, 0));
-                Vec2::new(row.f64(cx)?, row.f64(cy)?)
-            }
+        // exactly the two cells of one kind, both numbers (any other row, valid or
+        // not, is the general path's)
+        match (r.range, r.bearing, r.x, r.y) {
+            (Some(_), Some(_), None, None) | (None, None, Some(_), Some(_)) => {}
+            _ => return None,
+        }
+        self.kept = r;
+        Some((p - 1, scan, r.time))
+    }
+    fn parse_kept(&mut self, meta: &Meta, line: u64, scan: u32) -> Result<Measurement, InputError> {
+        let r = self.kept;
+        let (kind, a, b) = match (r.range, r.bearing, r.x, r.y) {
+            (Some(a), Some(b), _, _) => (SensorKind::RangeBearing, a, b),
+            (_, _, Some(a), Some(b)) => (SensorKind::Position, a, b),
+            _ => return self.kept_none(meta, line),
         };
-        let target_id = match self.c_tid {
-            Some(c) if !row.is_empty(c) => row.int(c)?,
-            _ => -1,
-        };
-        match slot.scan_time {
-            Some(t0) if t0 != time => {
-                return Err(row.err(
-                    self.c_time,
-                    format!("scan {scan} of sensor {sensor_id} has two times: {t0} and {time}"),
-                ))
-            }
-            Some(_) => {}
-            None => slot.scan_time = Some(time),
-        }
-        if !self
-            .seen
-            .insert((sensor_id, value[0].to_bits(), value[1].to_bits()))
-        {
-            return Err(InputError::line(
-                &row.table.path,
-                row.line,
-                "duplicate row (same scan, sensor and measurement as an earlier row)",
-            ));
-        }
-        // time must not go backwards as the scan index grows, per sensor
-        if let Some((t_prev, s_prev, l_prev)) = slot.last {
-            if s_prev != scan && time < t_prev {
-                return Err(row.err(
-                    self.c_time,
-                    format!(
-                        "time goes backwards for sensor {sensor_id}: scan {scan} at {time} but \
-                         an earlier scan (line {l_prev}) at {t_prev}"
-                    ),
-                ));
-            }
-        }
-        slot.last = Some((time, scan, row.line));
-        Ok(Measurement {
-            scan,
-            time,
-            sensor_id,
-            kind,
-            value,
-            target_id,
+        let c_range = self.rb_cols.map_or(0, |c| c.0);
+        self.check(meta, line, scan, r.time, r.sensor_id, kind, || {
+            let value = match kind {
+                SensorKind::RangeBearing => {
+                    if a < 0.0 {
+                        return Err(meta.err(line, c_range, format!("{a} must not be negative")));
+                    }
+                    Vec2::new(a, wrap_angle(b))
+                }
+                SensorKind::Position => Vec2::new(a, b),
+            };
+            Ok((value, r.target_id))
         })
     }
     /// Stable by sensor: the file's order within a sensor is kept.
@@ -1181,6 +1479,24 @@ impl<R: Read> MeasurementStream<R> {
             },
             seen: HashSet::default(),
             time: RepeatedF64::default(),
+            roles: {
+                let mut roles = vec![Role::Other; t.meta.headers.len()];
+                let mut set = |c: Option<usize>, role| {
+                    if let Some(c) = c {
+                        roles[c] = role;
+                    }
+                };
+                set(c_scan, Role::Scan);
+                set(Some(c_time), Role::Time);
+                set(Some(c_sid), Role::Sensor);
+                set(rb_cols.map(|c| c.0), Role::Range);
+                set(rb_cols.map(|c| c.1), Role::Bearing);
+                set(pos_cols.map(|c| c.0), Role::X);
+                set(pos_cols.map(|c| c.1), Role::Y);
+                set(t.opt("target_id"), Role::Target);
+                roles
+            },
+            kept: KeptRow::default(),
         };
         Ok(MeasurementStream(ScanReader::new(t, rows)))
     }
@@ -1798,6 +2114,195 @@ mod tests {
             let plain = stream_all(&text, chunk, local, false);
             let csv = stream_all(&text, chunk, local, true);
             prop_assert_eq!(plain, csv, "{}", String::from_utf8_lossy(&text));
+        }
+    }
+
+    /// A measurements.csv text for the fast path's test: the header's columns in any
+    /// order (scan, target_id, x/y, range/bearing and an unknown column each optional),
+    /// rows of valid cells from small value sets (so duplicates, two times per scan and
+    /// time going backwards occur) with some cells replaced by near misses of what the
+    /// fast path reads (blanks, signs, exponents, 19 digits, non-finite words, quotes,
+    /// CR, extra commas), LF or CRLF or no terminator.
+    fn measurement_text() -> impl Strategy<Value = Vec<u8>> {
+        let junk = prop::sample::select(vec![
+            "",
+            " ",
+            " 1",
+            "1 ",
+            "+1",
+            "-1",
+            "-0",
+            "1e",
+            "1e3",
+            "1.5e-2",
+            "0x1",
+            ".5",
+            "5.",
+            "-",
+            "nan",
+            "inf",
+            "-inf",
+            "1e400",
+            "1234567890123456789",
+            "123456789012345678",
+            "-4294967296",
+            "4294967296",
+            "\"1\"",
+            "1\r",
+            ",",
+            "1,2",
+            "\"",
+            "é",
+            "_1",
+        ]);
+        let cell = prop_oneof![40 => Just(None), 1 => junk.prop_map(|j| Some(j.to_string()))];
+        let row = (
+            0u32..3,
+            prop::sample::select(vec![0i64, 1, 2, 3]),
+            prop_oneof![
+                8 => Just(None),
+                1 => prop::sample::select(vec!["0.0", "0.5", "1.0", "1", "2.25"]).prop_map(Some),
+            ],
+            prop_oneof![
+                8 => Just(None),
+                1 => prop::sample::select(vec![0.0f64, 1.5, 1e5, 14167.515651117861, -2.0]).prop_map(Some),
+            ],
+            prop::sample::select(vec![0.0f64, -3.0, 0.788787128797067, 7.0, 1e-300]),
+            any::<bool>(),
+            prop::collection::vec(cell, 9),
+            prop::sample::select(vec!["\n", "\n", "\n", "\n", "\r\n", "\n\n"]),
+        );
+        (
+            Just(vec![
+                "scan",
+                "time",
+                "sensor_id",
+                "range",
+                "bearing",
+                "x",
+                "y",
+                "target_id",
+                "is_clutter",
+            ])
+            .prop_shuffle(),
+            prop::collection::vec(any::<bool>(), 9),
+            prop::collection::vec(row, 0..40),
+            any::<bool>(),
+        )
+            .prop_map(|(cols, keep, rows, last_terminator)| {
+                // time and sensor_id always; the others as drawn
+                let cols: Vec<&str> = cols
+                    .into_iter()
+                    .zip(keep)
+                    .filter(|(c, k)| *k || *c == "time" || *c == "sensor_id")
+                    .map(|(c, _)| c)
+                    .collect();
+                let mut text = cols.join(",");
+                text.push('\n');
+                let mut scan = 0;
+                let count = rows.len();
+                for (k, (step, sensor, time, a, b, pos, junk, end)) in rows.into_iter().enumerate()
+                {
+                    scan += step / 2;
+                    let cells: Vec<String> = cols
+                        .iter()
+                        .zip(junk)
+                        .map(|(c, j)| {
+                            j.unwrap_or_else(|| match *c {
+                                "scan" => scan.to_string(),
+                                // a sensor's scans at its own phase, or a drawn time
+                                "time" => time.map_or_else(
+                                    || format!("{scan}.{}", sensor * 25),
+                                    str::to_string,
+                                ),
+                                "sensor_id" => sensor.to_string(),
+                                "range" if !pos => a.unwrap_or(1000.0 + k as f64 / 3.0).to_string(),
+                                "bearing" if !pos => b.to_string(),
+                                "x" if pos => a.unwrap_or(k as f64 / 7.0).to_string(),
+                                "y" if pos => b.to_string(),
+                                "target_id" => (k % 3).to_string(),
+                                "is_clutter" => "false".to_string(),
+                                _ => String::new(),
+                            })
+                        })
+                        .collect();
+                    text.push_str(&cells.join(","));
+                    if k + 1 < count || last_terminator {
+                        text.push_str(end);
+                    }
+                }
+                text.into_bytes()
+            })
+    }
+
+    /// Everything a measurement stream returns (as [`stream_all`]), with or without the
+    /// fast path, with or without sensors (0 and 2 range-bearing, 1 position).
+    fn measurements_all(text: &[u8], chunk: usize, with_sensors: bool, fast: bool) -> String {
+        NO_FAST.set(!fast);
+        let sensors: Vec<Sensor> = (0..3)
+            .map(|id| Sensor {
+                id,
+                kind: if id == 1 {
+                    SensorKind::Position
+                } else {
+                    SensorKind::RangeBearing
+                },
+                x: 0.0,
+                y: 0.0,
+                sigma_a: 1.0,
+                sigma_b: 1.0,
+                pd: 1.0,
+                bias_r: 0.0,
+                bias_theta: 0.0,
+                max_range: 0.0,
+                clutter_density: None,
+            })
+            .collect();
+        let input = Chunks(std::io::Cursor::new(text.to_vec()), chunk);
+        let mut out = String::new();
+        match MeasurementStream::from_reader(
+            input,
+            "measurements.csv",
+            with_sensors.then_some(&sensors[..]),
+        ) {
+            Err(e) => out.push_str(&format!("open: {e:?}")),
+            Ok(mut s) => {
+                let mut buf = Vec::new();
+                loop {
+                    match s.next_scan(&mut buf) {
+                        Ok(Some(scan)) => out.push_str(&format!(
+                            "scan {scan}: {buf:?} lines {:?} rows {}\n",
+                            s.lines(),
+                            s.rows_read()
+                        )),
+                        Ok(None) => break,
+                        Err(e) => {
+                            out.push_str(&format!("error: {e:?} / {e}"));
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+        NO_FAST.set(false);
+        out
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(3000))]
+
+        /// The fast path of measurements.csv and the general path give the same rows,
+        /// lines, row counts and located errors, on valid and invalid files, with any
+        /// column order, in any read chunking.
+        #[test]
+        fn measurement_fast_path_is_the_general_path(
+            text in measurement_text(),
+            sensors in any::<bool>(),
+            chunk in prop::sample::select(vec![0usize, 1, 7, 64]),
+        ) {
+            let fast = measurements_all(&text, chunk, sensors, true);
+            let general = measurements_all(&text, chunk, sensors, false);
+            prop_assert_eq!(fast, general, "{}", String::from_utf8_lossy(&text));
         }
     }
 

@@ -181,6 +181,35 @@ impl<R: Read> Records<R> {
         }
     }
 
+    /// A caller's own parse of the next line, straight from the buffer: `parse` gets the
+    /// unread bytes (from the start of the next line) and returns the length of the
+    /// line it read, without its `\n`, when it is a plain line with the header's field
+    /// count that ends in a `\n` inside those bytes; then the line is taken as read
+    /// and its 1-based line is returned. `None` (the parse refused, the buffer holds
+    /// no whole line, or the csv crate has taken over) reads nothing: the line is then
+    /// read by [`Records::next`] as before.
+    #[inline]
+    pub(crate) fn next_parsed(
+        &mut self,
+        parse: impl FnOnce(&[u8]) -> Option<usize>,
+    ) -> Option<u64> {
+        let Mode::Plain(p) = &mut self.mode else {
+            return None;
+        };
+        let unread = p.buf.get(p.pos..p.end)?;
+        let len = parse(unread)?;
+        debug_assert_eq!(unread.get(len), Some(&b'\n'));
+        let start = p.pos;
+        p.pos += len + 1;
+        p.after_cr = false;
+        // no field ends: [`Records::fields`] is not asked for a line parsed here
+        self.ends.clear();
+        self.line = (start, start + len);
+        let line = p.line;
+        p.line += 1;
+        Some(line)
+    }
+
     /// The next plain line; `None` at the end or after switching to the csv crate.
     #[inline]
     fn next_plain(&mut self, path: &Path) -> Result<Option<u64>, InputError> {
