@@ -200,6 +200,7 @@ pub struct SensorTracker {
     association_time: Duration,
     tracks: Vec<Track>,
     seeds: Vec<Seed>,
+    init_scratch: InitScratch,
     next_id: Id,
     // per-scan buffers, reused
     raw: Vec<Vec2>,
@@ -371,6 +372,7 @@ impl SensorTracker {
             cfg: cfg.clone(),
             tracks: Vec::new(),
             seeds: Vec::new(),
+            init_scratch: InitScratch::default(),
             next_id: 0,
             raw: Vec::new(),
             converted: Vec::new(),
@@ -798,14 +800,22 @@ impl SensorTracker {
     /// velocity. Unpaired measurements become single points for the next scan.
     fn initiate(&mut self, time: f64) {
         let max_speed = self.cfg.initiation.max_speed;
-        // seeds sorted by x for a sweep
-        let mut seeds = std::mem::take(&mut self.seeds);
-        seeds.sort_unstable_by(|a, b| a.position[0].total_cmp(&b.position[0]));
-        let mut seed_used = vec![false; seeds.len()];
-        let mut new_seeds = Vec::new();
+        // the seeds in the order they were made (the previous scan's measurement order);
+        // the grid below finds them, no sort needed. Buffers reused scan after scan.
+        let seeds = std::mem::take(&mut self.seeds);
+        let InitScratch {
+            mut seed_used,
+            mut new_seeds,
+            mut pairs,
+            mut cart,
+            mut meas_paired,
+        } = std::mem::take(&mut self.init_scratch);
+        seed_used.clear();
+        seed_used.resize(seeds.len(), false);
+        new_seeds.clear();
         // candidate pairs (distance excess, measurement, seed)
-        let mut pairs: Vec<u128> = Vec::new();
-        let mut cart: Vec<(Vec2, Mat2)> = Vec::with_capacity(self.raw.len());
+        pairs.clear();
+        cart.clear();
         for (m, z) in self.raw.iter().enumerate() {
             cart.push(if self.used[m] {
                 (Vec2::zeros(), Mat2::zeros())
@@ -818,7 +828,7 @@ impl SensorTracker {
         let max_seed_sigma = seeds.iter().map(|s| spread(&s.cov)).fold(0.0, f64::max);
         // The seeds in a two-dimensional grid: a measurement looks at the seeds in the
         // box of its largest reach instead of the whole x strip. The strip's own test
-        // (x within `reach_max`, as the sweep over x-sorted seeds had it) is kept, and
+        // (x within `reach_max`, as the sweep over the seeds had it) is kept, and
         // `d <= reach <= reach_max` bounds `|dy|`, so the pairs are the sweep's (their
         // order is set by the sort below).
         self.seed_grid
@@ -849,7 +859,8 @@ impl SensorTracker {
             });
         }
         pairs.sort_unstable();
-        let mut meas_paired = vec![false; self.used.len()];
+        meas_paired.clear();
+        meas_paired.resize(self.used.len(), false);
         let scored = self.cfg.initiation.method == InitiationMethod::Score;
         let lambda = if scored {
             self.score_clutter_per_m2()
@@ -901,7 +912,26 @@ impl SensorTracker {
             }
         }
         self.seeds = new_seeds;
+        self.init_scratch = InitScratch {
+            seed_used,
+            new_seeds: seeds,
+            pairs,
+            cart,
+            meas_paired,
+        };
     }
+}
+
+/// The two-point initiation's per-scan buffers ([`SensorTracker::initiate`]), kept so
+/// that a scan allocates nothing once they have grown.
+#[derive(Debug, Default, Clone)]
+struct InitScratch {
+    seed_used: Vec<bool>,
+    /// The next scan's seeds are written here (the previous seeds' buffer).
+    new_seeds: Vec<Seed>,
+    pairs: Vec<u128>,
+    cart: Vec<(Vec2, Mat2)>,
+    meas_paired: Vec<bool>,
 }
 
 /// `(x, a, b)` as one integer ordered as `x` by [`f64::total_cmp`], then `a`, then `b`:
