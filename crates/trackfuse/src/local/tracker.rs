@@ -200,6 +200,7 @@ pub struct SensorTracker {
     association_time: Duration,
     tracks: Vec<Track>,
     seeds: Vec<Seed>,
+    init_scratch: InitScratch,
     next_id: Id,
     // per-scan buffers, reused
     raw: Vec<Vec2>,
@@ -214,6 +215,8 @@ pub struct SensorTracker {
     seed_grid: BoxGrid,
     /// `(track_id, track)` of the scan's reported tracks, sorted before they are written.
     report_order: Vec<(Id, u32)>,
+    /// Scratch of [`sort_by_id`].
+    id_slots: Vec<u32>,
     gates: Gates,
     weights: AssociationWeights,
     /// Whether each track was updated this scan.
@@ -369,6 +372,7 @@ impl SensorTracker {
             cfg: cfg.clone(),
             tracks: Vec::new(),
             seeds: Vec::new(),
+            init_scratch: InitScratch::default(),
             next_id: 0,
             raw: Vec::new(),
             converted: Vec::new(),
@@ -379,6 +383,7 @@ impl SensorTracker {
             gate_grid: GateGrid::default(),
             seed_grid: BoxGrid::default(),
             report_order: Vec::new(),
+            id_slots: Vec::new(),
             gates: Gates::default(),
             weights: AssociationWeights::default(),
             updated: Vec::new(),
@@ -636,7 +641,7 @@ impl SensorTracker {
                 self.report_order.push((id, i as u32));
             }
         }
-        self.report_order.sort_unstable();
+        sort_by_id(&mut self.report_order, &mut self.id_slots);
         for &(id, i) in &self.report_order {
             let t = &self.tracks[i as usize];
             out.push(LocalTrack {
@@ -795,14 +800,22 @@ impl SensorTracker {
     /// velocity. Unpaired measurements become single points for the next scan.
     fn initiate(&mut self, time: f64) {
         let max_speed = self.cfg.initiation.max_speed;
-        // seeds sorted by x for a sweep
-        let mut seeds = std::mem::take(&mut self.seeds);
-        seeds.sort_unstable_by(|a, b| a.position[0].total_cmp(&b.position[0]));
-        let mut seed_used = vec![false; seeds.len()];
-        let mut new_seeds = Vec::new();
+        // the seeds in the order they were made (the previous scan's measurement order);
+        // the grid below finds them, no sort needed. Buffers reused scan after scan.
+        let seeds = std::mem::take(&mut self.seeds);
+        let InitScratch {
+            mut seed_used,
+            mut new_seeds,
+            mut pairs,
+            mut cart,
+            mut meas_paired,
+        } = std::mem::take(&mut self.init_scratch);
+        seed_used.clear();
+        seed_used.resize(seeds.len(), false);
+        new_seeds.clear();
         // candidate pairs (distance excess, measurement, seed)
-        let mut pairs: Vec<u128> = Vec::new();
-        let mut cart: Vec<(Vec2, Mat2)> = Vec::with_capacity(self.raw.len());
+        pairs.clear();
+        cart.clear();
         for (m, z) in self.raw.iter().enumerate() {
             cart.push(if self.used[m] {
                 (Vec2::zeros(), Mat2::zeros())
@@ -815,7 +828,7 @@ impl SensorTracker {
         let max_seed_sigma = seeds.iter().map(|s| spread(&s.cov)).fold(0.0, f64::max);
         // The seeds in a two-dimensional grid: a measurement looks at the seeds in the
         // box of its largest reach instead of the whole x strip. The strip's own test
-        // (x within `reach_max`, as the sweep over x-sorted seeds had it) is kept, and
+        // (x within `reach_max`, as the sweep over the seeds had it) is kept, and
         // `d <= reach <= reach_max` bounds `|dy|`, so the pairs are the sweep's (their
         // order is set by the sort below).
         self.seed_grid
@@ -846,7 +859,8 @@ impl SensorTracker {
             });
         }
         pairs.sort_unstable();
-        let mut meas_paired = vec![false; self.used.len()];
+        meas_paired.clear();
+        meas_paired.resize(self.used.len(), false);
         let scored = self.cfg.initiation.method == InitiationMethod::Score;
         let lambda = if scored {
             self.score_clutter_per_m2()
@@ -898,7 +912,26 @@ impl SensorTracker {
             }
         }
         self.seeds = new_seeds;
+        self.init_scratch = InitScratch {
+            seed_used,
+            new_seeds: seeds,
+            pairs,
+            cart,
+            meas_paired,
+        };
     }
+}
+
+/// The two-point initiation's per-scan buffers ([`SensorTracker::initiate`]), kept so
+/// that a scan allocates nothing once they have grown.
+#[derive(Debug, Default, Clone)]
+struct InitScratch {
+    seed_used: Vec<bool>,
+    /// The next scan's seeds are written here (the previous seeds' buffer).
+    new_seeds: Vec<Seed>,
+    pairs: Vec<u128>,
+    cart: Vec<(Vec2, Mat2)>,
+    meas_paired: Vec<bool>,
 }
 
 /// `(x, a, b)` as one integer ordered as `x` by [`f64::total_cmp`], then `a`, then `b`:
@@ -906,14 +939,85 @@ impl SensorTracker {
 /// integers (the keys are distinct, so any sort gives the same order).
 #[inline]
 fn sort_key(x: f64, a: u32, b: u32) -> u128 {
+    ((ordered_bits(x) as u128) << 64) | ((a as u128) << 32) | b as u128
+}
+
+/// Sort `(id, index)` pairs by id. Ids are handed out one after another and the live
+/// ones span a range not much wider than their count, so each pair goes to the slot of
+/// its id and the slots are read in order: linear, where a comparison sort is
+/// `n log n` (at 30 000 tracks per sensor it was the largest sort of a scan). When the
+/// ids span more than four slots per pair, or an id repeats (never, for a tracker's own
+/// ids), it is the comparison sort; the order is the same either way. Hand-written: a
+/// direct-address pass over `u32` slots, which no sorting crate specialises for.
+fn sort_by_id(pairs: &mut [(Id, u32)], slots: &mut Vec<u32>) {
+    let (Some(lo), Some(hi)) = (
+        pairs.iter().map(|p| p.0).min(),
+        pairs.iter().map(|p| p.0).max(),
+    ) else {
+        return;
+    };
+    let span = (hi as i128 - lo as i128 + 1) as u128;
+    if pairs.len() < 64 || span > 4 * pairs.len() as u128 {
+        pairs.sort_unstable();
+        return;
+    }
+    slots.clear();
+    slots.resize(span as usize, u32::MAX);
+    for &(id, i) in pairs.iter() {
+        let slot = &mut slots[(id - lo) as usize];
+        if *slot != u32::MAX || i == u32::MAX {
+            pairs.sort_unstable();
+            return;
+        }
+        *slot = i;
+    }
+    let mut k = 0;
+    for (offset, &i) in slots.iter().enumerate() {
+        if i != u32::MAX {
+            pairs[k] = (lo + offset as Id, i);
+            k += 1;
+        }
+    }
+}
+
+/// `x`'s bits mapped so that unsigned order is [`f64::total_cmp`]'s order (negatives
+/// reversed below the positives); [`from_ordered_bits`] is its inverse.
+#[inline]
+fn ordered_bits(x: f64) -> u64 {
     let bits = x.to_bits();
-    // total_cmp's order as an unsigned one: negatives reversed below the positives
-    let ordered = if bits >> 63 == 1 {
+    if bits >> 63 == 1 {
         !bits
     } else {
         bits | (1 << 63)
-    };
-    ((ordered as u128) << 64) | ((a as u128) << 32) | b as u128
+    }
+}
+
+/// The `f64` of [`ordered_bits`], bit for bit.
+#[inline]
+fn from_ordered_bits(k: u64) -> f64 {
+    f64::from_bits(if k >> 63 == 1 { k & !(1 << 63) } else { !k })
+}
+
+/// Sort measurement values by `(z_0, z_1)` in [`f64::total_cmp`]'s order. Each value is
+/// one `u128` key (its two coordinates' [`ordered_bits`]), which the standard library
+/// sorts with plain integer comparisons, then decoded in place: the same order as
+/// comparing the floats (equal keys are equal values, so stability cannot matter), with
+/// a third fewer instructions in the sort than a comparison closure (BENCHMARKS.md,
+/// issue 13 point 2).
+fn sort_values(values: &mut [Vec2], keys: &mut Vec<u128>) {
+    keys.clear();
+    keys.extend(
+        values
+            .iter()
+            .map(|z| ((ordered_bits(z[0]) as u128) << 64) | ordered_bits(z[1]) as u128),
+    );
+    keys.sort_unstable();
+    for (z, &k) in values.iter_mut().zip(keys.iter()) {
+        *z = Vec2::new(
+            from_ordered_bits((k >> 64) as u64),
+            from_ordered_bits(k as u64),
+        );
+    }
 }
 
 /// The two indices `(a, b)` of a [`sort_key`].
@@ -984,6 +1088,8 @@ pub struct MultiSensorTracker {
     /// Each tracker's output of the current scan.
     outs: Vec<Vec<LocalTrack>>,
     last_scan: Option<u32>,
+    /// Scratch of [`sort_values`], reused scan after scan.
+    sort_keys: Vec<u128>,
     /// Whether report clocks were set ([`MultiSensorTracker::set_clocks`]).
     clocked: bool,
 }
@@ -1048,6 +1154,7 @@ impl MultiSensorTracker {
             slot_of,
             tracker_slot,
             last_scan: None,
+            sort_keys: Vec::new(),
             clocked: false,
         })
     }
@@ -1118,8 +1225,7 @@ impl MultiSensorTracker {
         }
         // the measurement order within a scan is the file's accident: sort it away
         for slot in &mut self.slots {
-            slot.values
-                .sort_unstable_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+            sort_values(&mut slot.values, &mut self.sort_keys);
         }
         let slots = &self.slots;
         let clocked = self.clocked;
@@ -1307,6 +1413,57 @@ pd = 0.95
         let from_keys: Vec<(u32, u32)> = keys.into_iter().map(sort_key_indices).collect();
         let from_tuples: Vec<(u32, u32)> = tuples.iter().map(|t| (t.1, t.2)).collect();
         assert_eq!(from_keys, from_tuples);
+    }
+
+    proptest::proptest! {
+        /// The slot sort of `(id, index)` pairs is the comparison sort: distinct ids dense
+        /// or sparse (either path), any count, negative ids, and repeated ids.
+        #[test]
+        fn sort_by_id_is_the_comparison_sort(
+            mut ids in proptest::collection::vec(-50i64..5_000, 0..400),
+            spread in 1i64..20,
+            distinct in proptest::bool::ANY,
+        ) {
+            if distinct {
+                ids.sort_unstable();
+                ids.dedup();
+                let third = ids.len() / 3;
+                ids.rotate_left(third);
+                ids[..third].reverse();
+            }
+            let mut pairs: Vec<(Id, u32)> = ids
+                .iter()
+                .enumerate()
+                .map(|(i, &id)| (id * spread, (i as u32).wrapping_mul(2_654_435_761) % 1_000))
+                .collect();
+            let mut expected = pairs.clone();
+            expected.sort_unstable();
+            sort_by_id(&mut pairs, &mut Vec::new());
+            proptest::prop_assert_eq!(pairs, expected);
+        }
+
+        /// The integer-key sort of measurement values gives the comparison sort's order,
+        /// bit for bit: any bit patterns (NaNs with payloads and signs, -0.0, infinities,
+        /// subnormals), with repeated coordinates so that ties on `z_0` are common.
+        #[test]
+        fn sort_values_is_the_total_cmp_sort(
+            raw in proptest::collection::vec((0u8..4, proptest::num::u64::ANY, proptest::num::u64::ANY), 0..200)
+        ) {
+            let pool = [0.0, -0.0, 1.5, f64::NAN];
+            let values: Vec<Vec2> = raw
+                .iter()
+                .map(|&(pick, a, b)| {
+                    let x = if pick < 2 { f64::from_bits(a) } else { pool[(a % 4) as usize] };
+                    Vec2::new(x, f64::from_bits(b))
+                })
+                .collect();
+            let mut expected = values.clone();
+            expected.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+            let mut got = values;
+            sort_values(&mut got, &mut Vec::new());
+            let bits = |v: &[Vec2]| v.iter().map(|z| (z[0].to_bits(), z[1].to_bits())).collect::<Vec<_>>();
+            proptest::prop_assert_eq!(bits(&got), bits(&expected));
+        }
     }
 
     #[test]
