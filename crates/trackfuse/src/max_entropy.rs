@@ -248,7 +248,13 @@ impl MaxEntropy {
             let g = group(p);
             let top = self.group_top[g];
             let w = if top > f64::NEG_INFINITY {
-                (self.exponent[i] - top).exp()
+                // the group's largest exponent gives exp(0) = 1 exactly, no libm call
+                let x = self.exponent[i];
+                if x == top {
+                    1.0
+                } else {
+                    (x - top).exp()
+                }
             } else if dist(p) <= self.group_min[g] && dist(p).is_finite() {
                 1.0
             } else {

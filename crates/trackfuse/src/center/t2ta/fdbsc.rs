@@ -272,6 +272,9 @@ pub struct FdbscTa {
     group_mean: Vec<Vec2>,
     global_taken: Vec<bool>,
     group_taken: Vec<bool>,
+    /// Number of candidate pairs of each group / each global track.
+    group_pairs: Vec<u32>,
+    global_pairs: Vec<u32>,
     // adaptation
     spreads: Vec<f64>,
 }
@@ -309,6 +312,8 @@ impl FdbscTa {
             group_mean: Vec::new(),
             global_taken: Vec::new(),
             group_taken: Vec::new(),
+            group_pairs: Vec::new(),
+            global_pairs: Vec::new(),
             spreads: Vec::new(),
         })
     }
@@ -531,13 +536,32 @@ impl FdbscTa {
             self.group_mean.push(mean / members.len() as f64);
         }
         self.candidates.clear();
+        self.global_pairs.clear();
+        self.global_pairs.resize(self.global_grid.len(), 0);
+        self.group_pairs.clear();
         for g in 0..n_groups {
             let cand = &mut self.candidates;
+            let global_pairs = &mut self.global_pairs;
+            let before = cand.len();
             self.global_grid
                 .for_each_within(&self.group_mean[g], |k, d2| {
                     cand.push((d2, g as u32, k as u32));
+                    global_pairs[k] += 1;
                 });
+            self.group_pairs.push((cand.len() - before) as u32);
         }
+        // a pair whose group and global are in no other pair is taken whatever the order
+        // (nothing can take either first) and takes nothing from the others: assign it
+        // now, and sort only the rest (usually few: most targets are far apart)
+        let (group_pairs, global_pairs) = (&self.group_pairs, &self.global_pairs);
+        let group_global = &mut self.group_global;
+        self.candidates.retain(|&(_, g, k)| {
+            let alone = group_pairs[g as usize] == 1 && global_pairs[k as usize] == 1;
+            if alone {
+                group_global[g as usize] = k;
+            }
+            !alone
+        });
         self.candidates.sort_unstable_by(by_distance);
         self.group_taken.clear();
         self.group_taken.resize(n_groups, false);
@@ -555,7 +579,7 @@ impl FdbscTa {
     /// Memberships (eq. 6-8) of every group, and the eq. 12 spreads.
     fn memberships(&mut self) {
         let n_groups = self.group_global.len();
-        self.weights.clear();
+        // every slot is written by the memberships below
         self.weights.resize(self.group_members.len(), 0.0);
         self.spreads.clear();
         self.me_pairs.clear();
@@ -669,11 +693,12 @@ impl TrackAssociator for FdbscTa {
         self.components.build(&self.track_grid);
 
         let m = tracks.len();
-        self.seed_sub.clear();
+        // no refill of the per-track and per-global marks (a fill of a few kB per
+        // scan): `split_cluster` sets `sub_of` of a cluster's members before it reads
+        // them, and puts back the `seed_sub` / `global_sub` marks it set, so between
+        // scans they are all NONE and only new slots need it
         self.seed_sub.resize(m, NONE);
-        self.sub_of.clear();
         self.sub_of.resize(m, NONE);
-        self.global_sub.clear();
         self.global_sub.resize(globals.len(), NONE);
         self.group_members.clear();
         self.group_start.clear();
