@@ -131,7 +131,7 @@
 //! eq. 6-8 and 12.
 
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
-use crate::max_entropy::{DMin, MaxEntropy, MePair, Normalise};
+use crate::max_entropy::{DMin, MaxEntropy};
 use crate::params::{in_range, positive, ParamError};
 use crate::spatial::{squared_distance, EpsComponents, EpsGrid};
 use crate::types::{position_of, Id, LocalTrack, Vec2};
@@ -252,7 +252,8 @@ pub struct FdbscTa {
     group_global: Vec<u32>,
     weights: Vec<f64>,
     me: MaxEntropy,
-    me_pairs: Vec<MePair>,
+    /// Member-to-centre distance of each slot of `group_members`.
+    distances: Vec<f64>,
     // splitting
     sensor_of: Vec<Id>,
     by_sensor: Vec<(Id, u32)>,
@@ -294,7 +295,7 @@ impl FdbscTa {
             group_global: Vec::new(),
             weights: Vec::new(),
             me: MaxEntropy::default(),
-            me_pairs: Vec::new(),
+            distances: Vec::new(),
             sensor_of: Vec::new(),
             by_sensor: Vec::new(),
             cluster_globals: Vec::new(),
@@ -582,30 +583,26 @@ impl FdbscTa {
         // every slot is written by the memberships below
         self.weights.resize(self.group_members.len(), 0.0);
         self.spreads.clear();
-        self.me_pairs.clear();
+        self.distances.clear();
         for g in 0..n_groups {
             let range = self.group_start[g]..self.group_start[g + 1];
             let centre = match self.group_global[g] {
                 NONE => self.group_mean[g],
                 k => self.global_grid.point(k as usize),
             };
-            for slot in range {
-                let i = self.group_members[slot];
+            for &i in &self.group_members[range] {
                 let d2 = squared_distance(&self.track_grid.point(i as usize), &centre);
-                self.me_pairs.push(MePair {
-                    point: slot as u32,
-                    cluster: g as u32,
-                    d: d2.sqrt(),
-                });
+                self.distances.push(d2.sqrt());
             }
         }
-        self.me.memberships(
-            &self.me_pairs,
+        // each track is in exactly one group and a group's slots are consecutive: the
+        // partition form of the memberships (the same weights as the pair form)
+        self.me.memberships_partition(
+            &self.distances,
+            &self.group_start,
             self.params.d_min,
             self.params.membership_epsilon,
-            Normalise::OverPoints,
             &mut self.weights,
-            None,
         );
         for g in 0..n_groups {
             let range = self.group_start[g]..self.group_start[g + 1];
