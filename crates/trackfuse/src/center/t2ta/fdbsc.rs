@@ -30,8 +30,9 @@
 //! by one sweep over the sorted cells, each cell compared with itself and its four
 //! forward neighbours ([`crate::spatial::EpsComponents::build`]); the other neighbourhood
 //! queries (splitting, continuation) look at the 3 x 3 cells around a point with three
-//! binary searches. Building is one sort, `O(m log m)`; the sweep is `O(m)` plus the
-//! distance checks, so the clustering is `O(m log m)` for any bounded target density
+//! binary searches. Building is one sort, `O(m log m)` (two counting sorts, `O(m)` plus
+//! the grid's rows and columns, when the scene spans at most `4 m + 64` of each); the
+//! sweep is `O(m)` plus the distance checks, so the clustering is `O(m log m)` for any bounded target density
 //! (why a grid and not a k-d tree: [`crate::spatial`]). Components are kept in the
 //! crate's union-find, whose roots are the smallest member index, so the clusters come
 //! out ordered by their first track.
