@@ -248,7 +248,13 @@ impl MaxEntropy {
             let g = group(p);
             let top = self.group_top[g];
             let w = if top > f64::NEG_INFINITY {
-                (self.exponent[i] - top).exp()
+                // the group's largest exponent gives exp(0) = 1 exactly, no libm call
+                let x = self.exponent[i];
+                if x == top {
+                    1.0
+                } else {
+                    (x - top).exp()
+                }
             } else if dist(p) <= self.group_min[g] && dist(p).is_finite() {
                 1.0
             } else {
@@ -260,6 +266,82 @@ impl MaxEntropy {
         for (i, p) in pairs.iter().enumerate() {
             let s = self.group_sum[group(p)];
             out[i] = if s > 0.0 { out[i] / s } else { 0.0 };
+        }
+    }
+
+    /// [`MaxEntropy::memberships`] normalised [`Normalise::OverPoints`] for the case
+    /// where every point belongs to exactly one cluster and each cluster's points are
+    /// consecutive (`fdbsc-ta`'s groups): point `i` is at distance `d[i]` from the centre
+    /// of its cluster, cluster `c` holds points `starts[c]..starts[c + 1]`. The same
+    /// weights bit for bit (the same operations in the same order, per cluster), without
+    /// the pair list and the scattered per-point / per-cluster arrays. Per point, a
+    /// point's `d_min` is its own distance (its one cluster is its nearest).
+    pub fn memberships_partition(
+        &mut self,
+        d: &[f64],
+        starts: &[usize],
+        d_min: DMin,
+        epsilon: f64,
+        out: &mut [f64],
+    ) {
+        debug_assert_eq!(d.len(), out.len());
+        let dist = |d: f64| {
+            if d.is_nan() {
+                f64::INFINITY
+            } else {
+                d.max(0.0)
+            }
+        };
+        let ln_eps = epsilon.ln();
+        let scan_min = match d_min {
+            DMin::ScanWide => d.iter().map(|&d| dist(d)).fold(f64::INFINITY, f64::min),
+            _ => f64::INFINITY,
+        };
+        for w in starts.windows(2) {
+            let (d, out) = (&d[w[0]..w[1]], &mut out[w[0]..w[1]]);
+            // 1. the cluster's d_min (per cluster), its smallest distance
+            let mut group_min = f64::INFINITY;
+            for &di in d {
+                group_min = group_min.min(dist(di));
+            }
+            // 2. exponents (kept in `out`) and the largest
+            let mut top = f64::NEG_INFINITY;
+            for (o, &di) in out.iter_mut().zip(d) {
+                let di = dist(di);
+                let m = match d_min {
+                    DMin::PerPoint => di,
+                    DMin::PerCluster => group_min,
+                    DMin::ScanWide => scan_min,
+                };
+                let x = if di.is_finite() {
+                    exponent(ln_eps, di, m)
+                } else {
+                    f64::NEG_INFINITY
+                };
+                *o = x;
+                top = top.max(x);
+            }
+            // 3. shifted weights, their sum, and the normalised weights
+            let mut sum = 0.0;
+            for (o, &di) in out.iter_mut().zip(d) {
+                let w = if top > f64::NEG_INFINITY {
+                    let x = *o;
+                    if x == top {
+                        1.0
+                    } else {
+                        (x - top).exp()
+                    }
+                } else if dist(di) <= group_min && dist(di).is_finite() {
+                    1.0
+                } else {
+                    0.0
+                };
+                *o = w;
+                sum += w;
+            }
+            for o in out.iter_mut() {
+                *o = if sum > 0.0 { *o / sum } else { 0.0 };
+            }
         }
     }
 
@@ -306,6 +388,40 @@ mod tests {
 
     fn pair(point: u32, cluster: u32, d: f64) -> MePair {
         MePair { point, cluster, d }
+    }
+
+    /// The partition form gives the pair form's weights bit for bit, in every reading,
+    /// with points on a centre, far away and at non-finite distances.
+    #[test]
+    fn partition_form_equals_pair_form() {
+        let d = [
+            500.0,
+            550.0,
+            600.0,
+            0.0,
+            0.0,
+            7.0,
+            3.0,
+            f64::NAN,
+            f64::INFINITY,
+            -1.0,
+            1e-300,
+            1e300,
+            42.0,
+        ];
+        let starts = [0, 3, 6, 7, 9, 10, 12, 13];
+        let pairs: Vec<MePair> = starts
+            .windows(2)
+            .enumerate()
+            .flat_map(|(c, w)| (w[0]..w[1]).map(move |i| pair(i as u32, c as u32, d[i])))
+            .collect();
+        for d_min in DMin::ALL {
+            let want = run(&pairs, d_min, Normalise::OverPoints);
+            let mut got = vec![f64::NAN; d.len()];
+            MaxEntropy::default().memberships_partition(&d, &starts, d_min, EPSILON, &mut got);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&got), bits(&want), "{d_min}");
+        }
     }
 
     /// Two points, two clusters, over clusters (001 / 002 form). Point 0 at distances

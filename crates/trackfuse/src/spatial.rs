@@ -108,6 +108,10 @@ pub struct EpsGrid {
     /// cache where `cells` (16 bytes a point) would not.
     dir_keys: Vec<u64>,
     dir_start: Vec<u32>,
+    /// Scratch of the counting sort in [`EpsGrid::rebuild`]: the entries sorted by row,
+    /// and the per-row / per-column counts.
+    by_row: Vec<u128>,
+    counts: Vec<u32>,
 }
 
 impl EpsGrid {
@@ -120,11 +124,31 @@ impl EpsGrid {
         self.inv_cell = 1.0 / (radius * (1.0 + 1e-6));
         self.radius2 = radius * radius;
         self.cells.clear();
+        let (mut x_lo, mut x_hi, mut y_lo, mut y_hi) = (i64::MAX, i64::MIN, i64::MAX, i64::MIN);
         for (i, p) in self.points.iter().enumerate() {
             let (cx, cy) = cell_of(p, self.inv_cell);
+            x_lo = x_lo.min(cx);
+            x_hi = x_hi.max(cx);
+            y_lo = y_lo.min(cy);
+            y_hi = y_hi.max(cy);
             self.cells.push(entry(pack(cx, cy), i as u32));
         }
-        self.cells.sort_unstable();
+        // the cells span a few columns and rows per point (cells of side Eps over a
+        // scene of targets spaced about Eps or more): two stable counting sorts, by row
+        // then by column, give the `(cell x, cell y, index)` order in `O(m + columns +
+        // rows)`; a scene spread over many more cells than points takes the comparison
+        // sort. The same order either way (the entries are distinct).
+        let n = self.cells.len();
+        let limit = 4 * n as u64 + 64;
+        if n > 1 && x_hi.abs_diff(x_lo) < limit && y_hi.abs_diff(y_lo) < limit {
+            let (cells, by_row, counts) = (&mut self.cells, &mut self.by_row, &mut self.counts);
+            let row = |c: u128| (unpack(key(c)).1 - y_lo) as usize;
+            let column = |c: u128| (unpack(key(c)).0 - x_lo) as usize;
+            counting_sort(cells, by_row, counts, (y_hi - y_lo) as usize + 1, row);
+            counting_sort(by_row, cells, counts, (x_hi - x_lo) as usize + 1, column);
+        } else {
+            self.cells.sort_unstable();
+        }
         self.dir_keys.clear();
         self.dir_start.clear();
         for (k, &c) in self.cells.iter().enumerate() {
@@ -420,6 +444,35 @@ impl BoxGrid {
         for &i in &self.others {
             f(i, &self.scratch[i as usize]);
         }
+    }
+}
+
+/// Stable counting sort of `from` into `to` by `bucket` (each below `buckets`), with
+/// `counts` as scratch.
+fn counting_sort(
+    from: &[u128],
+    to: &mut Vec<u128>,
+    counts: &mut Vec<u32>,
+    buckets: usize,
+    bucket: impl Fn(u128) -> usize,
+) {
+    counts.clear();
+    counts.resize(buckets, 0);
+    for &c in from {
+        counts[bucket(c)] += 1;
+    }
+    let mut acc = 0u32;
+    for k in counts.iter_mut() {
+        let n = *k;
+        *k = acc;
+        acc += n;
+    }
+    // every slot is written below: no clear (a fill of 16 bytes a point)
+    to.resize(from.len(), 0);
+    for &c in from {
+        let k = &mut counts[bucket(c)];
+        to[*k as usize] = c;
+        *k += 1;
     }
 }
 

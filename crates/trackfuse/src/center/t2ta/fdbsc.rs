@@ -30,8 +30,9 @@
 //! by one sweep over the sorted cells, each cell compared with itself and its four
 //! forward neighbours ([`crate::spatial::EpsComponents::build`]); the other neighbourhood
 //! queries (splitting, continuation) look at the 3 x 3 cells around a point with three
-//! binary searches. Building is one sort, `O(m log m)`; the sweep is `O(m)` plus the
-//! distance checks, so the clustering is `O(m log m)` for any bounded target density
+//! binary searches. Building is one sort, `O(m log m)` (two counting sorts, `O(m)` plus
+//! the grid's rows and columns, when the scene spans at most `4 m + 64` of each); the
+//! sweep is `O(m)` plus the distance checks, so the clustering is `O(m log m)` for any bounded target density
 //! (why a grid and not a k-d tree: [`crate::spatial`]). Components are kept in the
 //! crate's union-find, whose roots are the smallest member index, so the clusters come
 //! out ordered by their first track.
@@ -131,7 +132,7 @@
 //! eq. 6-8 and 12.
 
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
-use crate::max_entropy::{DMin, MaxEntropy, MePair, Normalise};
+use crate::max_entropy::{DMin, MaxEntropy};
 use crate::params::{in_range, positive, ParamError};
 use crate::spatial::{squared_distance, EpsComponents, EpsGrid};
 use crate::types::{position_of, Id, LocalTrack, Vec2};
@@ -252,7 +253,8 @@ pub struct FdbscTa {
     group_global: Vec<u32>,
     weights: Vec<f64>,
     me: MaxEntropy,
-    me_pairs: Vec<MePair>,
+    /// Member-to-centre distance of each slot of `group_members`.
+    distances: Vec<f64>,
     // splitting
     sensor_of: Vec<Id>,
     by_sensor: Vec<(Id, u32)>,
@@ -272,6 +274,9 @@ pub struct FdbscTa {
     group_mean: Vec<Vec2>,
     global_taken: Vec<bool>,
     group_taken: Vec<bool>,
+    /// Number of candidate pairs of each group / each global track.
+    group_pairs: Vec<u32>,
+    global_pairs: Vec<u32>,
     // adaptation
     spreads: Vec<f64>,
 }
@@ -291,7 +296,7 @@ impl FdbscTa {
             group_global: Vec::new(),
             weights: Vec::new(),
             me: MaxEntropy::default(),
-            me_pairs: Vec::new(),
+            distances: Vec::new(),
             sensor_of: Vec::new(),
             by_sensor: Vec::new(),
             cluster_globals: Vec::new(),
@@ -309,6 +314,8 @@ impl FdbscTa {
             group_mean: Vec::new(),
             global_taken: Vec::new(),
             group_taken: Vec::new(),
+            group_pairs: Vec::new(),
+            global_pairs: Vec::new(),
             spreads: Vec::new(),
         })
     }
@@ -531,13 +538,32 @@ impl FdbscTa {
             self.group_mean.push(mean / members.len() as f64);
         }
         self.candidates.clear();
+        self.global_pairs.clear();
+        self.global_pairs.resize(self.global_grid.len(), 0);
+        self.group_pairs.clear();
         for g in 0..n_groups {
             let cand = &mut self.candidates;
+            let global_pairs = &mut self.global_pairs;
+            let before = cand.len();
             self.global_grid
                 .for_each_within(&self.group_mean[g], |k, d2| {
                     cand.push((d2, g as u32, k as u32));
+                    global_pairs[k] += 1;
                 });
+            self.group_pairs.push((cand.len() - before) as u32);
         }
+        // a pair whose group and global are in no other pair is taken whatever the order
+        // (nothing can take either first) and takes nothing from the others: assign it
+        // now, and sort only the rest (usually few: most targets are far apart)
+        let (group_pairs, global_pairs) = (&self.group_pairs, &self.global_pairs);
+        let group_global = &mut self.group_global;
+        self.candidates.retain(|&(_, g, k)| {
+            let alone = group_pairs[g as usize] == 1 && global_pairs[k as usize] == 1;
+            if alone {
+                group_global[g as usize] = k;
+            }
+            !alone
+        });
         self.candidates.sort_unstable_by(by_distance);
         self.group_taken.clear();
         self.group_taken.resize(n_groups, false);
@@ -555,33 +581,29 @@ impl FdbscTa {
     /// Memberships (eq. 6-8) of every group, and the eq. 12 spreads.
     fn memberships(&mut self) {
         let n_groups = self.group_global.len();
-        self.weights.clear();
+        // every slot is written by the memberships below
         self.weights.resize(self.group_members.len(), 0.0);
         self.spreads.clear();
-        self.me_pairs.clear();
+        self.distances.clear();
         for g in 0..n_groups {
             let range = self.group_start[g]..self.group_start[g + 1];
             let centre = match self.group_global[g] {
                 NONE => self.group_mean[g],
                 k => self.global_grid.point(k as usize),
             };
-            for slot in range {
-                let i = self.group_members[slot];
+            for &i in &self.group_members[range] {
                 let d2 = squared_distance(&self.track_grid.point(i as usize), &centre);
-                self.me_pairs.push(MePair {
-                    point: slot as u32,
-                    cluster: g as u32,
-                    d: d2.sqrt(),
-                });
+                self.distances.push(d2.sqrt());
             }
         }
-        self.me.memberships(
-            &self.me_pairs,
+        // each track is in exactly one group and a group's slots are consecutive: the
+        // partition form of the memberships (the same weights as the pair form)
+        self.me.memberships_partition(
+            &self.distances,
+            &self.group_start,
             self.params.d_min,
             self.params.membership_epsilon,
-            Normalise::OverPoints,
             &mut self.weights,
-            None,
         );
         for g in 0..n_groups {
             let range = self.group_start[g]..self.group_start[g + 1];
@@ -669,11 +691,12 @@ impl TrackAssociator for FdbscTa {
         self.components.build(&self.track_grid);
 
         let m = tracks.len();
-        self.seed_sub.clear();
+        // no refill of the per-track and per-global marks (a fill of a few kB per
+        // scan): `split_cluster` sets `sub_of` of a cluster's members before it reads
+        // them, and puts back the `seed_sub` / `global_sub` marks it set, so between
+        // scans they are all NONE and only new slots need it
         self.seed_sub.resize(m, NONE);
-        self.sub_of.clear();
         self.sub_of.resize(m, NONE);
-        self.global_sub.clear();
         self.global_sub.resize(globals.len(), NONE);
         self.group_members.clear();
         self.group_start.clear();
