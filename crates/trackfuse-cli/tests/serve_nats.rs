@@ -107,6 +107,105 @@ async fn output_messages(js: &async_nats::jetstream::Context) -> Vec<((u64, u64)
     out
 }
 
+/// `nats-server -js` on a free loopback port with its store in `store`, once it accepts
+/// connections; its URL.
+fn start_nats_server(store: &Path) -> (KillOnDrop, String) {
+    let port = free_port();
+    let url = format!("nats://127.0.0.1:{port}");
+    let server = Command::new("nats-server")
+        .args([
+            "-js",
+            "-a",
+            "127.0.0.1",
+            "-p",
+            &port.to_string(),
+            "-sd",
+            &s(store),
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("nats-server (apt-get install nats-server)");
+    let server = KillOnDrop(server);
+    let t0 = Instant::now();
+    while TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "nats-server did not start"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    (server, url)
+}
+
+/// `loadgen --no-center`: the messaging measured alone reads back every report line it
+/// sent, and a latency for every scan but the last, over JetStream and over core NATS.
+#[test]
+#[ignore = "needs nats-server (Debian package nats-server) on the PATH; run with -- --ignored (.ci/run does)"]
+fn loadgen_without_a_center_reads_back_what_it_sent() {
+    for path in ["jetstream", "core"] {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (_server, url) = start_nats_server(&dir.path().join("js"));
+        let out = Command::cargo_bin("trackfuse")
+            .expect("binary")
+            .args([
+                "loadgen",
+                "--nats",
+                &url,
+                "--no-center",
+                path,
+                "--sensors",
+                "3",
+                "--targets",
+                "40",
+                "--rate",
+                "6000",
+                "--duration",
+                "1",
+            ])
+            .output()
+            .expect("loadgen");
+        let text = String::from_utf8_lossy(&out.stdout).to_string();
+        assert!(
+            out.status.success(),
+            "{path}: {text}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let number_after = |key: &str| -> u64 {
+            let i = text
+                .find(key)
+                .unwrap_or_else(|| panic!("{path}: no {key:?} in {text}"));
+            let rest = &text[i + key.len()..];
+            let end = rest
+                .find(|c: char| !c.is_ascii_digit())
+                .unwrap_or(rest.len());
+            rest[..end].parse().expect("a number")
+        };
+        let sent = number_after("sent ");
+        let scans = number_after(" of ");
+        assert!(scans > 2, "{path}: {text}");
+        assert_eq!(sent, scans * 3 * 40, "{path}: {text}");
+        assert_eq!(
+            number_after("input lines received: "),
+            sent,
+            "{path}: {text}"
+        );
+        assert_eq!(
+            number_after("instants with output: "),
+            scans - 1,
+            "{path}: {text}"
+        );
+        assert!(
+            text.contains(if path == "core" {
+                "core NATS"
+            } else {
+                "JetStream"
+            }),
+            "{text}"
+        );
+    }
+}
+
 #[test]
 #[ignore = "needs nats-server (Debian package nats-server) on the PATH; run with -- --ignored (.ci/run does)"]
 fn over_nats_a_center_killed_mid_run_is_replaced_and_the_output_equals_fuse() {
@@ -139,31 +238,7 @@ fn over_nats_a_center_killed_mid_run_is_replaced_and_the_output_equals_fuse() {
     ]);
 
     // nats-server with JetStream on a free port, its store in the temp dir
-    let port = free_port();
-    let url = format!("nats://127.0.0.1:{port}");
-    let server = Command::new("nats-server")
-        .args([
-            "-js",
-            "-a",
-            "127.0.0.1",
-            "-p",
-            &port.to_string(),
-            "-sd",
-            &s(&d.join("js")),
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("nats-server (apt-get install nats-server)");
-    let _server = KillOnDrop(server);
-    let t0 = Instant::now();
-    while TcpStream::connect(("127.0.0.1", port)).is_err() {
-        assert!(
-            t0.elapsed() < Duration::from_secs(20),
-            "nats-server did not start"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    let (_server, url) = start_nats_server(&d.join("js"));
     let rt = tokio::runtime::Runtime::new().expect("runtime");
     let js = rt.block_on(async {
         let c = async_nats::connect(&url).await.expect("connect");

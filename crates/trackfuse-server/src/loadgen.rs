@@ -66,6 +66,26 @@ pub struct LoadgenArgs {
     /// With `--nats`: the center's `[nats] output_subject`.
     #[arg(long, default_value = "fused")]
     pub output_subject: String,
+    /// With `--nats`, and no center running: what the messaging alone costs. The load is
+    /// published as with a center (the same subjects, messages and pacing) and read back
+    /// by the load generator itself; the latency is from the last sensor's first report
+    /// of scan k+1 sent to every sensor's first message of scan k+1 read back: what a
+    /// center waits for before it can fuse instant k, before any parsing or fusion.
+    /// `jetstream`: published into the input stream (created when missing) with
+    /// acknowledgements, read with an ordered consumer, as a center reads it. `core`:
+    /// plain NATS publish and subscription on the same subjects, no stream (for
+    /// comparison; do not run it against a server whose stream holds those subjects).
+    #[arg(long, value_enum, requires = "nats", value_name = "PATH")]
+    pub no_center: Option<NoCenter>,
+}
+
+/// `loadgen --no-center`: the messaging path measured alone.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NoCenter {
+    /// JetStream: acknowledged publish into the input stream, ordered consumer.
+    Jetstream,
+    /// Core NATS: plain publish and subscription.
+    Core,
 }
 
 /// A 64-bit mix (splitmix64's finaliser): the deterministic noise of the synthetic
@@ -328,12 +348,25 @@ fn report(
         args.rate
     );
     println!(
-        "instants with output: {} of {} scans sent; output lines received: {recv_lines}",
+        "instants with output: {} of {} scans sent; {} lines received: {recv_lines}",
         lat.len(),
         first_sent.len(),
+        if args.no_center.is_some() {
+            "input"
+        } else {
+            "output"
+        },
     );
+    let what = if let Some(path) = args.no_center {
+        match path {
+            NoCenter::Jetstream => "the messaging's part of the latency, JetStream (last sensor's first report of scan k+1 sent -> every sensor's first message of scan k+1 read back by an ordered consumer; no center)",
+            NoCenter::Core => "the messaging's part of the latency, core NATS (last sensor's first report of scan k+1 sent -> every sensor's first message of scan k+1 received by a subscription; no stream, no center)",
+        }
+    } else {
+        "latency beyond the assembly wait (last sensor's first report of scan k+1 -> first fused line of instant k)"
+    };
     println!(
-        "latency beyond the assembly wait (last sensor's first report of scan k+1 -> first fused line of instant k): p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms",
+        "{what}: p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms",
         percentile(&lat, 0.5) * 1e3,
         percentile(&lat, 0.99) * 1e3,
         lat.last().copied().unwrap_or(f64::NAN) * 1e3
@@ -344,6 +377,9 @@ fn report(
             .map(|(t, r)| format!("{t:.0}s {:.1}MiB", *r as f64 / 1024.0))
             .collect();
         println!("service resident memory: {}", s.join(", "));
+    }
+    if args.no_center.is_some() {
+        return;
     }
     match http_metrics(&args.http_addr) {
         Ok(m) => {
@@ -379,11 +415,35 @@ fn run_nats(args: &LoadgenArgs, url: &str, max_scans: u32, scan_wall: f64) -> Re
         let received: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(Vec::new()));
         let first_sent: Arc<Mutex<Vec<Option<Instant>>>> = Arc::new(Mutex::new(Vec::new()));
         let recv_lines = Arc::new(AtomicU64::new(0));
-        let mut sub = client
-            .subscribe(args.output_subject.clone())
-            .await
-            .map_err(|e| anyhow::anyhow!("subscribing to {}: {e}", args.output_subject))?;
-        let reader = {
+        let reader = if let Some(path) = args.no_center {
+            let (received, recv_lines) = (received.clone(), recv_lines.clone());
+            let sensors = args.sensors;
+            match path {
+                NoCenter::Jetstream => {
+                    let messages = input_reader(url, args).await?;
+                    let messages = messages.map(|m| m.map(|m| m.message));
+                    tokio::spawn(read_input(messages, sensors, received, recv_lines))
+                }
+                NoCenter::Core => {
+                    let c = async_nats::connect(url)
+                        .await
+                        .map_err(|e| anyhow::anyhow!("connecting to {url}: {e}"))?;
+                    let sub = c
+                        .subscribe(format!("{}.>", args.subject_prefix))
+                        .await
+                        .map_err(|e| anyhow::anyhow!("subscribing: {e}"))?;
+                    let messages = sub.map(Ok::<_, std::convert::Infallible>);
+                    tokio::spawn(async move {
+                        let _keep = c;
+                        read_input(messages, sensors, received, recv_lines).await
+                    })
+                }
+            }
+        } else {
+            let mut sub = client
+                .subscribe(args.output_subject.clone())
+                .await
+                .map_err(|e| anyhow::anyhow!("subscribing to {}: {e}", args.output_subject))?;
             let (received, recv_lines) = (received.clone(), recv_lines.clone());
             tokio::spawn(async move {
                 while let Some(m) = sub.next().await {
@@ -400,6 +460,8 @@ fn run_nats(args: &LoadgenArgs, url: &str, max_scans: u32, scan_wall: f64) -> Re
         let mut senders = Vec::new();
         for sensor in 0..args.sensors {
             let js = async_nats::jetstream::new(client.clone());
+            let client = client.clone();
+            let core = args.no_center == Some(NoCenter::Core);
             let subject = format!("{}.{sensor}", args.subject_prefix);
             let (sent, first_sent) = (sent.clone(), first_sent.clone());
             let (targets, period, duration) = (args.targets, args.period, args.duration);
@@ -425,6 +487,14 @@ fn run_nats(args: &LoadgenArgs, url: &str, max_scans: u32, scan_wall: f64) -> Re
                                 first = false;
                             }
                             let payload = std::mem::take(&mut buf);
+                            if core {
+                                // `--no-center core`: no stream, no acknowledgement
+                                client
+                                    .publish(subject.clone(), payload.into())
+                                    .await
+                                    .map_err(|e| anyhow::anyhow!("publishing: {e}"))?;
+                                continue;
+                            }
                             let ack = js
                                 .publish(subject.clone(), payload.into())
                                 .await
@@ -474,6 +544,73 @@ fn run_nats(args: &LoadgenArgs, url: &str, max_scans: u32, scan_wall: f64) -> Re
         );
         Ok(())
     })
+}
+
+/// `--no-center jetstream`: the input stream (created when missing, as a center creates it),
+/// read from now on with an ordered consumer on its own connection, as a center reads it.
+async fn input_reader(
+    url: &str,
+    args: &LoadgenArgs,
+) -> Result<async_nats::jetstream::consumer::pull::Ordered> {
+    use async_nats::jetstream::consumer;
+    let client = async_nats::connect(url)
+        .await
+        .map_err(|e| anyhow::anyhow!("connecting to {url}: {e}"))?;
+    let js = async_nats::jetstream::new(client);
+    let n = crate::config::NatsConfig {
+        url: url.to_string(),
+        subject_prefix: args.subject_prefix.clone(),
+        output_subject: args.output_subject.clone(),
+        ..Default::default()
+    };
+    let (input, _) = crate::nats::ensure_streams(&js, &n).await?;
+    let consumer = input
+        .create_consumer(consumer::pull::OrderedConfig {
+            filter_subject: format!("{}.>", args.subject_prefix),
+            deliver_policy: consumer::DeliverPolicy::New,
+            ..Default::default()
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("creating the consumer: {e}"))?;
+    consumer
+        .messages()
+        .await
+        .map_err(|e| anyhow::anyhow!("reading the input stream: {e}"))
+}
+
+/// `--no-center`: read the load back and note, for each scan `k + 1`, the
+/// moment the consumer holds every sensor's first message of it as the "output" of
+/// instant `k` (what a center needs before it can fuse `k`); report lines are counted.
+async fn read_input<E>(
+    messages: impl futures_util::Stream<Item = Result<async_nats::Message, E>>,
+    sensors: u32,
+    received: Arc<Mutex<Vec<Option<Instant>>>>,
+    recv_lines: Arc<AtomicU64>,
+) {
+    use futures_util::StreamExt;
+    let mut messages = std::pin::pin!(messages);
+    let mut seen: std::collections::HashMap<u32, std::collections::HashSet<u32>> =
+        std::collections::HashMap::new();
+    while let Some(m) = messages.next().await {
+        let Ok(m) = m else { continue };
+        let now = Instant::now();
+        let lines = m.payload.iter().filter(|&&b| b == b'\n').count();
+        recv_lines.fetch_add(lines as u64, Ordering::Relaxed);
+        let sensor = m
+            .subject
+            .rsplit('.')
+            .next()
+            .and_then(|s| s.parse::<u32>().ok());
+        let first = m.payload.split(|&b| b == b'\n').next();
+        let (Some(sensor), Some(k)) = (sensor, first.and_then(scan_of)) else {
+            continue;
+        };
+        let got = seen.entry(k).or_default();
+        if got.insert(sensor) && got.len() == sensors as usize && k > 0 {
+            note(&received, k - 1, now, true);
+            seen.remove(&k);
+        }
+    }
 }
 
 #[cfg(test)]
