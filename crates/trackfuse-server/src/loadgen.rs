@@ -564,18 +564,7 @@ async fn input_reader(
         ..Default::default()
     };
     let (input, _) = crate::nats::ensure_streams(&js, &n).await?;
-    let consumer = input
-        .create_consumer(consumer::pull::OrderedConfig {
-            filter_subject: format!("{}.>", args.subject_prefix),
-            deliver_policy: consumer::DeliverPolicy::New,
-            ..Default::default()
-        })
-        .await
-        .map_err(|e| anyhow::anyhow!("creating the consumer: {e}"))?;
-    consumer
-        .messages()
-        .await
-        .map_err(|e| anyhow::anyhow!("reading the input stream: {e}"))
+    crate::nats::ordered_input(&input, &args.subject_prefix, consumer::DeliverPolicy::New).await
 }
 
 /// `--no-center`: read the load back and note, for each scan `k + 1`, the

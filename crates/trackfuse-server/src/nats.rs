@@ -108,6 +108,28 @@ pub async fn ensure_streams(
     Ok((input, output))
 }
 
+/// The input stream's sensor (and control) subjects `<subject_prefix>.>` read in stream
+/// order with an ordered consumer from `from` on: how a center reads its input (from the
+/// start), and `loadgen --no-center jetstream` (from now on).
+pub async fn ordered_input(
+    input: &stream::Stream,
+    subject_prefix: &str,
+    from: consumer::DeliverPolicy,
+) -> Result<consumer::pull::Ordered> {
+    let consumer = input
+        .create_consumer(consumer::pull::OrderedConfig {
+            filter_subject: format!("{subject_prefix}.>"),
+            deliver_policy: from,
+            ..Default::default()
+        })
+        .await
+        .map_err(|e| anyhow!("nats: creating the consumer: {e}"))?;
+    consumer
+        .messages()
+        .await
+        .map_err(|e| anyhow!("nats: reading the input stream: {e}"))
+}
+
 /// `(instant, part)` of an output message's [`INSTANT_HEADER`] (a third field, `last`
 /// now, an instant's number of parts in streams written before, is not read).
 pub fn instant_of(headers: Option<&async_nats::HeaderMap>) -> Option<(u64, u64)> {
@@ -176,18 +198,7 @@ pub async fn start_nats(cfg: &ServiceConfig, outputs: Outputs) -> Result<NatsSer
     let js = jetstream::new(client);
     let (input, output_stream) = ensure_streams(&js, &n).await?;
     let resume = last_published(&output_stream, &n.output_subject).await?;
-    let consumer = input
-        .create_consumer(consumer::pull::OrderedConfig {
-            filter_subject: format!("{}.>", n.subject_prefix),
-            deliver_policy: consumer::DeliverPolicy::All,
-            ..Default::default()
-        })
-        .await
-        .map_err(|e| anyhow!("nats: creating the consumer: {e}"))?;
-    let messages = consumer
-        .messages()
-        .await
-        .map_err(|e| anyhow!("nats: reading the input stream: {e}"))?;
+    let messages = ordered_input(&input, &n.subject_prefix, consumer::DeliverPolicy::All).await?;
     let output = outputs
         .output
         .as_deref()
