@@ -104,6 +104,8 @@ thread_local! {
     /// Tests: parse every row with the general path (the reference of the fast path,
     /// [`ScanRows::parse_line`]).
     static NO_FAST: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// Tests: the measurement fast path reads every layout by its column roles.
+    static NO_SIX: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 /// Open `path` for a reader.
@@ -418,6 +420,32 @@ struct RepeatedF64 {
 }
 
 impl RepeatedF64 {
+    /// The fast paths' time cell at the start of `rest`: the cell of an earlier row,
+    /// whose value is kept, when the same text is followed by a field's end; otherwise
+    /// the number at the start of `rest` ([`float_prefix`]), kept when a field's end
+    /// follows it. Its value and length; `None` where `float_prefix` gives none.
+    #[inline]
+    fn prefix(&mut self, rest: &[u8]) -> Option<(f64, usize)> {
+        match self.value {
+            Some(v)
+                if !self.cell.is_empty()
+                    && rest.starts_with(&self.cell)
+                    && empty_cell(&rest[self.cell.len()..]) =>
+            {
+                Some((v, self.cell.len()))
+            }
+            _ => {
+                let (v, n) = float_prefix(rest)?;
+                if empty_cell(&rest[n..]) {
+                    self.cell.clear();
+                    self.cell.extend_from_slice(&rest[..n]);
+                    self.value = Some(v);
+                }
+                Some((v, n))
+            }
+        }
+    }
+
     #[inline]
     fn get(&mut self, row: &Row<'_>, col: usize) -> Result<f64, InputError> {
         let cell = row.cell(col);
@@ -1017,11 +1045,14 @@ struct MeasurementRows {
     /// Per sensor: its kind (when given), its time in the current scan and its latest
     /// scan ([`SensorSlots`]).
     sensors: SensorSlots,
-    /// `(sensor, range|x bits, bearing|y bits)` of the current scan.
-    seen: HashSet<(Id, u64, u64)>,
+    /// `(sensor, range|x bits, bearing|y bits)` of the current scan's rows.
+    seen: SeenKeys,
     time: RepeatedF64,
     /// What each column is to the fast path ([`MeasurementRows::parse_line`]).
     roles: Vec<Role>,
+    /// The kind of the six-column layout this project writes, when the header is that
+    /// layout ([`MeasurementRows::parse_line_six`]).
+    six: Option<SensorKind>,
     /// The values of the row the fast path read last.
     kept: KeptRow,
 }
@@ -1094,6 +1125,54 @@ fn float_prefix(b: &[u8]) -> Option<(f64, usize)> {
 #[inline]
 fn empty_cell(b: &[u8]) -> bool {
     matches!(b.first(), Some(b',' | b'\n'))
+}
+
+/// A set of one scan's measurement keys: the keys in a vector, in the order of their
+/// rows, and a hash table of their indices (`hashbrown::HashTable`). The same answers as
+/// a hash set of the keys (property test `seen_keys_is_a_hash_set`), with a table of
+/// 4-byte entries instead of 24-byte ones: a scan's table (thousands of rows) is touched
+/// at random once per row, and the smaller entries make the read of measurements.csv
+/// about 4 % faster (BENCHMARKS.md, issue 13 point 1). Holds up to `u32::MAX` keys
+/// ([`SeenKeys::full`]).
+#[derive(Default)]
+struct SeenKeys {
+    keys: Vec<(Id, u64, u64)>,
+    table: hashbrown::HashTable<u32>,
+    hasher: rustc_hash::FxBuildHasher,
+}
+
+impl SeenKeys {
+    /// Whether `key` is new (then it is added), as `HashSet::insert`.
+    #[inline]
+    fn insert(&mut self, key: (Id, u64, u64)) -> bool {
+        use std::hash::BuildHasher;
+        let hasher = &self.hasher;
+        let keys = &self.keys;
+        match self.table.entry(
+            hasher.hash_one(key),
+            |&i| keys[i as usize] == key,
+            |&i| hasher.hash_one(keys[i as usize]),
+        ) {
+            hashbrown::hash_table::Entry::Occupied(_) => false,
+            hashbrown::hash_table::Entry::Vacant(v) => {
+                // `full` is checked before every insert
+                v.insert(keys.len() as u32);
+                self.keys.push(key);
+                true
+            }
+        }
+    }
+
+    /// Whether no further key fits (the indices are `u32`).
+    #[inline]
+    fn full(&self) -> bool {
+        self.keys.len() >= u32::MAX as usize
+    }
+
+    fn clear(&mut self) {
+        self.keys.clear();
+        self.table.clear();
+    }
 }
 
 /// What the measurements reader keeps per sensor.
@@ -1186,6 +1265,13 @@ impl MeasurementRows {
             Some(_) => {}
             None => slot.scan_time = Some(time),
         }
+        if self.seen.full() {
+            return Err(InputError::line(
+                &meta.path,
+                line,
+                "more than 4294967295 rows in one scan",
+            ));
+        }
         if !self
             .seen
             .insert((sensor_id, value[0].to_bits(), value[1].to_bits()))
@@ -1218,6 +1304,131 @@ impl MeasurementRows {
             value,
             target_id,
         })
+    }
+
+    /// The fast path for any column order: each cell read by its column's [`Role`].
+    #[inline]
+    fn parse_line_roles(&mut self, b: &[u8]) -> Option<(usize, Option<u32>, f64)> {
+        let mut r = KeptRow {
+            target_id: -1,
+            ..KeptRow::default()
+        };
+        let mut scan = None;
+        let last = self.roles.len().checked_sub(1)?;
+        let mut p = 0;
+        for (i, &role) in self.roles.iter().enumerate() {
+            let rest = b.get(p..)?;
+            let n = match role {
+                Role::Scan => {
+                    let (v, n) = int_prefix(rest)?;
+                    scan = Some(u32::try_from(v).ok()?);
+                    n
+                }
+                Role::Sensor => {
+                    let (v, n) = int_prefix(rest)?;
+                    r.sensor_id = v;
+                    n
+                }
+                Role::Target => {
+                    if empty_cell(rest) {
+                        0
+                    } else {
+                        let (v, n) = int_prefix(rest)?;
+                        r.target_id = v;
+                        n
+                    }
+                }
+                Role::Time => {
+                    let (v, n) = self.time.prefix(rest)?;
+                    r.time = v;
+                    n
+                }
+                Role::Range | Role::Bearing | Role::X | Role::Y => {
+                    if empty_cell(rest) {
+                        0
+                    } else {
+                        let (v, n) = float_prefix(rest)?;
+                        *match role {
+                            Role::Range => &mut r.range,
+                            Role::Bearing => &mut r.bearing,
+                            Role::X => &mut r.x,
+                            _ => &mut r.y,
+                        } = Some(v);
+                        n
+                    }
+                }
+                Role::Other => {
+                    let n = memchr::memchr3(b',', b'\n', b'"', rest)?;
+                    if rest[..n].contains(&b'\r') {
+                        return None;
+                    }
+                    n
+                }
+            };
+            p += n;
+            let end = if i == last { b'\n' } else { b',' };
+            if *b.get(p)? != end {
+                return None;
+            }
+            p += 1;
+        }
+        // exactly the two cells of one kind, both numbers (any other row, valid or
+        // not, is the general path's)
+        match (r.range, r.bearing, r.x, r.y) {
+            (Some(_), Some(_), None, None) | (None, None, Some(_), Some(_)) => {}
+            _ => return None,
+        }
+        self.kept = r;
+        Some((p - 1, scan, r.time))
+    }
+
+    /// The fast path for the layout this project writes for one sensor kind,
+    /// `scan,time,sensor_id,A,B,target_id` (`A,B` = `range,bearing` or `x,y`), cell
+    /// after cell without the per-column dispatch of [`MeasurementRows::parse_line_roles`]
+    /// (a tenth of a measurement row's parsing). It returns what that function returns
+    /// for every input (test `six_column_path_is_the_role_path`): an empty `A` or `B`
+    /// cell, which that function reads and then refuses (a row needs both cells of its
+    /// kind), is refused here at once.
+    #[inline]
+    fn parse_line_six(&mut self, b: &[u8], kind: SensorKind) -> Option<(usize, Option<u32>, f64)> {
+        /// The position after the field end `c` expected at `p`.
+        #[inline(always)]
+        fn end(b: &[u8], p: usize, c: u8) -> Option<usize> {
+            (*b.get(p)? == c).then_some(p + 1)
+        }
+        let (scan, n) = int_prefix(b)?;
+        let scan = u32::try_from(scan).ok()?;
+        let p = end(b, n, b',')?;
+        let (time, n) = self.time.prefix(b.get(p..)?)?;
+        let p = end(b, p + n, b',')?;
+        let (sensor_id, n) = int_prefix(b.get(p..)?)?;
+        let p = end(b, p + n, b',')?;
+        let (a, n) = float_prefix(b.get(p..)?)?;
+        let p = end(b, p + n, b',')?;
+        let (c, n) = float_prefix(b.get(p..)?)?;
+        let p = end(b, p + n, b',')?;
+        let rest = b.get(p..)?;
+        let (target_id, n) = if empty_cell(rest) {
+            (-1, 0)
+        } else {
+            int_prefix(rest)?
+        };
+        let p = p + n;
+        end(b, p, b'\n')?;
+        let (range, bearing, x, y) = match kind {
+            SensorKind::RangeBearing => (Some(a), Some(c), None, None),
+            SensorKind::Position => (None, None, Some(a), Some(c)),
+        };
+        self.kept = KeptRow {
+            time,
+            sensor_id,
+            range,
+            bearing,
+            x,
+            y,
+            target_id,
+        };
+        Some((p, Some(scan), time))
     }
 
     /// Never: the fast path keeps only rows with the cells of one kind.
@@ -1295,97 +1506,14 @@ impl ScanRows for MeasurementRows {
         if NO_FAST.get() {
             return None;
         }
-        let mut r = KeptRow {
-            target_id: -1,
-            ..KeptRow::default()
-        };
-        let mut scan = None;
-        let last = self.roles.len().checked_sub(1)?;
-        let mut p = 0;
-        for (i, &role) in self.roles.iter().enumerate() {
-            let rest = b.get(p..)?;
-            let n = match role {
-                Role::Scan => {
-                    let (v, n) = int_prefix(rest)?;
-                    scan = Some(u32::try_from(v).ok()?);
-                    n
-                }
-                Role::Sensor => {
-                    let (v, n) = int_prefix(rest)?;
-                    r.sensor_id = v;
-                    n
-                }
-                Role::Target => {
-                    if empty_cell(rest) {
-                        0
-                    } else {
-                        let (v, n) = int_prefix(rest)?;
-                        r.target_id = v;
-                        n
-                    }
-                }
-                Role::Time => {
-                    // the cell of an earlier row, whose value is kept ([`RepeatedF64`];
-                    // the same cell only if a field's end follows, checked below)
-                    let t = &mut self.time;
-                    match t.value {
-                        Some(v)
-                            if !t.cell.is_empty()
-                                && rest.starts_with(&t.cell)
-                                && empty_cell(&rest[t.cell.len()..]) =>
-                        {
-                            r.time = v;
-                            t.cell.len()
-                        }
-                        _ => {
-                            let (v, n) = float_prefix(rest)?;
-                            if empty_cell(&rest[n..]) {
-                                t.cell.clear();
-                                t.cell.extend_from_slice(&rest[..n]);
-                                t.value = Some(v);
-                            }
-                            r.time = v;
-                            n
-                        }
-                    }
-                }
-                Role::Range | Role::Bearing | Role::X | Role::Y => {
-                    if empty_cell(rest) {
-                        0
-                    } else {
-                        let (v, n) = float_prefix(rest)?;
-                        *match role {
-                            Role::Range => &mut r.range,
-                            Role::Bearing => &mut r.bearing,
-                            Role::X => &mut r.x,
-                            _ => &mut r.y,
-                        } = Some(v);
-                        n
-                    }
-                }
-                Role::Other => {
-                    let n = memchr::memchr3(b',', b'\n', b'"', rest)?;
-                    if rest[..n].contains(&b'\r') {
-                        return None;
-                    }
-                    n
-                }
-            };
-            p += n;
-            let end = if i == last { b'\n' } else { b',' };
-            if *b.get(p)? != end {
-                return None;
-            }
-            p += 1;
+        #[cfg(test)]
+        if NO_SIX.get() {
+            return self.parse_line_roles(b);
         }
-        // exactly the two cells of one kind, both numbers (any other row, valid or
-        // not, is the general path's)
-        match (r.range, r.bearing, r.x, r.y) {
-            (Some(_), Some(_), None, None) | (None, None, Some(_), Some(_)) => {}
-            _ => return None,
+        match self.six {
+            Some(kind) => self.parse_line_six(b, kind),
+            None => self.parse_line_roles(b),
         }
-        self.kept = r;
-        Some((p - 1, scan, r.time))
     }
     fn parse_kept(&mut self, meta: &Meta, line: u64, scan: u32) -> Result<Measurement, InputError> {
         let r = self.kept;
@@ -1460,7 +1588,7 @@ impl<R: Read> MeasurementStream<R> {
                 reason: "missing measurement columns: need range and bearing, or x and y".into(),
             });
         }
-        let rows = MeasurementRows {
+        let mut rows = MeasurementRows {
             c_scan,
             c_time,
             c_sid,
@@ -1477,7 +1605,7 @@ impl<R: Read> MeasurementStream<R> {
                 }
                 slots
             },
-            seen: HashSet::default(),
+            seen: SeenKeys::default(),
             time: RepeatedF64::default(),
             roles: {
                 let mut roles = vec![Role::Other; t.meta.headers.len()];
@@ -1496,7 +1624,16 @@ impl<R: Read> MeasurementStream<R> {
                 set(t.opt("target_id"), Role::Target);
                 roles
             },
+            six: None,
             kept: KeptRow::default(),
+        };
+        rows.six = {
+            use Role::*;
+            match rows.roles[..] {
+                [Scan, Time, Sensor, Range, Bearing, Target] => Some(SensorKind::RangeBearing),
+                [Scan, Time, Sensor, X, Y, Target] => Some(SensorKind::Position),
+                _ => None,
+            }
         };
         Ok(MeasurementStream(ScanReader::new(t, rows)))
     }
@@ -2172,7 +2309,9 @@ mod tests {
             prop::collection::vec(cell, 9),
             prop::sample::select(vec!["\n", "\n", "\n", "\n", "\r\n", "\n\n"]),
         );
-        (
+        // any subset in any order (time and sensor_id always), or one of the six-column
+        // layouts this project writes (`MeasurementRows::parse_line_six`)
+        let shuffled = (
             Just(vec![
                 "scan",
                 "time",
@@ -2186,17 +2325,21 @@ mod tests {
             ])
             .prop_shuffle(),
             prop::collection::vec(any::<bool>(), 9),
-            prop::collection::vec(row, 0..40),
-            any::<bool>(),
         )
-            .prop_map(|(cols, keep, rows, last_terminator)| {
-                // time and sensor_id always; the others as drawn
-                let cols: Vec<&str> = cols
-                    .into_iter()
+            .prop_map(|(cols, keep)| {
+                cols.into_iter()
                     .zip(keep)
                     .filter(|(c, k)| *k || *c == "time" || *c == "sensor_id")
                     .map(|(c, _)| c)
-                    .collect();
+                    .collect::<Vec<&str>>()
+            });
+        let columns = prop_oneof![
+            2 => shuffled,
+            1 => Just(vec!["scan", "time", "sensor_id", "range", "bearing", "target_id"]),
+            1 => Just(vec!["scan", "time", "sensor_id", "x", "y", "target_id"]),
+        ];
+        (columns, prop::collection::vec(row, 0..40), any::<bool>()).prop_map(
+            |(cols, rows, last_terminator)| {
                 let mut text = cols.join(",");
                 text.push('\n');
                 let mut scan = 0;
@@ -2232,13 +2375,27 @@ mod tests {
                     }
                 }
                 text.into_bytes()
-            })
+            },
+        )
     }
 
     /// Everything a measurement stream returns (as [`stream_all`]), with or without the
     /// fast path, with or without sensors (0 and 2 range-bearing, 1 position).
     fn measurements_all(text: &[u8], chunk: usize, with_sensors: bool, fast: bool) -> String {
+        measurements_all_with(text, chunk, with_sensors, fast, true)
+    }
+
+    /// [`measurements_all`], with the six-column fast path or without it (`six`: then the
+    /// fast path reads every layout by its column roles).
+    fn measurements_all_with(
+        text: &[u8],
+        chunk: usize,
+        with_sensors: bool,
+        fast: bool,
+        six: bool,
+    ) -> String {
         NO_FAST.set(!fast);
+        NO_SIX.set(!six);
         let sensors: Vec<Sensor> = (0..3)
             .map(|id| Sensor {
                 id,
@@ -2285,6 +2442,7 @@ mod tests {
             }
         }
         NO_FAST.set(false);
+        NO_SIX.set(false);
         out
     }
 
@@ -2303,6 +2461,63 @@ mod tests {
             let fast = measurements_all(&text, chunk, sensors, true);
             let general = measurements_all(&text, chunk, sensors, false);
             prop_assert_eq!(fast, general, "{}", String::from_utf8_lossy(&text));
+        }
+
+        /// [`SeenKeys`] answers as a hash set of the keys, across clears.
+        #[test]
+        fn seen_keys_is_a_hash_set(
+            ops in prop::collection::vec(
+                prop_oneof![
+                    20 => (0i64..3, 0u64..6, prop::sample::select(vec![0u64, 1, u64::MAX]))
+                        .prop_map(Some),
+                    1 => Just(None),
+                ],
+                0..400,
+            ),
+        ) {
+            let mut seen = SeenKeys::default();
+            let mut set = HashSet::default();
+            for op in ops {
+                match op {
+                    Some(key) => prop_assert_eq!(seen.insert(key), set.insert(key)),
+                    None => {
+                        seen.clear();
+                        set.clear();
+                    }
+                }
+                prop_assert!(!seen.full());
+            }
+        }
+
+        /// The six-column fast path and the fast path by column roles return the same
+        /// for every line: the same rows, lines and errors from the stream, and
+        /// `parse_line` the same length, scan, time and kept values line by line.
+        #[test]
+        fn six_column_path_is_the_role_path(
+            text in measurement_text(),
+            sensors in any::<bool>(),
+            chunk in prop::sample::select(vec![0usize, 1, 7, 64]),
+        ) {
+            let six = measurements_all_with(&text, chunk, sensors, true, true);
+            let roles = measurements_all_with(&text, chunk, sensors, true, false);
+            prop_assert_eq!(six, roles, "{}", String::from_utf8_lossy(&text));
+            let s = MeasurementStream::from_reader(&text[..], "m.csv", None);
+            if let Ok(MeasurementStream(mut r)) = s {
+                if let Some(kind) = r.rows.six {
+                    let body = &text[text.iter().position(|&c| c == b'\n').map_or(text.len(), |i| i + 1)..];
+                    for start in 0..body.len() {
+                        let line = &body[start..];
+                        let a = r.rows.parse_line_six(line, kind);
+                        let kept_six = format!("{:?}", r.rows.kept);
+                        let b = r.rows.parse_line_roles(line);
+                        let kept_roles = format!("{:?}", r.rows.kept);
+                        prop_assert_eq!(a, b);
+                        if a.is_some() {
+                            prop_assert_eq!(kept_six, kept_roles);
+                        }
+                    }
+                }
+            }
         }
     }
 
