@@ -1133,7 +1133,7 @@ fn empty_cell(b: &[u8]) -> bool {
 /// 4-byte entries instead of 24-byte ones: a scan's table (thousands of rows) is touched
 /// at random once per row, and the smaller entries make the read of measurements.csv
 /// about 4 % faster (BENCHMARKS.md, issue 13 point 1). Holds up to `u32::MAX` keys
-/// ([`SeenKeys::full`]).
+/// ([`Seen::Full`]).
 #[derive(Default)]
 struct SeenKeys {
     keys: Vec<(Id, u64, u64)>,
@@ -1141,11 +1141,26 @@ struct SeenKeys {
     hasher: rustc_hash::FxBuildHasher,
 }
 
+/// What [`SeenKeys::insert`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Seen {
+    /// A new key, now added.
+    New,
+    /// A key added before.
+    Again,
+    /// No room for another key (`u32::MAX` held): nothing looked up or added.
+    Full,
+}
+
 impl SeenKeys {
-    /// Whether `key` is new (then it is added), as `HashSet::insert`.
+    /// Add `key` if it is new, as `HashSet::insert` (`New` for `true`, `Again` for
+    /// `false`), unless the set is full.
     #[inline]
-    fn insert(&mut self, key: (Id, u64, u64)) -> bool {
+    fn insert(&mut self, key: (Id, u64, u64)) -> Seen {
         use std::hash::BuildHasher;
+        if self.keys.len() >= u32::MAX as usize {
+            return Seen::Full;
+        }
         let hasher = &self.hasher;
         let keys = &self.keys;
         match self.table.entry(
@@ -1153,20 +1168,14 @@ impl SeenKeys {
             |&i| keys[i as usize] == key,
             |&i| hasher.hash_one(keys[i as usize]),
         ) {
-            hashbrown::hash_table::Entry::Occupied(_) => false,
+            hashbrown::hash_table::Entry::Occupied(_) => Seen::Again,
             hashbrown::hash_table::Entry::Vacant(v) => {
-                // `full` is checked before every insert
+                // below `u32::MAX` keys (checked above): the index fits
                 v.insert(keys.len() as u32);
                 self.keys.push(key);
-                true
+                Seen::New
             }
         }
-    }
-
-    /// Whether no further key fits (the indices are `u32`).
-    #[inline]
-    fn full(&self) -> bool {
-        self.keys.len() >= u32::MAX as usize
     }
 
     fn clear(&mut self) {
@@ -1265,22 +1274,25 @@ impl MeasurementRows {
             Some(_) => {}
             None => slot.scan_time = Some(time),
         }
-        if self.seen.full() {
-            return Err(InputError::line(
-                &meta.path,
-                line,
-                "more than 4294967295 rows in one scan",
-            ));
-        }
-        if !self
+        match self
             .seen
             .insert((sensor_id, value[0].to_bits(), value[1].to_bits()))
         {
-            return Err(InputError::line(
-                &meta.path,
-                line,
-                "duplicate row (same scan, sensor and measurement as an earlier row)",
-            ));
+            Seen::New => {}
+            Seen::Again => {
+                return Err(InputError::line(
+                    &meta.path,
+                    line,
+                    "duplicate row (same scan, sensor and measurement as an earlier row)",
+                ))
+            }
+            Seen::Full => {
+                return Err(InputError::line(
+                    &meta.path,
+                    line,
+                    "more than 4294967295 rows in one scan",
+                ))
+            }
         }
         // time must not go backwards as the scan index grows, per sensor
         if let Some((t_prev, s_prev, l_prev)) = slot.last {
@@ -1588,7 +1600,33 @@ impl<R: Read> MeasurementStream<R> {
                 reason: "missing measurement columns: need range and bearing, or x and y".into(),
             });
         }
-        let mut rows = MeasurementRows {
+        let roles = {
+            let mut roles = vec![Role::Other; t.meta.headers.len()];
+            let mut set = |c: Option<usize>, role| {
+                if let Some(c) = c {
+                    roles[c] = role;
+                }
+            };
+            set(c_scan, Role::Scan);
+            set(Some(c_time), Role::Time);
+            set(Some(c_sid), Role::Sensor);
+            set(rb_cols.map(|c| c.0), Role::Range);
+            set(rb_cols.map(|c| c.1), Role::Bearing);
+            set(pos_cols.map(|c| c.0), Role::X);
+            set(pos_cols.map(|c| c.1), Role::Y);
+            set(t.opt("target_id"), Role::Target);
+            roles
+        };
+        // the layout this project writes, read in a straight line (`parse_line_six`)
+        let six = {
+            use Role::*;
+            match roles[..] {
+                [Scan, Time, Sensor, Range, Bearing, Target] => Some(SensorKind::RangeBearing),
+                [Scan, Time, Sensor, X, Y, Target] => Some(SensorKind::Position),
+                _ => None,
+            }
+        };
+        let rows = MeasurementRows {
             c_scan,
             c_time,
             c_sid,
@@ -1607,33 +1645,9 @@ impl<R: Read> MeasurementStream<R> {
             },
             seen: SeenKeys::default(),
             time: RepeatedF64::default(),
-            roles: {
-                let mut roles = vec![Role::Other; t.meta.headers.len()];
-                let mut set = |c: Option<usize>, role| {
-                    if let Some(c) = c {
-                        roles[c] = role;
-                    }
-                };
-                set(c_scan, Role::Scan);
-                set(Some(c_time), Role::Time);
-                set(Some(c_sid), Role::Sensor);
-                set(rb_cols.map(|c| c.0), Role::Range);
-                set(rb_cols.map(|c| c.1), Role::Bearing);
-                set(pos_cols.map(|c| c.0), Role::X);
-                set(pos_cols.map(|c| c.1), Role::Y);
-                set(t.opt("target_id"), Role::Target);
-                roles
-            },
-            six: None,
+            roles,
+            six,
             kept: KeptRow::default(),
-        };
-        rows.six = {
-            use Role::*;
-            match rows.roles[..] {
-                [Scan, Time, Sensor, Range, Bearing, Target] => Some(SensorKind::RangeBearing),
-                [Scan, Time, Sensor, X, Y, Target] => Some(SensorKind::Position),
-                _ => None,
-            }
         };
         Ok(MeasurementStream(ScanReader::new(t, rows)))
     }
@@ -2479,13 +2493,15 @@ mod tests {
             let mut set = HashSet::default();
             for op in ops {
                 match op {
-                    Some(key) => prop_assert_eq!(seen.insert(key), set.insert(key)),
+                    Some(key) => {
+                        let want = if set.insert(key) { Seen::New } else { Seen::Again };
+                        prop_assert_eq!(seen.insert(key), want);
+                    }
                     None => {
                         seen.clear();
                         set.clear();
                     }
                 }
-                prop_assert!(!seen.full());
             }
         }
 
