@@ -126,18 +126,18 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             outs.finish();
             let secs = t0.elapsed().as_secs_f64();
             let rows = stats.measurement_rows + stats.truth_rows;
-            println!("scenario            {}", sc.name);
-            println!("scans x targets     {} x {}", sc.scans, sc.target_count());
-            println!("measurement rows    {}", stats.measurement_rows);
-            println!("truth rows          {}", stats.truth_rows);
-            println!("wall time           {secs:.3} s");
-            println!(
+            say!("scenario            {}", sc.name);
+            say!("scans x targets     {} x {}", sc.scans, sc.target_count());
+            say!("measurement rows    {}", stats.measurement_rows);
+            say!("truth rows          {}", stats.truth_rows);
+            say!("wall time           {secs:.3} s");
+            say!(
                 "measurement rows/s  {:.0}",
                 stats.measurement_rows as f64 / secs
             );
-            println!("all rows/s          {:.0}", rows as f64 / secs);
+            say!("all rows/s          {:.0}", rows as f64 / secs);
             if let Some(kb) = peak_rss_kb() {
-                println!("peak RSS            {:.1} MiB", kb as f64 / 1024.0);
+                say!("peak RSS            {:.1} MiB", kb as f64 / 1024.0);
             }
         }
         BenchWhat::Track {
@@ -199,14 +199,15 @@ fn best_cpu<T>(repeat: u32, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)
     Ok((best, v))
 }
 
-fn print_io(what: &str, bytes: u64, rows: usize, secs: f64) {
-    println!(
+fn print_io(what: &str, bytes: u64, rows: usize, secs: f64) -> Result<()> {
+    say!(
         "{what:<28} {:>8.1} MB  {rows:>9} rows  {:>7.3} s  {:>7.0} MB/s  {:>6.2} M rows/s",
         bytes as f64 / 1e6,
         secs,
         bytes as f64 / 1e6 / secs,
         rows as f64 / 1e6 / secs
     );
+    Ok(())
 }
 
 fn bench_io(
@@ -273,9 +274,9 @@ fn bench_file<S, T>(
         }
         Ok(n)
     })?;
-    print_io(&format!("read {name}"), bytes, n, secs);
+    print_io(&format!("read {name}"), bytes, n, secs)?;
     let (secs, n) = best_cpu(repeat, || quick_rows(path))?;
-    print_io(&format!("quick pass {name}"), bytes, n, secs);
+    print_io(&format!("quick pass {name}"), bytes, n, secs)?;
     let mut rows = Vec::new();
     let mut s = open(path)?;
     let mut buf = Vec::new();
@@ -283,7 +284,7 @@ fn bench_file<S, T>(
         rows.append(&mut buf);
     }
     let (secs, written) = best_cpu(repeat, || write(&rows))?;
-    print_io(&format!("write {name}"), written, rows.len(), secs);
+    print_io(&format!("write {name}"), written, rows.len(), secs)?;
     Ok(())
 }
 
@@ -346,18 +347,19 @@ fn bench_bias(scenario: &str, repeat: u32) -> Result<()> {
     let (t_without, _) = time(&without)?;
     let n = local.len() as f64;
     let est = (t_with - t_without).max(f64::MIN_POSITIVE);
-    println!("scenario                        {}", sc.name);
-    println!(
+    say!("scenario                        {}", sc.name);
+    say!(
         "fusion center                   {} + {}, bias {estimator}",
-        with.method, with.rule
+        with.method,
+        with.rule
     );
-    println!("local-track rows                {}", local.len());
-    println!("fused rows                      {fused}");
-    println!("center without estimator        {t_without:.4} s (CPU, 1 thread, best of {repeat})");
-    println!("center with estimator           {t_with:.4} s");
-    println!("estimator alone                 {est:.4} s");
-    println!("estimator local tracks/s        {:.0}", n / est);
-    println!("whole center local tracks/s     {:.0}", n / t_with);
+    say!("local-track rows                {}", local.len());
+    say!("fused rows                      {fused}");
+    say!("center without estimator        {t_without:.4} s (CPU, 1 thread, best of {repeat})");
+    say!("center with estimator           {t_with:.4} s");
+    say!("estimator alone                 {est:.4} s");
+    say!("estimator local tracks/s        {:.0}", n / est);
+    say!("whole center local tracks/s     {:.0}", n / t_with);
     Ok(())
 }
 
@@ -406,24 +408,25 @@ fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32) -> Result<()> 
     }
     let n = sim.measurements.len();
     let per_sensor_scan = n as f64 / (sc.scans as f64 * sim.sensors.len() as f64);
-    println!("scenario                    {}", sc.name);
-    println!(
+    say!("scenario                    {}", sc.name);
+    say!(
         "tracker                     {} + {}",
-        cfg.associator, cfg.filter
+        cfg.associator,
+        cfg.filter
     );
-    println!(
+    say!(
         "sensors x scans             {} x {}",
         sim.sensors.len(),
         sc.scans
     );
-    println!("measurements                {n} ({per_sensor_scan:.0} per sensor-scan)");
-    println!("local-track rows            {rows}");
-    println!("wall time (1 thread, best)  {best:.4} s");
-    println!(
+    say!("measurements                {n} ({per_sensor_scan:.0} per sensor-scan)");
+    say!("local-track rows            {rows}");
+    say!("wall time (1 thread, best)  {best:.4} s");
+    say!(
         "per sensor-scan             {:.1} us",
         best * 1e6 / (sc.scans as f64 * sim.sensors.len() as f64)
     );
-    println!("measurements/s per core     {:.0}", n as f64 / best);
+    say!("measurements/s per core     {:.0}", n as f64 / best);
     Ok(())
 }
 
@@ -479,19 +482,19 @@ fn bench_fuse(
     let data = synthetic_local_tracks(targets, sensors, scans.max(2) + 1);
     let timed = pool.install(|| time_center(flags, &data))?;
     let (secs, n) = (timed.total(), timed.tracks);
-    println!("fusion center               {} + {}", cfg.method, cfg.rule);
-    println!("targets x sensors           {targets} x {sensors}");
-    println!("scans timed                 {}", data.len() - 1);
-    println!("local tracks/s per core     {:.0}", n as f64 / secs);
-    println!();
-    println!("local tracks per scan   median time per scan (ms)   us per local track");
+    say!("fusion center               {} + {}", cfg.method, cfg.rule);
+    say!("targets x sensors           {targets} x {sensors}");
+    say!("scans timed                 {}", data.len() - 1);
+    say!("local tracks/s per core     {:.0}", n as f64 / secs);
+    say!();
+    say!("local tracks per scan   median time per scan (ms)   us per local track");
     for &m in sweep {
         let t = (m / sensors.max(1)).max(1);
         let reps = ((1_000_000 / m.max(1)) as u32).clamp(11, 200);
         let data = synthetic_local_tracks(t, sensors, reps + 1);
         let timed = pool.install(|| time_center(flags, &data))?;
         let per_scan = timed.median();
-        println!(
+        say!(
             "{:>21}   {:>25.3}   {:>18.3}",
             t * sensors,
             per_scan * 1e3,

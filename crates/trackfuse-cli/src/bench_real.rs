@@ -185,7 +185,7 @@ pub fn run(args: &RealArgs) -> Result<()> {
         .map(|d| score_folder(d, Some(d), &sensors, &truth, &cfg))
         .transpose()?;
 
-    println!(
+    say!(
         "data {} ({} sensors, {} truth rows); GOSPA c = {} m, p = {}, alpha = 2, mean over scans",
         args.data.display(),
         sensors.len(),
@@ -193,7 +193,7 @@ pub fn run(args: &RealArgs) -> Result<()> {
         cfg.gospa_c,
         cfg.gospa_p
     );
-    println!();
+    say!();
     let head = [
         "run",
         "GOSPA",
@@ -246,9 +246,9 @@ pub fn run(args: &RealArgs) -> Result<()> {
             ));
         }
     }
-    print!("{}", crate::common::table(&head, &rows));
-    println!();
-    println!("wall time: track {track_secs:.3} s, fuse {fuse_secs:.3} s");
+    put!("{}", crate::common::table(&head, &rows));
+    say!();
+    say!("wall time: track {track_secs:.3} s, fuse {fuse_secs:.3} s");
     Ok(())
 }
 

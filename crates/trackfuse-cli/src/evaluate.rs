@@ -115,12 +115,6 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
         evaluation: cfg.clone(),
         spread: Vec::new(),
     };
-    print!("{}", render_summary(&s));
-    if let Some(g) = s.truth_interpolation_max_gap {
-        println!(
-            "fused rows paired with the truth by time, interpolated over truth gaps up to {g} s"
-        );
-    }
     let json = summary_json(&s, &prov)?;
     let path = match &args.summary {
         Some(file) => outs.write_file(file, json.as_bytes())?,
@@ -145,6 +139,12 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
         },
     )?;
     outs.finish();
+    // printed once the files are in place: a reader of standard output that goes away
+    // (`| head`) ends the command without losing them
+    put!("{}", render_summary(&s));
+    if let Some(g) = s.truth_interpolation_max_gap {
+        say!("fused rows paired with the truth by time, interpolated over truth gaps up to {g} s");
+    }
     eprintln!(
         "wrote {}, and report.html and report.md in {}",
         path.display(),

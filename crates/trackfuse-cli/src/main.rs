@@ -1,5 +1,23 @@
 //! The `trackfuse` command-line tool.
 
+/// `println!` that returns its error instead of panicking (use in functions returning
+/// `anyhow::Result`): a reader that goes away (`trackfuse bench io | head -1`) ends the
+/// command quietly ([`main`]) instead of a panic.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($t)*)?;
+    }};
+}
+
+/// `print!` as [`say!`] is `println!`.
+macro_rules! put {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout(), $($t)*)?;
+    }};
+}
+
 mod bench;
 mod bench_real;
 mod common;
@@ -73,9 +91,22 @@ enum Command {
 
 fn main() {
     if let Err(e) = real_main() {
+        // standard output closed by its reader (`trackfuse bench io | head -1`): the
+        // reader has what it wanted, so end quietly, as `head`'s other writers do
+        if broken_pipe(&e) {
+            std::process::exit(0);
+        }
         eprintln!("error: {}", render_error(&e));
         std::process::exit(1);
     }
+}
+
+/// Whether `e` comes from writing to a pipe whose reader has gone.
+fn broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 /// The error and its causes joined by ": ", each cause left out when the message so far
@@ -118,7 +149,7 @@ fn real_main() -> Result<()> {
         Command::Mc(a) => mc::run(a),
         Command::Reproduce(a) => reproduce::run(a),
         Command::Methods => {
-            print!("{}", config::methods_text());
+            put!("{}", config::methods_text());
             Ok(())
         }
         Command::Evaluate(a) => evaluate::run(a),
@@ -132,7 +163,7 @@ fn real_main() -> Result<()> {
                 let desc = trackfuse::RunConfig::from_toml(text, name)
                     .map(|c| c.scenario.description)
                     .unwrap_or_default();
-                println!("{name:<14} {desc}");
+                say!("{name:<14} {desc}");
             }
             Ok(())
         }

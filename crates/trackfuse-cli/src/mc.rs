@@ -111,7 +111,7 @@ pub fn run(args: &McArgs) -> Result<()> {
         },
     )?;
     outs.finish();
-    println!(
+    say!(
         "{}: {} runs, seed {}, tracker {} + {}, fusion {} + {}{}\n",
         if sc.scenario.name.is_empty() {
             "scenario"
@@ -126,7 +126,7 @@ pub fn run(args: &McArgs) -> Result<()> {
         fusion.rule,
         crate::run::bias_label(&fusion, &sc.scenario.sensor_table())
     );
-    print!("{}", render_summary_with(&summary, &prov.spread));
+    put!("{}", render_summary_with(&summary, &prov.spread));
     eprintln!(
         "\n{:.2} s for {runs} runs; summary in {} (report.html and report.md beside it)",
         elapsed.as_secs_f64(),

@@ -110,7 +110,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
     )?;
     let dir = outs.dir().to_path_buf();
     outs.finish();
-    println!(
+    say!(
         "{} (seed {}, run {}): tracker {} + {}, fusion {} + {}{}",
         if sc.scenario.name.is_empty() {
             "scenario"
@@ -125,18 +125,18 @@ pub fn run(args: &RunArgs) -> Result<()> {
         fusion.rule,
         bias_label(&fusion, &out.sim.sensors)
     );
-    println!(
+    say!(
         "{} measurements, {} local-track rows, {} fused rows\n",
         out.sim.measurements.len(),
         out.local.len(),
         out.fused.fused.len()
     );
-    print!("{}", render_summary(&summary));
+    put!("{}", render_summary(&summary));
     if !out.fused.bias.is_empty() {
-        println!("\nBias estimates (true biases in sensors.csv)");
+        say!("\nBias estimates (true biases in sensors.csv)");
         for b in &out.fused.bias {
             let truth = out.sim.sensors.iter().find(|s| s.id == b.sensor_id);
-            println!(
+            say!(
                 "  sensor {}: range {:.1} m (true {:.1}), bearing {:.5} rad (true {:.5})",
                 b.sensor_id,
                 b.range,

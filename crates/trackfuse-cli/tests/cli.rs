@@ -273,3 +273,22 @@ fn every_registered_name_runs_by_its_flag() {
             .success();
     }
 }
+
+/// Standard output closed by its reader (`trackfuse methods | head -1`) ends the command
+/// quietly with success, not with a panic: the pipe's read end is closed before the
+/// command starts, so its first write fails.
+#[test]
+fn a_closed_standard_output_ends_the_command_quietly() {
+    for args in [&["methods"][..], &["reproduce", "--list"][..]] {
+        let (reader, writer) = std::io::pipe().expect("pipe");
+        drop(reader);
+        let out = std::process::Command::new(assert_cmd::cargo::cargo_bin("trackfuse"))
+            .args(args)
+            .stdout(writer)
+            .output()
+            .expect("run");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{args:?}: {:?}: {err}", out.status);
+        assert!(err.is_empty(), "{args:?}: {err}");
+    }
+}

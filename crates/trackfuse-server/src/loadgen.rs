@@ -300,7 +300,7 @@ pub fn run(args: &LoadgenArgs) -> Result<()> {
         &received,
         recv_lines.load(Ordering::Relaxed),
         &rss,
-    );
+    )?;
     drop(reader); // the reader thread ends with the service's stream
     Ok(())
 }
@@ -329,7 +329,11 @@ fn report(
     received: &[Option<Instant>],
     recv_lines: u64,
     rss: &[(f64, u64)],
-) {
+) -> Result<()> {
+    use std::io::Write as _;
+    // written, not `println!`: a reader that has gone (`| head`) is an error for the
+    // caller (the command ends quietly), not a panic
+    let mut out = std::io::stdout().lock();
     let mut lat: Vec<f64> = received
         .iter()
         .enumerate()
@@ -341,13 +345,15 @@ fn report(
         .collect();
     lat.sort_by(f64::total_cmp);
     let via = if args.nats.is_some() { "NATS" } else { "TCP" };
-    println!(
+    writeln!(
+        out,
         "sent {total} local-track messages from {} sensors over {via} in {send_time:.1} s: {:.0} messages/s (asked {:.0})",
         args.sensors,
         total as f64 / send_time,
         args.rate
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "instants with output: {} of {} scans sent; {} lines received: {recv_lines}",
         lat.len(),
         first_sent.len(),
@@ -356,7 +362,7 @@ fn report(
         } else {
             "output"
         },
-    );
+    )?;
     let what = if let Some(path) = args.no_center {
         match path {
             NoCenter::Jetstream => "the messaging's part of the latency, JetStream (last sensor's first report of scan k+1 sent -> every sensor's first message of scan k+1 read back by an ordered consumer; no center)",
@@ -365,21 +371,22 @@ fn report(
     } else {
         "latency beyond the assembly wait (last sensor's first report of scan k+1 -> first fused line of instant k)"
     };
-    println!(
+    writeln!(
+        out,
         "{what}: p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms",
         percentile(&lat, 0.5) * 1e3,
         percentile(&lat, 0.99) * 1e3,
         lat.last().copied().unwrap_or(f64::NAN) * 1e3
-    );
+    )?;
     if !rss.is_empty() {
         let s: Vec<String> = rss
             .iter()
             .map(|(t, r)| format!("{t:.0}s {:.1}MiB", *r as f64 / 1024.0))
             .collect();
-        println!("service resident memory: {}", s.join(", "));
+        writeln!(out, "service resident memory: {}", s.join(", "))?;
     }
     if args.no_center.is_some() {
-        return;
+        return Ok(());
     }
     match http_metrics(&args.http_addr) {
         Ok(m) => {
@@ -389,16 +396,18 @@ fn report(
                     .filter_map(|l| l.rsplit(' ').next()?.parse::<u64>().ok())
                     .sum()
             };
-            println!(
+            writeln!(
+                out,
                 "service: accepted {}, rejected {}, late {}, instants fused {}",
                 sum("trackfuse_accepted_total"),
                 sum("trackfuse_rejected_total"),
                 sum("trackfuse_late_total"),
                 sum("trackfuse_instants_fused_total")
-            );
+            )?;
         }
-        Err(e) => println!("service metrics: not read ({e:#})"),
+        Err(e) => writeln!(out, "service metrics: not read ({e:#})")?,
     }
+    Ok(())
 }
 
 /// [`run`] through NATS JetStream (`--nats`).
@@ -541,7 +550,7 @@ fn run_nats(args: &LoadgenArgs, url: &str, max_scans: u32, scan_wall: f64) -> Re
             &received,
             recv_lines.load(Ordering::Relaxed),
             &rss,
-        );
+        )?;
         Ok(())
     })
 }

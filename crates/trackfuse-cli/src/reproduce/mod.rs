@@ -315,7 +315,7 @@ pub fn run(args: &ReproduceArgs) -> Result<()> {
     }
     if args.list || args.paper.is_none() {
         for r in REPRODUCTIONS {
-            println!("{:<8} {}", r.name, r.summary);
+            say!("{:<8} {}", r.name, r.summary);
         }
         return Ok(());
     }
