@@ -73,7 +73,8 @@ struct Batch {
     /// in track-id order (as this project's trackers and `loadgen` do) then gives the
     /// instant batcher rows already in its `(sensor_id, track_id)` order, so it appends
     /// them instead of sorting 200-byte rows on the way to the fusion (measured: about
-    /// 0.3 ms of the latency of a 4 000-report instant). The batcher's result does not
+    /// 0.15 ms of the mean latency of a 4 000-report instant, BENCHMARKS.md). The
+    /// batcher's result does not
     /// depend on the order of a batch's rows (their keys are distinct: a second report
     /// of a track at one time is refused), so neither does the output.
     by_sensor: Vec<(Id, Vec<LocalTrack>)>,
