@@ -1,21 +1,22 @@
 //! The `trackfuse` command-line tool.
 
 /// `println!` that returns its error instead of panicking (use in functions returning
-/// `anyhow::Result`): a reader that goes away (`trackfuse bench io | head -1`) ends the
-/// command quietly ([`main`]) instead of a panic.
+/// `anyhow::Result`; [`trackfuse_server::cli::out`]): a reader that goes away
+/// (`trackfuse bench io | head -1`) ends the command quietly ([`main`]).
 macro_rules! say {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        writeln!(std::io::stdout(), $($t)*)?;
-    }};
+    () => {
+        trackfuse_server::cli::out(format_args!("\n"))?
+    };
+    ($($t:tt)*) => {
+        trackfuse_server::cli::out(format_args!("{}\n", format_args!($($t)*)))?
+    };
 }
 
 /// `print!` as [`say!`] is `println!`.
 macro_rules! put {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        write!(std::io::stdout(), $($t)*)?;
-    }};
+    ($($t:tt)*) => {
+        trackfuse_server::cli::out(format_args!($($t)*))?
+    };
 }
 
 mod bench;
@@ -93,20 +94,14 @@ fn main() {
     if let Err(e) = real_main() {
         // standard output closed by its reader (`trackfuse bench io | head -1`): the
         // reader has what it wanted, so end quietly, as `head`'s other writers do
-        if broken_pipe(&e) {
+        if e.chain()
+            .any(|c| c.is::<trackfuse_server::cli::StdoutClosed>())
+        {
             std::process::exit(0);
         }
         eprintln!("error: {}", render_error(&e));
         std::process::exit(1);
     }
-}
-
-/// Whether `e` comes from writing to a pipe whose reader has gone.
-fn broken_pipe(e: &anyhow::Error) -> bool {
-    e.chain().any(|c| {
-        c.downcast_ref::<std::io::Error>()
-            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
-    })
 }
 
 /// The error and its causes joined by ": ", each cause left out when the message so far

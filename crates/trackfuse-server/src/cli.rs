@@ -8,6 +8,32 @@ use clap::Args;
 use std::io::Write;
 use std::path::PathBuf;
 
+/// Standard output's reader has gone (a broken pipe writing to it: `trackfuse ... |
+/// head -1`). Only [`out`] gives it, so a broken pipe elsewhere (a socket to a service
+/// that went away) stays an error; `trackfuse` ends on this one quietly, with success.
+#[derive(Debug)]
+pub struct StdoutClosed;
+
+impl std::fmt::Display for StdoutClosed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("standard output closed by its reader")
+    }
+}
+
+impl std::error::Error for StdoutClosed {}
+
+/// Write `args` to standard output: `print!` that returns its error instead of
+/// panicking, a reader that has gone being [`StdoutClosed`].
+pub fn out(args: std::fmt::Arguments<'_>) -> Result<()> {
+    std::io::stdout().write_fmt(args).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            anyhow::Error::new(StdoutClosed)
+        } else {
+            anyhow::Error::new(e).context("writing to standard output")
+        }
+    })
+}
+
 /// `trackfuse serve`.
 #[derive(Args, Debug)]
 pub struct ServeArgs {

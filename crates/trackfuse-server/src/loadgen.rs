@@ -330,10 +330,10 @@ fn report(
     recv_lines: u64,
     rss: &[(f64, u64)],
 ) -> Result<()> {
-    use std::io::Write as _;
-    // written, not `println!`: a reader that has gone (`| head`) is an error for the
-    // caller (the command ends quietly), not a panic
-    let mut out = std::io::stdout().lock();
+    use std::fmt::Write as _;
+    // composed, then written by `cli::out`, not `println!`: a reader that has gone
+    // (`| head`) is an error for the caller (the command ends quietly), not a panic
+    let mut out = String::new();
     let mut lat: Vec<f64> = received
         .iter()
         .enumerate()
@@ -386,7 +386,7 @@ fn report(
         writeln!(out, "service resident memory: {}", s.join(", "))?;
     }
     if args.no_center.is_some() {
-        return Ok(());
+        return crate::cli::out(format_args!("{out}"));
     }
     match http_metrics(&args.http_addr) {
         Ok(m) => {
@@ -407,7 +407,7 @@ fn report(
         }
         Err(e) => writeln!(out, "service metrics: not read ({e:#})")?,
     }
-    Ok(())
+    crate::cli::out(format_args!("{out}"))
 }
 
 /// [`run`] through NATS JetStream (`--nats`).
