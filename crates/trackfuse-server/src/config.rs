@@ -28,6 +28,12 @@ pub struct ServiceConfig {
     /// reported past its time before it is fused anyway (default 0.5 s).
     #[serde(default = "default_budget")]
     pub latency_budget: f64,
+    /// Fuse an instant on a copy of the center while the center waits for the sensors
+    /// to report past it, and keep the result if no report of it came after (default
+    /// true; the output is the same bytes either way: the engine's docs, "Fusing
+    /// ahead"). Off, each instant is fused only once it is complete.
+    #[serde(default = "default_true")]
+    pub fuse_ahead: bool,
     /// sensors.csv with the sensors' geometry (for the bias estimator), relative to the
     /// config file. Optional; without it the center knows no geometry.
     #[serde(default)]
@@ -160,6 +166,9 @@ fn default_subscriber_addr() -> String {
 }
 fn default_http_addr() -> String {
     "127.0.0.1:7402".into()
+}
+fn default_true() -> bool {
+    true
 }
 fn default_budget() -> f64 {
     0.5

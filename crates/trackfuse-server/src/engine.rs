@@ -20,6 +20,25 @@
 //! once), and at shutdown ([`Engine::release_all`]). So a silent sensor delays an
 //! instant by the budget at most and stalls nobody.
 //!
+//! # Fusing ahead
+//! An instant is complete only when every sensor has reported past it, i.e. when the
+//! next scan's first reports come; but its own reports are usually all in well before
+//! that (a sensor sends a scan at once, then nothing until the next one). So when the
+//! center has nothing else to do ([`Engine::fuse_ahead`], called by the server when
+//! its input queue is empty), it fuses the oldest batch on a copy of the center and of
+//! the instant batcher ([`FusionCenter::fork`]) and keeps the result aside. When the
+//! batch is released, the copy *becomes* the center and its output is published if the
+//! batch is the same one it fused (same time, no report added since: reports are only
+//! ever added to a batch, and the batcher's result does not depend on their order);
+//! otherwise the copy is dropped and the batch is fused as it is now. The output is the
+//! same bytes either way (test `fusing_ahead_gives_the_same_output`); only when the
+//! work is done moves. It is tried on a batch when every expected sensor has given it
+//! at least as many reports as to the batch fused before (how the center guesses that
+//! a scan is all in: a guess that only decides whether the work is done early, and at
+//! most once per batch and count). A center whose method, rule or bias estimator
+//! cannot be copied (a method plugged in from outside without `fork`) never fuses
+//! ahead. `fuse_ahead = false` in center.toml turns it off.
+//!
 //! # Late reports
 //! A report at or before the time of the last batch fused is *late*: its instant is
 //! gone. It is counted (per sensor) and logged, and journaled, but neither fused nor
@@ -140,6 +159,10 @@ pub struct EngineStats {
     pub forced_by_limit: u64,
     /// Instants the center refused (an error it reported; logged, the service goes on).
     pub center_errors: u64,
+    /// Batches fused ahead of their release (module docs, "Fusing ahead").
+    pub fused_ahead: u64,
+    /// Of those, the ones kept (no report of the batch came after).
+    pub ahead_kept: u64,
 }
 
 /// A journal line that is not a report: a release the server's timer made (over NATS
@@ -155,6 +178,56 @@ pub struct ReleaseLine {
 pub struct JournalHeader {
     pub trackfuse_journal: u32,
     pub setup: CenterSetup,
+}
+
+/// An instant fused ahead of time (module docs, "Fusing ahead"): the center and the
+/// instant batcher after the batch `key` of `len` reports, and what fusing it gave.
+struct Ahead {
+    key: TimeKey,
+    len: usize,
+    center: FusionCenter,
+    batcher: InstantBatcher,
+    fused: Fused,
+}
+
+/// What handing one batch to the instant batcher gave.
+#[derive(Default)]
+struct Fused {
+    output: Vec<InstantOutput>,
+    times: Vec<Duration>,
+    instants: u64,
+    error: Option<String>,
+}
+
+/// Hand one batch (`scan`, `time`, its `rows`) to `batcher` and fuse on `center` what
+/// it gives (the one path of a batch, fused ahead or not).
+fn fuse_batch(
+    center: &mut FusionCenter,
+    batcher: &mut InstantBatcher,
+    out: &mut ScanOutput,
+    scan: u32,
+    time: f64,
+    rows: &[LocalTrack],
+) -> Fused {
+    let mut fused = Fused::default();
+    let result = batcher.push(scan, time, rows, |s, t, tracks| {
+        let t0 = Instant::now();
+        center.process_at_into(s, t, tracks, out)?;
+        fused.times.push(t0.elapsed());
+        fused.instants += 1;
+        if !out.fused.is_empty() || !out.associations.is_empty() {
+            // taken, not copied: the center refills the emptied buffers
+            fused.output.push(InstantOutput {
+                fused: std::mem::take(&mut out.fused),
+                associations: std::mem::take(&mut out.associations),
+            });
+        }
+        Ok::<(), trackfuse::center::CenterError>(())
+    });
+    if let Err(e) = result {
+        fused.error = Some(format!("instant at time {time}: center error: {e}"));
+    }
+    fused
 }
 
 /// The fusion center with its batches (module docs).
@@ -185,6 +258,15 @@ pub struct Engine {
     pub stats: EngineStats,
     /// Center errors not yet logged.
     pub errors: Vec<String>,
+    /// Whether to fuse ahead (module docs); off for good once the center cannot be
+    /// copied.
+    ahead_on: bool,
+    /// The instant fused ahead, if any.
+    ahead: Option<Box<Ahead>>,
+    /// The batch (time, count) last fused ahead: not tried twice.
+    ahead_tried: Option<(TimeKey, usize)>,
+    /// Each expected sensor's report count in the batch fused last (sensor-id order).
+    last_counts: Vec<(Id, usize)>,
 }
 
 impl Engine {
@@ -235,7 +317,79 @@ impl Engine {
             released_arrivals: Vec::new(),
             stats: EngineStats::default(),
             errors: Vec::new(),
+            ahead_on: true,
+            ahead: None,
+            ahead_tried: None,
+            last_counts: Vec::new(),
         })
+    }
+
+    /// Turn fusing ahead (module docs) on or off (on by default).
+    pub fn set_fuse_ahead(&mut self, on: bool) {
+        self.ahead_on = on;
+        if !on {
+            self.ahead = None;
+        }
+    }
+
+    /// Whether [`Engine::fuse_ahead`] would fuse now: on, the oldest batch looks all
+    /// in (every expected sensor has given it at least as many reports as the batch
+    /// fused before) and was not fused ahead with its present count. Cheap.
+    pub fn wants_fuse_ahead(&self) -> bool {
+        if !self.ahead_on || self.last_counts.is_empty() {
+            return false;
+        }
+        let Some((&key, batch)) = self.pending.first_key_value() else {
+            return false;
+        };
+        if self.ahead_tried == Some((key, batch.len)) {
+            return false;
+        }
+        self.last_counts.iter().all(|&(id, before)| {
+            let now = batch
+                .by_sensor
+                .binary_search_by_key(&id, |(s, _)| *s)
+                .map_or(0, |i| batch.by_sensor[i].1.len());
+            now >= before
+        })
+    }
+
+    /// If the oldest batch looks all in (module docs, "Fusing ahead") and was not
+    /// fused ahead as it is, fuse it on a copy of the center. Returns whether it did.
+    pub fn fuse_ahead(&mut self) -> bool {
+        if !self.wants_fuse_ahead() {
+            return false;
+        }
+        let Some((&key, batch)) = self.pending.first_key_value() else {
+            return false;
+        };
+        self.ahead_tried = Some((key, batch.len));
+        let Some(mut center) = self.center.fork() else {
+            self.ahead_on = false;
+            return false;
+        };
+        let mut batcher = self.batcher.clone();
+        self.release_rows.clear();
+        for (_, rows) in &batch.by_sensor {
+            self.release_rows.extend_from_slice(rows);
+        }
+        let fused = fuse_batch(
+            &mut center,
+            &mut batcher,
+            &mut self.scan_out,
+            batch.scan,
+            key.0,
+            &self.release_rows,
+        );
+        self.stats.fused_ahead += 1;
+        self.ahead = Some(Box::new(Ahead {
+            key,
+            len: batch.len,
+            center,
+            batcher,
+            fused,
+        }));
+        true
     }
 
     /// Whether `sensor_id` is expected.
@@ -384,38 +538,47 @@ impl Engine {
             return;
         };
         self.pending_reports -= batch.len;
-        self.release_rows.clear();
-        for (_, rows) in &batch.by_sensor {
-            self.release_rows.extend_from_slice(rows);
-        }
         self.released_through = Some(key.0);
         self.stats.batches_released += 1;
         self.released_arrivals.push(batch.first_arrival);
-        let center = &mut self.center;
-        let out = &mut self.scan_out;
-        let output = &mut self.output;
-        let stats = &mut self.stats;
-        let times = &mut self.fusion_times;
-        let result = self
-            .batcher
-            .push(batch.scan, key.0, &self.release_rows, |s, t, tracks| {
-                let t0 = Instant::now();
-                center.process_at_into(s, t, tracks, out)?;
-                times.push(t0.elapsed());
-                stats.instants_fused += 1;
-                if !out.fused.is_empty() || !out.associations.is_empty() {
-                    // taken, not copied: the center refills the emptied buffers
-                    output.push(InstantOutput {
-                        fused: std::mem::take(&mut out.fused),
-                        associations: std::mem::take(&mut out.associations),
-                    });
+        self.last_counts.clear();
+        self.last_counts.extend(self.sensors.keys().map(|&id| {
+            let n = batch
+                .by_sensor
+                .binary_search_by_key(&id, |(s, _)| *s)
+                .map_or(0, |i| batch.by_sensor[i].1.len());
+            (id, n)
+        }));
+        let fused = match self.ahead.take() {
+            // the same batch: nothing was added to it since (module docs)
+            Some(a) if a.key == key && a.len == batch.len => {
+                let a = *a;
+                self.center = a.center;
+                self.batcher = a.batcher;
+                self.stats.ahead_kept += 1;
+                a.fused
+            }
+            _ => {
+                self.release_rows.clear();
+                for (_, rows) in &batch.by_sensor {
+                    self.release_rows.extend_from_slice(rows);
                 }
-                Ok::<(), trackfuse::center::CenterError>(())
-            });
-        if let Err(e) = result {
+                fuse_batch(
+                    &mut self.center,
+                    &mut self.batcher,
+                    &mut self.scan_out,
+                    batch.scan,
+                    key.0,
+                    &self.release_rows,
+                )
+            }
+        };
+        self.stats.instants_fused += fused.instants;
+        self.output.extend(fused.output);
+        self.fusion_times.extend(fused.times);
+        if let Some(e) = fused.error {
             self.stats.center_errors += 1;
-            self.errors
-                .push(format!("instant at time {}: center error: {e}", key.0));
+            self.errors.push(e);
         }
     }
 
@@ -631,5 +794,75 @@ mod tests {
         assert!(by_sensor.len() >= 5, "{} instants", by_sensor.len());
         assert!(by_sensor.iter().all(|l| !l.is_empty()));
         assert_eq!(by_sensor, shuffled);
+    }
+
+    /// Fusing ahead (module docs) changes when the work is done, never the output:
+    /// with a batch fused ahead after every report (as often as the engine allows),
+    /// including one whose last report comes after it was fused ahead (a target seen
+    /// first by sensor 2 at time 3, its report sent after sensor 0's next scan began),
+    /// the output is the same bytes as with fusing ahead off.
+    #[test]
+    fn fusing_ahead_gives_the_same_output() {
+        let cfg = ServiceConfig::from_toml(
+            "[[sensors]]\nid = 0\nperiod = 1.0\n[[sensors]]\nid = 1\nperiod = 1.0\n\
+             [[sensors]]\nid = 2\nperiod = 1.0\n[fusion]\nbias = \"none\"\n",
+        )
+        .expect("config");
+        let setup = cfg.center_setup().expect("setup");
+        let report = |k: u32, sensor: i64, target: i64| {
+            let off = sensor as f64 * 3.0 - (target % 2) as f64 + f64::from(k % 3);
+            LocalTrack {
+                scan: k,
+                time: f64::from(k),
+                sensor_id: sensor,
+                track_id: 10 * sensor + target,
+                state: StateVec::new(
+                    1000.0 * target as f64 + 20.0 * f64::from(k) + off,
+                    20.0,
+                    -500.0 * target as f64 + off,
+                    0.0,
+                ),
+                cov: StateCov::identity() * (25.0 + sensor as f64),
+            }
+        };
+        // (report, deliver after it the held-back straggler)
+        let mut stream = Vec::new();
+        for k in 0..9u32 {
+            for sensor in 0..3i64 {
+                for target in 0..5i64 {
+                    stream.push(report(k, sensor, target));
+                    if k == 4 && sensor == 0 && target == 0 {
+                        // the straggler of time 3
+                        stream.push(report(3, 2, 5));
+                    }
+                }
+            }
+        }
+        let run = |ahead: bool| -> (Vec<Vec<u8>>, EngineStats) {
+            let mut e = Engine::new(&setup, None).expect("engine");
+            e.set_fuse_ahead(ahead);
+            let now = Instant::now();
+            let mut lines = Vec::new();
+            for t in &stream {
+                assert_eq!(e.accept(*t, now).expect("accept"), Verdict::Accepted);
+                e.fuse_ahead();
+                lines.extend(e.take_output_lines());
+            }
+            e.release_all().expect("release");
+            lines.extend(e.take_output_lines());
+            (lines, e.stats.clone())
+        };
+        let (off, off_stats) = run(false);
+        let (on, on_stats) = run(true);
+        assert_eq!(off_stats.fused_ahead, 0);
+        assert!(off.len() >= 8, "{} instants", off.len());
+        assert_eq!(on, off);
+        assert_eq!(on_stats.instants_fused, off_stats.instants_fused);
+        // fused ahead: the batches of times 1 to 8 but 0 (no batch before it to
+        // compare with) and 4 (sensor 2 gave it 5 reports, 6 to the batch before: not
+        // all in by the guess), the one of time 3 twice (5 reports of sensor 2, then
+        // the straggler's 6th), its first result dropped
+        assert_eq!(on_stats.fused_ahead, 8, "{on_stats:?}");
+        assert_eq!(on_stats.ahead_kept, 7, "{on_stats:?}");
     }
 }

@@ -31,6 +31,8 @@ pub struct Metrics {
     pub instants_fused: Counter,
     pub forced_by_limit: Counter,
     pub center_errors: Counter,
+    pub fused_ahead: Counter,
+    pub fused_ahead_kept: Counter,
     pub subscriber_missed: Counter,
     pub live_global_tracks: Gauge,
     pub pending_reports: Gauge,
@@ -64,6 +66,8 @@ impl Metrics {
             instants_fused: Counter::default(),
             forced_by_limit: Counter::default(),
             center_errors: Counter::default(),
+            fused_ahead: Counter::default(),
+            fused_ahead_kept: Counter::default(),
             subscriber_missed: Counter::default(),
             live_global_tracks: Gauge::default(),
             pending_reports: Gauge::default(),
@@ -105,6 +109,16 @@ impl Metrics {
             "center_errors",
             "Instants the fusion center refused",
             m.center_errors.clone(),
+        );
+        registry.register(
+            "fused_ahead",
+            "Batches fused ahead of their release, on a copy of the center",
+            m.fused_ahead.clone(),
+        );
+        registry.register(
+            "fused_ahead_kept",
+            "Batches fused ahead whose result was kept (no report of the batch came after)",
+            m.fused_ahead_kept.clone(),
         );
         registry.register(
             "subscriber_missed_instants",

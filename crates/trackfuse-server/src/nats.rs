@@ -187,7 +187,8 @@ pub async fn start_nats(cfg: &ServiceConfig, outputs: Outputs) -> Result<NatsSer
         .clone()
         .context("the configuration has no [nats] table")?;
     let setup = cfg.center_setup()?;
-    let engine = Engine::new(&setup, outputs.record.as_deref())?;
+    let mut engine = Engine::new(&setup, outputs.record.as_deref())?;
+    engine.set_fuse_ahead(cfg.fuse_ahead);
     let http_listener = TcpListener::bind(&cfg.http_addr)
         .await
         .with_context(|| format!("binding http_addr {}", cfg.http_addr))?;
@@ -454,6 +455,11 @@ impl Center {
                         "trackfuse serve: the final release did not come back from the stream in {STOP_WAIT:?}: fusing what is held here"
                     );
                     break;
+                }
+                // nothing else ready: fuse the oldest batch ahead if it looks all in
+                // (engine docs, "Fusing ahead"; at most once per batch and count)
+                _ = std::future::ready(()), if self.engine.wants_fuse_ahead() => {
+                    self.engine.fuse_ahead();
                 }
             }
             self.publish().await?;

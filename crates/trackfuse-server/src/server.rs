@@ -226,7 +226,8 @@ struct Ingress {
 /// Start the TCP service for `cfg`.
 pub async fn start(cfg: &ServiceConfig, outputs: Outputs) -> Result<Service> {
     let setup = cfg.center_setup()?;
-    let engine = Engine::new(&setup, outputs.record.as_deref())?;
+    let mut engine = Engine::new(&setup, outputs.record.as_deref())?;
+    engine.set_fuse_ahead(cfg.fuse_ahead);
     let sensor_listener = TcpListener::bind(&cfg.sensor_addr)
         .await
         .with_context(|| format!("binding sensor_addr {}", cfg.sensor_addr))?;
@@ -689,6 +690,11 @@ async fn run_center(
         Ok(())
     };
     loop {
+        // nothing queued: fuse the oldest batch ahead if it looks all in (engine docs,
+        // "Fusing ahead"; at most once per batch and count, so this does not spin)
+        if queue.is_empty() {
+            engine.fuse_ahead();
+        }
         let deadline = engine
             .earliest_arrival()
             .map(|(t, a)| (t, tokio::time::Instant::from_std(a + budget)));
@@ -773,6 +779,10 @@ pub(crate) fn update_metrics(engine: &mut Engine, metrics: &Metrics, last: &mut 
     metrics
         .center_errors
         .inc_by(s.center_errors - last.center_errors);
+    metrics.fused_ahead.inc_by(s.fused_ahead - last.fused_ahead);
+    metrics
+        .fused_ahead_kept
+        .inc_by(s.ahead_kept - last.ahead_kept);
     *last = s;
     metrics
         .live_global_tracks

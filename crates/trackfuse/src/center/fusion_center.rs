@@ -110,7 +110,7 @@ pub struct FusionCenter {
 }
 
 /// The per-scan working buffers of the center, reused from scan to scan.
-#[derive(Default)]
+#[derive(Default, Clone)]
 struct ScanBuffers {
     /// Sorting permutation of the scan's local tracks.
     order: Vec<usize>,
@@ -278,6 +278,36 @@ impl FusionCenter {
     /// scan with local tracks is then an error.
     pub fn lacks_truth(&self) -> bool {
         self.truth_missing
+    }
+
+    /// A copy of this center in its present state: given the same scans from here on,
+    /// the copy gives the same output, bit for bit, as this center would. The service
+    /// fuses an instant on a copy ahead of time and keeps the copy only if no report of
+    /// the instant came after (trackfuse-server's engine docs, "Fusing ahead").
+    /// `None` when the method, the rule or the bias estimator cannot be copied (their
+    /// `fork` returns `None`: the default for methods written outside this crate, and
+    /// the `truth` associator and `mmse`, which a live service does not run).
+    pub fn fork(&self) -> Option<FusionCenter> {
+        let bias = match &self.bias {
+            Some(b) => Some(b.fork()?),
+            None => None,
+        };
+        Some(FusionCenter {
+            cfg: self.cfg.clone(),
+            method: self.method.fork()?,
+            rule: self.rule.fork()?,
+            bias,
+            sensors: self.sensors.clone(),
+            globals: self.globals.clone(),
+            status: self.status.clone(),
+            mgmt: self.mgmt.clone(),
+            next_id: self.next_id,
+            last: self.last,
+            truth_missing: self.truth_missing,
+            predicted: self.predicted.clone(),
+            lags: self.lags.clone(),
+            buf: self.buf.clone(),
+        })
     }
 
     /// Whether the center runs a bias estimator.
@@ -1767,6 +1797,115 @@ mod tests {
         let out_off = off.process_scan(&scan(1, true)).expect("scan");
         assert_ne!(sources_of(&out_off, (1, 7)), own, "the method moves it");
         assert_eq!(sources_of(&out_on, (1, 7)), own, "held with its global");
+    }
+
+    /// A fork taken after some scans gives, scan after scan, the same output (every
+    /// bit of every fused state and covariance, the associations, the statuses) as the
+    /// center it was taken from, for every registered method, rule and bias estimator a
+    /// live center can run (all but the truth-labelled `truth` and `mmse`), with track
+    /// management on; the fork and the original are then independent.
+    #[test]
+    fn a_fork_continues_exactly_as_the_center_it_was_taken_from() {
+        use crate::types::{Sensor, SensorKind};
+        use rand::SeedableRng;
+        let radar = |id: Id| Sensor {
+            id,
+            kind: SensorKind::RangeBearing,
+            x: 20_000.0 * id as f64,
+            y: -30_000.0,
+            sigma_a: 20.0,
+            sigma_b: 0.002,
+            pd: 0.9,
+            bias_r: 0.0,
+            bias_theta: 0.0,
+            max_range: 200_000.0,
+            clutter_density: None,
+        };
+        let sensors = [radar(0), radar(1), radar(2)];
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        // 6 targets, 3 radars; target 5 is seen from scan 3, target 4 not after scan 6;
+        // sensor 2 misses now and then; a sensor's bias-like offset of 40 m in x
+        let scans: Vec<Vec<LocalTrack>> = (0..10u32)
+            .map(|k| {
+                let mut rows = Vec::new();
+                for s in 0..3i64 {
+                    for i in 0..6i64 {
+                        if (i == 5 && k < 3)
+                            || (i == 4 && k > 6)
+                            || (s == 2 && rng.random_bool(0.2))
+                        {
+                            continue;
+                        }
+                        let x = 3000.0 * i as f64 + 40.0 * s as f64 + rng.random_range(-30.0..30.0);
+                        let y = 1000.0 * (i % 2) as f64 + rng.random_range(-30.0..30.0);
+                        let mut t = at(
+                            local(s, 10 * s + i, x, 50.0, y, 10.0 * (i % 3) as f64, 400.0),
+                            k,
+                        );
+                        t.cov[(0, 1)] = 20.0;
+                        t.cov[(1, 0)] = 20.0;
+                        rows.push(t);
+                    }
+                }
+                rows
+            })
+            .collect();
+        let registry = CenterRegistry::builtin();
+        let mut biases: Vec<Option<String>> = vec![Some("none".into())];
+        biases.extend(
+            registry
+                .bias_estimators()
+                .iter()
+                .map(|e| Some(e.name.clone())),
+        );
+        let mut checked = 0;
+        for m in registry.methods() {
+            for r in registry.rules() {
+                for bias in &biases {
+                    let cfg = FusionConfig {
+                        method: m.name.clone(),
+                        rule: r.name.clone(),
+                        bias: bias.clone(),
+                        ..FusionConfig::default()
+                    };
+                    let Ok(mut a) = FusionCenter::new(&cfg, Some(&sensors)) else {
+                        continue;
+                    };
+                    if a.lacks_truth() {
+                        assert!(
+                            m.name == "truth" || r.name == "mmse",
+                            "{}/{}",
+                            m.name,
+                            r.name
+                        );
+                        continue;
+                    }
+                    let what = format!("{} / {} / {bias:?}", m.name, r.name);
+                    for rows in &scans[..4] {
+                        a.process_scan(rows).expect(&what);
+                    }
+                    let mut b = a.fork().unwrap_or_else(|| panic!("{what}: no fork"));
+                    for (k, rows) in scans[4..].iter().enumerate() {
+                        let expected = a.process_scan(rows).expect(&what);
+                        let got = b.process_scan(rows).expect(&what);
+                        let bits = |o: &ScanOutput| -> Vec<u64> {
+                            o.fused
+                                .iter()
+                                .flat_map(|f| f.state.iter().chain(f.cov.iter()))
+                                .map(|v| v.to_bits())
+                                .collect()
+                        };
+                        assert_eq!(got, expected, "{what}, scan {}", k + 4);
+                        assert_eq!(bits(&got), bits(&expected), "{what}, scan {}", k + 4);
+                        assert_eq!(a.bias_estimates(), b.bias_estimates(), "{what}");
+                    }
+                    checked += 1;
+                }
+            }
+        }
+        // every method but `truth`, every rule but `mmse`, every bias choice
+        let expected = (registry.methods().len() - 1) * (registry.rules().len() - 1) * biases.len();
+        assert_eq!(checked, expected);
     }
 
     proptest! {

@@ -169,6 +169,7 @@ struct Link {
 
 /// The management state of a center: what it remembers between scans and its reused
 /// buffers (nothing is allocated per track once they have grown).
+#[derive(Clone)]
 pub(crate) struct Manager {
     pub(crate) cfg: ManagementConfig,
     gate: f64,

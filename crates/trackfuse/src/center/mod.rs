@@ -130,6 +130,14 @@ pub trait TrackAssociator: Send {
         *out = self.associate(ctx, tracks, globals)?;
         Ok(())
     }
+
+    /// A copy of this associator in its present state, which associates every later
+    /// scan exactly as this one would ([`FusionCenter::fork`]: the service fuses an
+    /// instant on a copy of the center ahead of time). The default, `None`, says the
+    /// method cannot be copied; a center with such a method is then never forked.
+    fn fork(&self) -> Option<Box<dyn TrackAssociator>> {
+        None
+    }
 }
 
 /// What a fusion rule may know when it fuses one group.
@@ -175,6 +183,12 @@ pub trait FusionRule: Send + Sync {
     /// (measured: BENCHMARKS.md, "Both cores"). Default: no.
     fn costly(&self) -> bool {
         false
+    }
+    /// A copy of this rule in its present state (its memory and fallback count), which
+    /// fuses every later group exactly as this one would ([`FusionCenter::fork`]). The
+    /// default, `None`, says the rule cannot be copied.
+    fn fork(&self) -> Option<Box<dyn FusionRule>> {
+        None
     }
     /// Fuse a group's members with their weights.
     fn fuse(

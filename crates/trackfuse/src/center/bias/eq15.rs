@@ -388,6 +388,9 @@ impl Eq15MeanResidual {
 }
 
 impl BiasEstimator for Eq15MeanResidual {
+    fn fork(&self) -> Option<Box<dyn BiasEstimator>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

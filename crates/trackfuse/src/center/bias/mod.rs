@@ -168,6 +168,12 @@ pub trait BiasEstimator: Send {
     );
     /// The current estimates, sorted by sensor id.
     fn estimates(&self) -> Vec<BiasEstimate>;
+    /// A copy of this estimator in its present state, which estimates exactly as this
+    /// one would from here on ([`crate::center::FusionCenter::fork`]). The default,
+    /// `None`, says the estimator cannot be copied.
+    fn fork(&self) -> Option<Box<dyn BiasEstimator>> {
+        None
+    }
 }
 
 #[cfg(test)]

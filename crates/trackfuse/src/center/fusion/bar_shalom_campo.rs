@@ -673,6 +673,16 @@ impl FusionRule for BarShalomCampo {
         self.fallbacks()
     }
 
+    /// The parameters and the fallback count; the scratch buffers start empty (they
+    /// carry nothing from group to group).
+    fn fork(&self) -> Option<Box<dyn FusionRule>> {
+        Some(Box::new(BarShalomCampo {
+            params: self.params.clone(),
+            fallbacks: AtomicU64::new(self.fallbacks()),
+            scratch: Mutex::new(Scratch::default()),
+        }))
+    }
+
     fn fuse(
         &self,
         members: &[&LocalTrack],

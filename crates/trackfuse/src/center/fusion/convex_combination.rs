@@ -176,6 +176,9 @@ fn fast_convex_combination(
 }
 
 impl FusionRule for ConvexCombination {
+    fn fork(&self) -> Option<Box<dyn FusionRule>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

@@ -491,6 +491,14 @@ impl FusionRule for CovarianceIntersection {
         self.fallbacks.load(Ordering::Relaxed)
     }
 
+    fn fork(&self) -> Option<Box<dyn FusionRule>> {
+        Some(Box::new(CovarianceIntersection {
+            criterion: self.criterion,
+            fallbacks: AtomicU64::new(self.fallbacks.load(Ordering::Relaxed)),
+            golden_only: self.golden_only,
+        }))
+    }
+
     fn fuse(
         &self,
         members: &[&LocalTrack],

@@ -77,6 +77,9 @@ impl FuzzyFusion {
 // zero) is replaced by the nearest positive semidefinite matrix
 // ([`super::blue::finish_fused`]), so it reads back from a file.
 impl FusionRule for FuzzyFusion {
+    fn fork(&self) -> Option<Box<dyn FusionRule>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

@@ -105,7 +105,7 @@ pub struct InformationMatrix {
     memory: Mutex<Memory>,
 }
 
-#[derive(Debug, Default)]
+#[derive(Debug, Default, Clone)]
 struct Memory {
     tracks: HashMap<(Id, Id), Memo>,
     /// Time of the last pruning of stale entries.
@@ -134,6 +134,19 @@ fn information(p: &StateCov) -> Option<StateCov> {
 impl FusionRule for InformationMatrix {
     fn name(&self) -> &'static str {
         NAME
+    }
+
+    /// The parameters and the memory of what each local track gave.
+    fn fork(&self) -> Option<Box<dyn FusionRule>> {
+        let memory = self
+            .memory
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone();
+        Some(Box::new(InformationMatrix {
+            forget_after: self.forget_after,
+            memory: Mutex::new(memory),
+        }))
     }
 
     fn fuse(

@@ -193,6 +193,9 @@ impl Sdf {
 }
 
 impl FusionRule for Sdf {
+    fn fork(&self) -> Option<Box<dyn FusionRule>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

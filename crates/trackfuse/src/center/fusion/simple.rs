@@ -77,6 +77,9 @@ impl SimpleFusion {
 }
 
 impl FusionRule for SimpleFusion {
+    fn fork(&self) -> Option<Box<dyn FusionRule>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

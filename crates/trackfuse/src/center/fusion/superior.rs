@@ -162,6 +162,9 @@ impl Superior {
 }
 
 impl FusionRule for Superior {
+    fn fork(&self) -> Option<Box<dyn FusionRule>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

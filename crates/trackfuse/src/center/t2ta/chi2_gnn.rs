@@ -671,6 +671,9 @@ fn finite(state: &StateVec, cov: &StateCov) -> bool {
 }
 
 impl TrackAssociator for Chi2Gnn {
+    fn fork(&self) -> Option<Box<dyn TrackAssociator>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

@@ -639,6 +639,9 @@ impl FdbscTa {
 }
 
 impl TrackAssociator for FdbscTa {
+    fn fork(&self) -> Option<Box<dyn TrackAssociator>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

@@ -776,6 +776,9 @@ fn join(cand: &mut Candidate, groups: &mut Vec<(Vec<usize>, Option<usize>)>, i: 
 }
 
 impl TrackAssociator for Fdtta {
+    fn fork(&self) -> Option<Box<dyn TrackAssociator>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

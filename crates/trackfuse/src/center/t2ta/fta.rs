@@ -243,6 +243,9 @@ impl Fta {
 }
 
 impl TrackAssociator for Fta {
+    fn fork(&self) -> Option<Box<dyn TrackAssociator>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

@@ -591,6 +591,9 @@ fn assign_gated(
 }
 
 impl TrackAssociator for Ftta {
+    fn fork(&self) -> Option<Box<dyn TrackAssociator>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

@@ -590,6 +590,9 @@ impl HtT2gt {
 }
 
 impl TrackAssociator for HtT2gt {
+    fn fork(&self) -> Option<Box<dyn TrackAssociator>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

@@ -482,6 +482,9 @@ impl Wfc {
 }
 
 impl TrackAssociator for Wfc {
+    fn fork(&self) -> Option<Box<dyn TrackAssociator>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }

@@ -535,6 +535,9 @@ pub fn make_deprecated(tables: &ParamTables) -> Result<Box<dyn BiasEstimator>, P
 }
 
 impl BiasEstimator for TrackPairLs {
+    fn fork(&self) -> Option<Box<dyn BiasEstimator>> {
+        Some(Box::new(self.clone()))
+    }
     fn name(&self) -> &'static str {
         NAME
     }
