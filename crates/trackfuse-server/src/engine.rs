@@ -63,6 +63,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::time::{Duration, Instant};
+use tokio_util::bytes::Bytes;
 use trackfuse::center::instants::InstantBatcher;
 use trackfuse::center::{FusionCenter, ScanOutput};
 use trackfuse::clock::CLOCK_TOLERANCE;
@@ -105,23 +106,61 @@ struct Batch {
 /// One fused instant's output: its fused tracks (sorted by `fused_id`), then one
 /// association per local track (sorted by sensor and track), as the center gave them.
 /// Encoding is left to whoever publishes it ([`InstantOutput::chunks`]), so that
-/// the TCP service encodes off the center's task while the next reports come in.
+/// the TCP service encodes off the center's task while the next reports come in; an
+/// instant fused ahead (module docs) is encoded then, while the center waits, so that
+/// publishing it is only handing its bytes over.
 #[derive(Debug, Clone, Default)]
 pub struct InstantOutput {
     pub fused: Vec<FusedTrack>,
     pub associations: Vec<Association>,
+    /// The lines of `fused` and `associations`, when encoded ahead ([`Self::encode`]);
+    /// else empty.
+    encoded: Bytes,
 }
 
 impl InstantOutput {
+    /// Encode the lines now ([`Self::chunks`] then hands out slices of them).
+    pub fn encode(&mut self) {
+        let mut v = Vec::with_capacity(256 * (self.fused.len() + self.associations.len()));
+        for f in &self.fused {
+            encode_fused(f, &mut v);
+        }
+        for a in &self.associations {
+            encode_association(a, &mut v);
+        }
+        self.encoded = Bytes::from(v);
+    }
+
     /// The instant's NDJSON lines (FORMATS.md "Streaming"), fused tracks first, in
-    /// chunks of whole lines, each at least `min_chunk` bytes but the last
-    /// (`usize::MAX`: one chunk), each encoded when it is asked for. The chunks joined
-    /// are the same bytes whatever `min_chunk` is.
-    pub fn chunks(&self, min_chunk: usize) -> impl Iterator<Item = Vec<u8>> + '_ {
+    /// chunks of whole lines, each at least `min_chunk` bytes (at least one line) but
+    /// the last (`usize::MAX`: one chunk), each encoded when it is asked for unless
+    /// [`Self::encode`] did it before. The chunks joined are the same bytes whatever
+    /// `min_chunk` is, and so are the chunks whether encoded before or not.
+    pub fn chunks(&self, min_chunk: usize) -> Box<dyn Iterator<Item = Bytes> + Send + '_> {
+        let min_chunk = min_chunk.max(1);
+        if !self.encoded.is_empty() {
+            let bytes = &self.encoded;
+            let mut pos = 0;
+            return Box::new(std::iter::from_fn(move || {
+                if pos >= bytes.len() {
+                    return None;
+                }
+                // the end of the first line that makes the chunk `min_chunk` long
+                let from = pos.saturating_add(min_chunk - 1);
+                let end = if from >= bytes.len() {
+                    bytes.len()
+                } else {
+                    memchr::memchr(b'\n', &bytes[from..]).map_or(bytes.len(), |i| from + i + 1)
+                };
+                let chunk = bytes.slice(pos..end);
+                pos = end;
+                Some(chunk)
+            }));
+        }
         let cap = min_chunk.min(256 * (self.fused.len() + self.associations.len())) + 512;
         let mut fused = self.fused.iter();
         let mut associations = self.associations.iter();
-        std::iter::from_fn(move || {
+        Box::new(std::iter::from_fn(move || {
             let mut chunk = Vec::with_capacity(cap);
             while chunk.len() < min_chunk {
                 if let Some(f) = fused.next() {
@@ -132,8 +171,8 @@ impl InstantOutput {
                     break;
                 }
             }
-            (!chunk.is_empty()).then_some(chunk)
-        })
+            (!chunk.is_empty()).then(|| Bytes::from(chunk))
+        }))
     }
 }
 
@@ -220,6 +259,7 @@ fn fuse_batch(
             fused.output.push(InstantOutput {
                 fused: std::mem::take(&mut out.fused),
                 associations: std::mem::take(&mut out.associations),
+                encoded: Bytes::new(),
             });
         }
         Ok::<(), trackfuse::center::CenterError>(())
@@ -267,6 +307,9 @@ pub struct Engine {
     ahead_tried: Option<(TimeKey, usize)>,
     /// Each expected sensor's report count in the batch fused last (sensor-id order).
     last_counts: Vec<(Id, usize)>,
+    /// The center and batcher a kept instant fused ahead replaced, freed at the next
+    /// fusing ahead (off the moment the instant is published).
+    retired: Option<Box<(FusionCenter, InstantBatcher)>>,
 }
 
 impl Engine {
@@ -321,6 +364,7 @@ impl Engine {
             ahead: None,
             ahead_tried: None,
             last_counts: Vec::new(),
+            retired: None,
         })
     }
 
@@ -364,6 +408,8 @@ impl Engine {
             return false;
         };
         self.ahead_tried = Some((key, batch.len));
+        // freed here, not when it was replaced (that is when the instant is published)
+        self.retired = None;
         let Some(mut center) = self.center.fork() else {
             self.ahead_on = false;
             return false;
@@ -373,7 +419,7 @@ impl Engine {
         for (_, rows) in &batch.by_sensor {
             self.release_rows.extend_from_slice(rows);
         }
-        let fused = fuse_batch(
+        let mut fused = fuse_batch(
             &mut center,
             &mut batcher,
             &mut self.scan_out,
@@ -381,6 +427,9 @@ impl Engine {
             key.0,
             &self.release_rows,
         );
+        for o in &mut fused.output {
+            o.encode();
+        }
         self.stats.fused_ahead += 1;
         self.ahead = Some(Box::new(Ahead {
             key,
@@ -553,8 +602,9 @@ impl Engine {
             // the same batch: nothing was added to it since (module docs)
             Some(a) if a.key == key && a.len == batch.len => {
                 let a = *a;
-                self.center = a.center;
-                self.batcher = a.batcher;
+                let center = std::mem::replace(&mut self.center, a.center);
+                let batcher = std::mem::replace(&mut self.batcher, a.batcher);
+                self.retired = Some(Box::new((center, batcher)));
                 self.stats.ahead_kept += 1;
                 a.fused
             }
@@ -596,7 +646,11 @@ impl Engine {
     pub fn take_output_lines(&mut self) -> Vec<Vec<u8>> {
         self.take_output()
             .iter()
-            .map(|o| o.chunks(usize::MAX).next().unwrap_or_default())
+            .map(|o| {
+                o.chunks(usize::MAX)
+                    .next()
+                    .map_or_else(Vec::new, |b| b.to_vec())
+            })
             .collect()
     }
 
@@ -864,5 +918,47 @@ mod tests {
         // the straggler's 6th), its first result dropped
         assert_eq!(on_stats.fused_ahead, 8, "{on_stats:?}");
         assert_eq!(on_stats.ahead_kept, 7, "{on_stats:?}");
+    }
+
+    /// An instant encoded ahead ([`InstantOutput::encode`]) gives the same chunks, at
+    /// every chunk size, as one encoded chunk by chunk.
+    #[test]
+    fn an_instant_encoded_ahead_gives_the_same_chunks() {
+        let mut e = engine();
+        let now = Instant::now();
+        for k in 0..4 {
+            for sensor in 0..2 {
+                let mut r = report(sensor, k);
+                r.track_id = 3 + sensor;
+                e.accept(r, now).expect("accept");
+            }
+        }
+        e.release_all().expect("release");
+        let outputs = e.take_output();
+        assert!(outputs.len() >= 3);
+        for o in outputs {
+            let whole: Vec<u8> = o.chunks(usize::MAX).flat_map(|b| b.to_vec()).collect();
+            assert!(whole.ends_with(b"\n") && whole.len() > 200);
+            let mut ahead = o.clone();
+            ahead.encode();
+            for size in [
+                0,
+                1,
+                7,
+                100,
+                150,
+                301,
+                whole.len() - 1,
+                whole.len(),
+                32 * 1024,
+                usize::MAX,
+            ] {
+                let a: Vec<Bytes> = o.chunks(size).collect();
+                let b: Vec<Bytes> = ahead.chunks(size).collect();
+                assert_eq!(a, b, "chunk size {size}");
+                assert_eq!(a.concat(), whole, "chunk size {size}");
+                assert!(a.iter().all(|c| c.ends_with(b"\n")));
+            }
+        }
     }
 }

@@ -343,7 +343,7 @@ impl Publisher {
                 if c.len() > max {
                     parts(&c, max)
                 } else {
-                    vec![Bytes::from(c)]
+                    vec![c]
                 }
             })
             .peekable();

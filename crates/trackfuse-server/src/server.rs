@@ -369,6 +369,12 @@ async fn sensor_connection(
             }
         } else if batch.len() >= BATCH {
             flush!();
+            // let the other connections be read too (yield_points): without it one
+            // connection parses its whole scan (about 1.5 ms at 1 000 reports) before
+            // the worker looks at the sockets again, and the first report of scan k+1
+            // on a connection read after it waits that long (measured: the tail of the
+            // latency, BENCHMARKS.md)
+            tokio::task::yield_now().await;
             continue;
         } else {
             // more lines already read: take them; else hand over what we have
@@ -562,7 +568,6 @@ async fn run_publisher(
                 // run before the next is encoded (yield_points); then an empty piece
                 // marks the instant's end
                 for chunk in instant.chunks(CHUNK) {
-                    let chunk = Bytes::from(chunk);
                     if let Some(o) = output.as_mut() {
                         o.write_all(&chunk).context("writing the output")?;
                     }
