@@ -60,11 +60,14 @@ pub struct ReplayArgs {
     pub output: Option<PathBuf>,
 }
 
-fn runtime() -> Result<tokio::runtime::Runtime> {
-    tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-        .context("starting the async runtime")
+/// A multi-thread runtime with `workers` worker threads (0: tokio's default, one per
+/// core).
+fn runtime_with(workers: usize) -> Result<tokio::runtime::Runtime> {
+    let mut b = tokio::runtime::Builder::new_multi_thread();
+    if workers > 0 {
+        b.worker_threads(workers);
+    }
+    b.enable_all().build().context("starting the async runtime")
 }
 
 /// Run the service until SIGTERM or SIGINT, then shut down gracefully.
@@ -80,7 +83,7 @@ pub fn serve(args: &ServeArgs) -> Result<()> {
         output: args.output.clone(),
     };
     if let Some(n) = cfg.nats.clone() {
-        return runtime()?.block_on(async move {
+        return runtime_with(cfg.worker_threads)?.block_on(async move {
             let service = crate::nats::start_nats(&cfg, outputs).await?;
             eprintln!(
                 "trackfuse serve: input stream {} ({}.<sensor_id>) on {}, output stream {} ({}), http on {}",
@@ -96,7 +99,7 @@ pub fn serve(args: &ServeArgs) -> Result<()> {
             Ok(())
         });
     }
-    runtime()?.block_on(async move {
+    runtime_with(cfg.worker_threads)?.block_on(async move {
         let service = start(&cfg, outputs).await?;
         eprintln!(
             "trackfuse serve: sensors on {}, subscribers on {}, http on {}",

@@ -28,6 +28,13 @@ pub struct ServiceConfig {
     /// reported past its time before it is fused anyway (default 0.5 s).
     #[serde(default = "default_budget")]
     pub latency_budget: f64,
+    /// Worker threads of `trackfuse serve`'s async runtime (default 0: one per core,
+    /// tokio's default). The sensor connections' parsing is what runs in parallel;
+    /// the center is one task. Where the sensors' or the subscribers' processes share
+    /// the machine (a load generator, a local consumer), fewer workers than cores leave
+    /// them a core: measured, BENCHMARKS.md "Fusing ahead".
+    #[serde(default)]
+    pub worker_threads: usize,
     /// Fuse an instant on a copy of the center while the center waits for the sensors
     /// to report past it, and keep the result if no report of it came after (default
     /// true; the output is the same bytes either way: the engine's docs, "Fusing

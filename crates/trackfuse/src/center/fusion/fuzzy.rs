@@ -78,7 +78,7 @@ impl FuzzyFusion {
 // ([`super::blue::finish_fused`]), so it reads back from a file.
 impl FusionRule for FuzzyFusion {
     fn fork(&self) -> Option<Box<dyn FusionRule>> {
-        Some(Box::new(self.clone()))
+        Some(Box::new(*self))
     }
     fn name(&self) -> &'static str {
         NAME
