@@ -34,6 +34,27 @@ pub fn out(args: std::fmt::Arguments<'_>) -> Result<()> {
     })
 }
 
+/// Standard output as a writer whose broken pipe (its reader has gone) carries
+/// [`StdoutClosed`], so that a long writer can tell it from its other errors.
+struct MarkClosed<W>(W);
+
+impl<W: Write> Write for MarkClosed<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.write(buf).map_err(mark_closed)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush().map_err(mark_closed)
+    }
+}
+
+fn mark_closed(e: std::io::Error) -> std::io::Error {
+    if e.kind() == std::io::ErrorKind::BrokenPipe {
+        std::io::Error::new(std::io::ErrorKind::BrokenPipe, StdoutClosed)
+    } else {
+        e
+    }
+}
+
 /// `trackfuse serve`.
 #[derive(Args, Debug)]
 pub struct ServeArgs {
@@ -149,9 +170,23 @@ pub fn replay(args: &ReplayArgs) -> Result<()> {
         }
         None => {
             let stdout = std::io::stdout();
-            let mut w = std::io::BufWriter::new(stdout.lock());
-            let s = crate::engine::replay(&args.journal, &mut w)?;
-            w.flush()?;
+            let mut w = std::io::BufWriter::new(MarkClosed(stdout.lock()));
+            let s = crate::engine::replay(&args.journal, &mut w)
+                .and_then(|s| w.flush().map(|()| s).map_err(anyhow::Error::from))
+                .map_err(|e| {
+                    // a reader that has gone (`| head`) ends the command quietly, as
+                    // for every other command ([`out`])
+                    let closed = e.chain().any(|c| {
+                        c.downcast_ref::<std::io::Error>()
+                            .and_then(|io| io.get_ref())
+                            .is_some_and(|inner| inner.is::<StdoutClosed>())
+                    });
+                    if closed {
+                        anyhow::Error::new(StdoutClosed)
+                    } else {
+                        e
+                    }
+                })?;
             s
         }
     };
