@@ -205,7 +205,7 @@ pub async fn start_nats(cfg: &ServiceConfig, outputs: Outputs) -> Result<NatsSer
         .as_deref()
         .map(|p| {
             std::fs::File::create(p)
-                .map(std::io::BufWriter::new)
+                .map(|f| std::io::BufWriter::with_capacity(1 << 20, f))
                 .with_context(|| format!("creating {}", p.display()))
         })
         .transpose()?;
