@@ -1,5 +1,6 @@
 //! Drive the `trackfuse` binary as a user would.
 
+mod common;
 use assert_cmd::Command;
 use predicates::prelude::*;
 use std::path::Path;
@@ -280,15 +281,6 @@ fn every_registered_name_runs_by_its_flag() {
 #[test]
 fn a_closed_standard_output_ends_the_command_quietly() {
     for args in [&["methods"][..], &["reproduce", "--list"][..]] {
-        let (reader, writer) = std::io::pipe().expect("pipe");
-        drop(reader);
-        let out = std::process::Command::new(assert_cmd::cargo::cargo_bin("trackfuse"))
-            .args(args)
-            .stdout(writer)
-            .output()
-            .expect("run");
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(out.status.success(), "{args:?}: {:?}: {err}", out.status);
-        assert!(err.is_empty(), "{args:?}: {err}");
+        common::assert_quiet_on_closed_stdout(args);
     }
 }

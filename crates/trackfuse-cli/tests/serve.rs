@@ -265,17 +265,7 @@ fn the_service_over_tcp_equals_fuse_and_counts_every_bad_message() {
     let replayed = d.join("replay.ndjson");
     trackfuse(&["replay", &s(&journal), "--output", &s(&replayed)]);
     // to a standard output whose reader has gone (`| head`): quietly, status 0
-    let (reader, writer) = std::io::pipe().expect("pipe");
-    drop(reader);
-    let closed = Command::cargo_bin("trackfuse")
-        .expect("binary")
-        .args(["replay", &s(&journal)])
-        .stdout(writer)
-        .output()
-        .expect("run");
-    let err = String::from_utf8_lossy(&closed.stderr);
-    assert!(closed.status.success(), "{:?}: {err}", closed.status);
-    assert!(err.is_empty(), "{err}");
+    common::assert_quiet_on_closed_stdout(&["replay", &s(&journal)]);
     let replay = std::fs::read_to_string(&replayed).expect("replay output");
     assert!(replay == live, "replay differs from the live run");
 }

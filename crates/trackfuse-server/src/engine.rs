@@ -103,6 +103,23 @@ struct Batch {
     first_arrival: Instant,
 }
 
+impl Batch {
+    /// How many reports sensor `id` gave this batch.
+    fn count(&self, id: Id) -> usize {
+        self.by_sensor
+            .binary_search_by_key(&id, |(s, _)| *s)
+            .map_or(0, |i| self.by_sensor[i].1.len())
+    }
+
+    /// The batch's reports into `rows` (emptied first), sensor after sensor.
+    fn rows_into(&self, rows: &mut Vec<LocalTrack>) {
+        rows.clear();
+        for (_, r) in &self.by_sensor {
+            rows.extend_from_slice(r);
+        }
+    }
+}
+
 /// One fused instant's output: its fused tracks (sorted by `fused_id`), then one
 /// association per local track (sorted by sensor and track), as the center gave them.
 /// Encoding is left to whoever publishes it ([`InstantOutput::chunks`]), so that
@@ -391,13 +408,9 @@ impl Engine {
         if self.ahead_tried == Some((key, batch.len)) {
             return false;
         }
-        self.last_counts.iter().all(|&(id, before)| {
-            let now = batch
-                .by_sensor
-                .binary_search_by_key(&id, |(s, _)| *s)
-                .map_or(0, |i| batch.by_sensor[i].1.len());
-            now >= before
-        })
+        self.last_counts
+            .iter()
+            .all(|&(id, before)| batch.count(id) >= before)
     }
 
     /// If the oldest batch looks all in (module docs, "Fusing ahead") and was not
@@ -417,10 +430,7 @@ impl Engine {
             return false;
         };
         let mut batcher = self.batcher.clone();
-        self.release_rows.clear();
-        for (_, rows) in &batch.by_sensor {
-            self.release_rows.extend_from_slice(rows);
-        }
+        batch.rows_into(&mut self.release_rows);
         let mut fused = fuse_batch(
             &mut center,
             &mut batcher,
@@ -593,13 +603,8 @@ impl Engine {
         self.stats.batches_released += 1;
         self.released_arrivals.push(batch.first_arrival);
         self.last_counts.clear();
-        self.last_counts.extend(self.sensors.keys().map(|&id| {
-            let n = batch
-                .by_sensor
-                .binary_search_by_key(&id, |(s, _)| *s)
-                .map_or(0, |i| batch.by_sensor[i].1.len());
-            (id, n)
-        }));
+        self.last_counts
+            .extend(self.sensors.keys().map(|&id| (id, batch.count(id))));
         let fused = match self.ahead.take() {
             // the same batch: nothing was added to it since (module docs)
             Some(a) if a.key == key && a.len == batch.len => {
@@ -611,10 +616,7 @@ impl Engine {
                 a.fused
             }
             _ => {
-                self.release_rows.clear();
-                for (_, rows) in &batch.by_sensor {
-                    self.release_rows.extend_from_slice(rows);
-                }
+                batch.rows_into(&mut self.release_rows);
                 fuse_batch(
                     &mut self.center,
                     &mut self.batcher,
@@ -726,6 +728,17 @@ mod tests {
         Engine::new(&cfg.center_setup().expect("setup"), None).expect("engine")
     }
 
+    /// Three sensors of period 1 s, the default fusion without bias estimation.
+    fn three_sensors() -> CenterSetup {
+        ServiceConfig::from_toml(
+            "[[sensors]]\nid = 0\nperiod = 1.0\n[[sensors]]\nid = 1\nperiod = 1.0\n\
+             [[sensors]]\nid = 2\nperiod = 1.0\n[fusion]\nbias = \"none\"\n",
+        )
+        .expect("config")
+        .center_setup()
+        .expect("setup")
+    }
+
     fn report(sensor: Id, k: u32) -> LocalTrack {
         LocalTrack {
             scan: k,
@@ -793,12 +806,7 @@ mod tests {
     /// interleave or in which track order they come.
     #[test]
     fn the_output_does_not_depend_on_the_arrival_order_within_a_time() {
-        let cfg = ServiceConfig::from_toml(
-            "[[sensors]]\nid = 0\nperiod = 1.0\n[[sensors]]\nid = 1\nperiod = 1.0\n\
-             [[sensors]]\nid = 2\nperiod = 1.0\n[fusion]\nbias = \"none\"\n",
-        )
-        .expect("config");
-        let setup = cfg.center_setup().expect("setup");
+        let setup = three_sensors();
         let reports = |k: u32| -> Vec<LocalTrack> {
             let mut v = Vec::new();
             for sensor in 0..3i64 {
@@ -859,12 +867,7 @@ mod tests {
     /// the output is the same bytes as with fusing ahead off.
     #[test]
     fn fusing_ahead_gives_the_same_output() {
-        let cfg = ServiceConfig::from_toml(
-            "[[sensors]]\nid = 0\nperiod = 1.0\n[[sensors]]\nid = 1\nperiod = 1.0\n\
-             [[sensors]]\nid = 2\nperiod = 1.0\n[fusion]\nbias = \"none\"\n",
-        )
-        .expect("config");
-        let setup = cfg.center_setup().expect("setup");
+        let setup = three_sensors();
         let report = |k: u32, sensor: i64, target: i64| {
             let off = sensor as f64 * 3.0 - (target % 2) as f64 + f64::from(k % 3);
             LocalTrack {

@@ -4,6 +4,22 @@
 
 pub mod service;
 
+/// Run `trackfuse args` with a standard output whose reader has already gone (the
+/// pipe's read end closed before the command starts, as `| head` after its lines) and
+/// assert that it ends quietly: status 0, nothing on standard error.
+pub fn assert_quiet_on_closed_stdout(args: &[&str]) {
+    let (reader, writer) = std::io::pipe().expect("pipe");
+    drop(reader);
+    let out = std::process::Command::new(assert_cmd::cargo::cargo_bin("trackfuse"))
+        .args(args)
+        .stdout(writer)
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{args:?}: {:?}: {err}", out.status);
+    assert!(err.is_empty(), "{args:?}: {err}");
+}
+
 /// The cells of the first table row of `md` that starts with `lead` (a row's opening,
 /// `| FDBSC-TA |` or `| FDBSC-TA | \`track-pair-ls\` | sensor 2 |`), every cell of the
 /// row trimmed, the lead's own included (cell 0 is the row label).
