@@ -384,9 +384,12 @@ fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32) -> Result<()> 
     let mut measurements = sim.measurements.clone();
     measurements.sort_by_key(|m| m.scan);
     let mut local = Vec::new();
+    // tracks (confirmed and tentative) kept after each scan, summed over the scans: the
+    // work per scan grows with them, and they need not grow as the measurements do
+    let mut track_scans = 0;
     for _ in 0..repeat.max(1) {
         let t0 = Instant::now();
-        rows = pool.install(|| {
+        (rows, track_scans) = pool.install(|| {
             let mut tracker = MultiSensorTracker::new(
                 &sim.sensors,
                 &cfg,
@@ -396,13 +399,14 @@ fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32) -> Result<()> 
                 0,
             )?;
             tracker.set_clocks(&clocks);
-            let mut rows = 0;
+            let (mut rows, mut track_scans) = (0, 0);
             for ms in measurements.chunk_by(|a, b| a.scan == b.scan) {
                 local.clear();
                 tracker.process_scan(ms[0].scan, ms, &mut local)?;
                 rows += local.len();
+                track_scans += tracker.track_count();
             }
-            Ok::<_, trackfuse::local::TrackerError>(rows)
+            Ok::<_, trackfuse::local::TrackerError>((rows, track_scans))
         })?;
         best = best.min(t0.elapsed().as_secs_f64());
     }
@@ -421,10 +425,20 @@ fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32) -> Result<()> 
     );
     say!("measurements                {n} ({per_sensor_scan:.0} per sensor-scan)");
     say!("local-track rows            {rows}");
+    let sensor_scans = sc.scans as f64 * sim.sensors.len() as f64;
+    say!(
+        "tracks kept per sensor-scan {:.0} ({:.2} per measurement; confirmed and tentative)",
+        track_scans as f64 / sensor_scans,
+        track_scans as f64 / n.max(1) as f64
+    );
     say!("wall time (1 thread, best)  {best:.4} s");
     say!(
         "per sensor-scan             {:.1} us",
-        best * 1e6 / (sc.scans as f64 * sim.sensors.len() as f64)
+        best * 1e6 / sensor_scans
+    );
+    say!(
+        "per track kept, per scan    {:.3} us",
+        best * 1e6 / track_scans.max(1) as f64
     );
     say!("measurements/s per core     {:.0}", n as f64 / best);
     Ok(())

@@ -208,6 +208,10 @@ pub struct SensorTracker {
     used: Vec<bool>,
     predictions: Vec<PredictedMeasurement>,
     predicted_of: Vec<usize>,
+    /// `(track, predicted measurement)` of every tentative track of automatic
+    /// initiation, made in the prediction pass: step 4 reads this list, not every track,
+    /// and does not predict a measurement twice.
+    tentative: Vec<(u32, PredictedMeasurement)>,
     index: SweepIndex,
     /// The scan's measurements in two dimensions, for the gates (built on first use).
     gate_grid: GateGrid,
@@ -379,6 +383,7 @@ impl SensorTracker {
             used: Vec::new(),
             predictions: Vec::new(),
             predicted_of: Vec::new(),
+            tentative: Vec::new(),
             index: SweepIndex::default(),
             gate_grid: GateGrid::default(),
             seed_grid: BoxGrid::default(),
@@ -403,6 +408,12 @@ impl SensorTracker {
     /// alone, without the sorting, indexing and filtering every associator shares).
     pub fn association_time(&self) -> Duration {
         self.association_time
+    }
+
+    /// Tracks kept after the last scan, confirmed and tentative: the work a scan does
+    /// per track (predict, gate, update or coast) is done for each of them.
+    pub fn track_count(&self) -> usize {
+        self.tracks.len()
     }
 
     /// The sensor this tracker serves (true biases zeroed).
@@ -442,9 +453,18 @@ impl SensorTracker {
     }
 
     /// Step 1: predict every track to the scan time (a scan earlier than a track's last
-    /// one is an error).
+    /// one is an error), and, in the same pass over the tracks, the predicted measurement
+    /// of every confirmed track (and known track not yet seen) with its clutter density
+    /// for step 2, and of every tentative track for step 4. A track's state does not
+    /// change between this pass and those steps (step 3 updates only the tracks it
+    /// predicted here), so the predictions are the ones each step would make itself;
+    /// one pass instead of three keeps each track in the cache while it is used.
     fn predict(&mut self, scan: u32, time: f64) -> Result<(), TrackerError> {
-        for t in &mut self.tracks {
+        self.predictions.clear();
+        self.predicted_of.clear();
+        self.tentative.clear();
+        let known_mode = self.cfg.initiation.method == InitiationMethod::Known;
+        for (i, t) in self.tracks.iter_mut().enumerate() {
             let dt = time - t.last_time;
             if dt < 0.0 {
                 return Err(TrackerError::TimeGoesBack {
@@ -459,6 +479,20 @@ impl SensorTracker {
             }
             t.last_time = time;
             t.age += 1;
+            if t.id.is_some() || known_mode {
+                if let Some(mut p) = self.filter.predict_measurement(&t.state, &self.sensor) {
+                    p.clutter_density = if p.angular {
+                        self.clutter_per_m2 * p.z[0].abs()
+                    } else {
+                        self.clutter_per_m2
+                    };
+                    self.predictions.push(p);
+                    self.predicted_of.push(i);
+                }
+            } else if let Some(p) = self.filter.predict_measurement(&t.state, &self.sensor) {
+                // a tentative track (its age is at least 1 here)
+                self.tentative.push((i as u32, p));
+            }
         }
         Ok(())
     }
@@ -516,25 +550,8 @@ impl SensorTracker {
         }
     }
 
-    /// Step 2: the predicted measurement of every confirmed track (and known track not
-    /// yet seen), with its clutter density, and the measurements in each one's gate.
+    /// Step 2: the measurements in the gate of every track predicted in step 1.
     fn gate(&mut self) {
-        self.predictions.clear();
-        self.predicted_of.clear();
-        for (i, t) in self.tracks.iter().enumerate() {
-            if t.id.is_none() && !self.is_known_unconfirmed(t) {
-                continue;
-            }
-            if let Some(mut p) = self.filter.predict_measurement(&t.state, &self.sensor) {
-                p.clutter_density = if p.angular {
-                    self.clutter_per_m2 * p.z[0].abs()
-                } else {
-                    self.clutter_per_m2
-                };
-                self.predictions.push(p);
-                self.predicted_of.push(i);
-            }
-        }
         self.gates.compute_grid(
             &self.predictions,
             &self.converted,
@@ -608,20 +625,51 @@ impl SensorTracker {
     /// Step 6 (before initiation, so new tracks are not judged): delete confirmed (and
     /// known) tracks missed `delete_after` scans in a row, and tentative tracks that can
     /// no longer reach M hits within their first N scans.
+    ///
+    /// The same pass first counts step 4's misses (a tentative track of automatic
+    /// initiation not updated this scan; the score method adds `ln(1 - P_D P_G)`), and
+    /// lists the tracks to report with their places after the deletion (step 5 only
+    /// appends tentative tracks, which are not reported).
     fn delete_tracks(&mut self) {
         let cfg = &self.cfg.initiation;
         let known_mode = cfg.method == InitiationMethod::Known;
+        let scored = cfg.method == InitiationMethod::Score;
         let drop_at = cfg.score_thresholds().1;
-        self.tracks.retain(|t| {
-            if t.id.is_some() || known_mode {
+        let miss = (1.0 - self.sensor.pd * self.pg).max(f64::MIN_POSITIVE).ln();
+        let max_misses = cfg.report_max_misses;
+        let updated = &self.updated;
+        let report_order = &mut self.report_order;
+        report_order.clear();
+        let mut i = 0usize;
+        let mut kept = 0u32;
+        self.tracks.retain_mut(|t| {
+            let was_updated = updated.get(i).copied().unwrap_or(false);
+            i += 1;
+            let keep = if t.id.is_some() || known_mode {
                 t.misses < cfg.delete_after
-            } else if cfg.method == InitiationMethod::Score {
-                // tentative: dropped below the SPRT's lower threshold, or undecided for n scans
-                t.score > drop_at && t.age < cfg.n
             } else {
-                // tentative: can it still reach m hits within n scans?
-                t.hits + (cfg.n.saturating_sub(t.age)) >= cfg.m
+                // tentative (automatic initiation): a miss unless step 4 updated it
+                if !was_updated {
+                    t.misses += 1;
+                    if scored {
+                        t.score += miss;
+                    }
+                }
+                if scored {
+                    // dropped below the SPRT's lower threshold, or undecided for n scans
+                    t.score > drop_at && t.age < cfg.n
+                } else {
+                    // can it still reach m hits within n scans?
+                    t.hits + (cfg.n.saturating_sub(t.age)) >= cfg.m
+                }
+            };
+            if keep {
+                if let Some(id) = t.id.filter(|_| t.misses <= max_misses) {
+                    report_order.push((id, kept));
+                }
+                kept += 1;
             }
+            keep
         });
     }
 
@@ -630,17 +678,9 @@ impl SensorTracker {
     ///
     /// The (unique) track ids are sorted with the tracks' positions, then the rows are
     /// written in that order: sorting the rows themselves moved 200-byte rows around.
+    ///
+    /// The tracks to report were listed by step 6 ([`Self::delete_tracks`]).
     fn report(&mut self, scan: u32, time: f64, out: &mut Vec<LocalTrack>) {
-        let max_misses = self.cfg.initiation.report_max_misses;
-        self.report_order.clear();
-        for (i, t) in self.tracks.iter().enumerate() {
-            if t.misses > max_misses {
-                continue;
-            }
-            if let Some(id) = t.id {
-                self.report_order.push((id, i as u32));
-            }
-        }
         sort_by_id(&mut self.report_order, &mut self.id_slots);
         for &(id, i) in &self.report_order {
             let t = &self.tracks[i as usize];
@@ -653,10 +693,6 @@ impl SensorTracker {
                 cov: crate::types::symmetrize(&t.state.cov),
             });
         }
-    }
-
-    fn is_known_unconfirmed(&self, t: &Track) -> bool {
-        self.cfg.initiation.method == InitiationMethod::Known && t.id.is_none()
     }
 
     fn start_known_tracks(&mut self, scan: u32, time: f64) {
@@ -697,26 +733,23 @@ impl SensorTracker {
     /// Step 4: tentative tracks take the unused measurements in their gates, nearest
     /// (smallest d^2) pair first, one measurement per track and one track per
     /// measurement; one confirmed by M hits within its first N scans gets its id.
+    ///
+    /// The candidates are keyed by the track's place `k` in the tentative list, which
+    /// is in track order, so they sort as by `(d^2, track, measurement)`.
     fn update_tentative(&mut self) {
         self.candidates.clear();
-        for (ti, t) in self.tracks.iter().enumerate() {
-            if t.id.is_some() || t.age == 0 {
-                continue;
-            }
-            let Some(p) = self.filter.predict_measurement(&t.state, &self.sensor) else {
-                continue;
-            };
-            self.gate_grid.ensure(&self.converted, p.angular, &p);
+        for (k, (_, p)) in self.tentative.iter().enumerate() {
+            self.gate_grid.ensure(&self.converted, p.angular, p);
             let (used, converted, gamma) = (&self.used, &self.converted, self.gamma);
             let candidates = &mut self.candidates;
             self.gate_grid
-                .for_each_candidate(&p, gamma, &self.index, |m| {
+                .for_each_candidate(p, gamma, &self.index, |m| {
                     if used[m as usize] {
                         return;
                     }
                     let d2 = p.distance2(&converted[m as usize]);
                     if d2 <= gamma {
-                        candidates.push(sort_key(d2, ti as u32, m));
+                        candidates.push(sort_key(d2, k as u32, m));
                     }
                 });
         }
@@ -730,17 +763,12 @@ impl SensorTracker {
         };
         let pd = self.sensor.pd;
         for c in 0..self.candidates.len() {
-            let (ti, m) = sort_key_indices(self.candidates[c]);
-            let (ti, m) = (ti as usize, m as usize);
+            let (k, m) = sort_key_indices(self.candidates[c]);
+            let (ti, p) = &self.tentative[k as usize];
+            let (ti, m) = (*ti as usize, m as usize);
             if self.updated[ti] || self.used[m] {
                 continue;
             }
-            let Some(p) = self
-                .filter
-                .predict_measurement(&self.tracks[ti].state, &self.sensor)
-            else {
-                continue;
-            };
             // the hit's score: ln(P_D N(nu; 0, S) / lambda), lambda in the measurement space
             let gain = if scored {
                 let nu = p.innovation(&self.converted[m]);
@@ -749,14 +777,14 @@ impl SensorTracker {
                 } else {
                     lambda
                 };
-                pd.ln() + log_likelihood(&p, &nu) - lambda_z.ln()
+                pd.ln() + log_likelihood(p, &nu) - lambda_z.ln()
             } else {
                 0.0
             };
             let track = &mut self.tracks[ti];
             if self.filter.update(
                 &mut track.state,
-                &p,
+                p,
                 &self.converted,
                 &[(m as u32, 1.0)],
                 &self.sensor,
@@ -777,16 +805,7 @@ impl SensorTracker {
                 }
             }
         }
-        // a miss scores ln(1 - P_D P_G)
-        let miss = (1.0 - pd * self.pg).max(f64::MIN_POSITIVE).ln();
-        for (ti, t) in self.tracks.iter_mut().enumerate() {
-            if t.id.is_none() && !self.updated[ti] {
-                t.misses += 1;
-                if scored {
-                    t.score += miss;
-                }
-            }
-        }
+        // the tentative tracks not updated here are missed: counted in step 6's pass
     }
 
     /// Cartesian position and its covariance of a raw measurement.
@@ -1182,6 +1201,12 @@ impl MultiSensorTracker {
             .sum()
     }
 
+    /// Tracks kept after the last scan, confirmed and tentative, summed over the sensors
+    /// ([`SensorTracker::track_count`]).
+    pub fn track_count(&self) -> usize {
+        self.trackers.iter().map(SensorTracker::track_count).sum()
+    }
+
     /// Process scan `scan`: `measurements` are all of its measurements, of any sensor,
     /// in any order (each with `scan` as its scan index). Appends the confirmed local
     /// tracks after the scan to `out`, sorted by `(sensor_id, track_id)`. A scan without
@@ -1536,6 +1561,47 @@ pd = 0.95
             max_range: 60_000.0,
             clutter_density,
         }
+    }
+
+    /// `track_count` counts tentative and confirmed tracks, not the single points kept
+    /// for two-point initiation, and drops a tentative track when it is deleted.
+    #[test]
+    fn track_count_counts_tentative_and_confirmed_tracks() {
+        let sensor = aircraft_radar(1.0, Some(1e-8));
+        let cfg = TrackerConfig {
+            initiation: super::super::InitiationConfig {
+                method: InitiationMethod::MOfN,
+                m: 3,
+                n: 4,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let mut tracker = SensorTracker::new(&sensor, &cfg, None, &[], 1, 0, 0).expect("tracker");
+        let mut out = Vec::new();
+        let mut counts = Vec::new();
+        for scan in 0..6u32 {
+            let t = f64::from(scan);
+            // a target at 20 km closing at 100 m/s; a still point far from it at scans 1
+            // and 2 only (it pairs into a tentative track at scan 2, which misses from
+            // then on)
+            let mut z = vec![Vec2::new(20_000.0 - 100.0 * t, 0.3)];
+            if scan == 1 || scan == 2 {
+                z.push(Vec2::new(40_000.0, -0.5));
+            }
+            out.clear();
+            tracker.process_scan(scan, t, &z, &mut out).expect("scan");
+            counts.push((tracker.track_count(), out.len()));
+        }
+        // scan 0: a single point; 1: the target's tentative track (the still point a
+        // single point); 2: the target confirmed at its third hit, the still point's
+        // pair a tentative track; 3 and 4: that one missed but can still make 3 hits in
+        // 4 scans; 5: it cannot (2 hits, no scan left) and is deleted
+        assert_eq!(
+            counts,
+            vec![(0, 0), (1, 0), (2, 1), (2, 1), (2, 1), (1, 1)],
+            "(track_count, reported) per scan"
+        );
     }
 
     /// The scan after which a lone target (200 m/s, 5 s scans, detected at the scans in
