@@ -1106,6 +1106,11 @@ pub struct MultiSensorTracker {
     tracker_slot: Vec<usize>,
     /// Each tracker's output of the current scan.
     outs: Vec<Vec<LocalTrack>>,
+    /// The trackers in sensor-id order, when no two share an id: each tracker's rows
+    /// are in `track_id` order, so their concatenation in this order is the
+    /// `(sensor_id, track_id)` order without a sort. `None` when ids repeat (the rows
+    /// are then sorted).
+    emit_order: Option<Vec<usize>>,
     last_scan: Option<u32>,
     /// Scratch of [`sort_values`], reused scan after scan.
     sort_keys: Vec<u128>,
@@ -1166,8 +1171,12 @@ impl MultiSensorTracker {
             });
             tracker_slot.push(i);
         }
+        let mut emit_order: Vec<usize> = (0..sensors.len()).collect();
+        emit_order.sort_by_key(|&i| sensors[i].id);
+        let distinct = slots.len() == sensors.len();
         Ok(MultiSensorTracker {
             outs: vec![Vec::new(); trackers.len()],
+            emit_order: distinct.then_some(emit_order),
             trackers,
             slots,
             slot_of,
@@ -1254,29 +1263,59 @@ impl MultiSensorTracker {
         }
         let slots = &self.slots;
         let clocked = self.clocked;
-        let results: Vec<Result<(), TrackerError>> = self
-            .trackers
-            .par_iter_mut()
-            .zip(self.outs.par_iter_mut())
-            .zip(self.tracker_slot.par_iter())
-            .map(|((tracker, o), &si)| {
-                o.clear();
-                let slot = &slots[si];
-                let scanned =
-                    !clocked || slot.time.is_some() || slot.clock.is_some_and(|c| c.due(scan_time));
-                if !scanned {
-                    return Ok(());
-                }
-                tracker.process_scan(scan, slot.time.unwrap_or(scan_time), &slot.values, o)
-            })
-            .collect();
-        results.into_iter().collect::<Result<(), _>>()?;
-        self.last_scan = Some(scan);
+        let run = |tracker: &mut SensorTracker, si: usize, o: &mut Vec<LocalTrack>| {
+            let slot = &slots[si];
+            let scanned =
+                !clocked || slot.time.is_some() || slot.clock.is_some_and(|c| c.due(scan_time));
+            if !scanned {
+                return Ok(());
+            }
+            tracker.process_scan(scan, slot.time.unwrap_or(scan_time), &slot.values, o)
+        };
         let start = out.len();
-        for o in &self.outs {
-            out.extend_from_slice(o);
+        if let (Some(order), 1) = (&self.emit_order, rayon::current_num_threads()) {
+            // one thread: each tracker appends to `out` itself, in sensor-id order (no
+            // copy of the rows, no sort); the same rows, and on an error the first
+            // failing tracker's (in the trackers' order) with nothing appended, as below
+            let mut first_error: Option<(usize, TrackerError)> = None;
+            for &ti in order {
+                if let Err(e) = run(&mut self.trackers[ti], self.tracker_slot[ti], out) {
+                    if first_error.as_ref().is_none_or(|(i, _)| ti < *i) {
+                        first_error = Some((ti, e));
+                    }
+                }
+            }
+            if let Some((_, e)) = first_error {
+                out.truncate(start);
+                return Err(e);
+            }
+        } else {
+            let results: Vec<Result<(), TrackerError>> = self
+                .trackers
+                .par_iter_mut()
+                .zip(self.outs.par_iter_mut())
+                .zip(self.tracker_slot.par_iter())
+                .map(|((tracker, o), &si)| {
+                    o.clear();
+                    run(tracker, si, o)
+                })
+                .collect();
+            results.into_iter().collect::<Result<(), _>>()?;
+            match &self.emit_order {
+                Some(order) => {
+                    for &ti in order {
+                        out.extend_from_slice(&self.outs[ti]);
+                    }
+                }
+                None => {
+                    for o in &self.outs {
+                        out.extend_from_slice(o);
+                    }
+                    out[start..].sort_by_key(|l| (l.sensor_id, l.track_id));
+                }
+            }
         }
-        out[start..].sort_by_key(|l| (l.sensor_id, l.track_id));
+        self.last_scan = Some(scan);
         Ok(())
     }
 }
@@ -1935,6 +1974,52 @@ max_range = 60000.0
         shuffled.reverse();
         let b = track_sensors(&sim.sensors, &shuffled, &cfg, None, &[], 1, 0).expect("tracking");
         assert_eq!(a, b);
+    }
+
+    /// The rows come in `(scan, sensor_id, track_id)` order and are the same at one
+    /// thread (each tracker appends in sensor-id order itself) and at two (the trackers'
+    /// rows concatenated): sensors listed against their id order, and two sensors
+    /// sharing an id (their rows then sorted).
+    #[test]
+    fn rows_in_sensor_id_order_at_any_thread_count() {
+        let sc = Scenario::from_toml(TWO_TARGETS, "t").expect("scenario");
+        let sim = simulate(&sc, 0);
+        let cfg = TrackerConfig::default();
+        let run = |sensors: &[Sensor], measurements: &[Measurement], threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool")
+                .install(|| track_sensors(sensors, measurements, &cfg, None, &[], 1, 0))
+                .expect("tracking")
+        };
+        let (a, b) = (sim.sensors[0].id, sim.sensors[1].id);
+        // against the id order: the first sensor gets the larger id
+        let mut swapped = sim.sensors.clone();
+        (swapped[0].id, swapped[1].id) = (b + 10, a);
+        let relabel = |m: &Measurement| Measurement {
+            sensor_id: if m.sensor_id == a { b + 10 } else { a },
+            ..*m
+        };
+        let measurements: Vec<Measurement> = sim.measurements.iter().map(relabel).collect();
+        // two trackers of one position sensor's id, fed the same measurements
+        let twice = vec![sim.sensors[0].clone(), sim.sensors[0].clone()];
+        let first: Vec<Measurement> = sim
+            .measurements
+            .iter()
+            .filter(|m| m.sensor_id == a)
+            .copied()
+            .collect();
+        for (sensors, ms, ids) in [(&swapped, &measurements, 2), (&twice, &first, 1)] {
+            let one = run(sensors, ms, 1);
+            assert_eq!(one, run(sensors, ms, 2));
+            assert!(one
+                .windows(2)
+                .all(|w| (w[0].scan, w[0].sensor_id, w[0].track_id)
+                    <= (w[1].scan, w[1].sensor_id, w[1].track_id)));
+            let seen: BTreeSet<Id> = one.iter().map(|l| l.sensor_id).collect();
+            assert_eq!(seen.len(), ids, "rows of every sensor id");
+        }
     }
 
     /// Input the tracker cannot process is a typed error naming the sensor and scan.
