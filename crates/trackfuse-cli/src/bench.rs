@@ -46,6 +46,32 @@ pub enum BenchWhat {
         #[arg(long, default_value_t = 3)]
         repeat: u32,
     },
+    /// Local tracking's cost per measurement against the number of targets at a fixed
+    /// clutter density (BENCHMARKS.md, issue 13 point 2): the built-in grid-bench with
+    /// each count of --targets on its 1 km grid (side L = ceil(sqrt N) km), clutter of
+    /// 0.08 per km^2 per scan over the grid plus L/2 on each side, the four sensors
+    /// 10 km beyond the grid's corners; per size the tracks kept per measurement, the
+    /// time per measurement and per track kept (one thread, after an untimed run, best
+    /// of --repeat runs, or of as many as fill about 0.5 s for a size that takes under
+    /// 0.2 s), and the cost per measurement relative to the first size.
+    TrackSweep {
+        #[command(flatten)]
+        tracker: TrackerFlags,
+        /// Target counts (comma-separated), the first the reference.
+        #[arg(long, value_delimiter = ',', default_value = "100,1000,10000,30000")]
+        targets: Vec<usize>,
+        /// The sensors: `radar` (grid-bench's range-bearing radars, 20 m and 0.002 rad:
+        /// the cross-range error grows with the distance, which grows with the grid) or
+        /// `position` (x-y sensors of 50 m on each axis: an accuracy that does not).
+        #[arg(long, default_value = "radar", value_parser = ["radar", "position"])]
+        sensors: String,
+        /// Scans simulated and tracked per size.
+        #[arg(long, default_value_t = 30)]
+        scans: u32,
+        /// Repetitions per size at least (the best is reported).
+        #[arg(long, default_value_t = 3)]
+        repeat: u32,
+    },
     /// Fusion-center throughput on synthetic local tracks: targets on a 1 km grid, each
     /// seen by every sensor with 20 m / 5 m/s noise; local tracks per second per core at
     /// TARGETS x SENSORS, and the time per scan for each size of --sweep.
@@ -145,6 +171,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             tracker,
             repeat,
         } => bench_track(scenario, tracker, *repeat)?,
+        BenchWhat::TrackSweep {
+            tracker,
+            targets,
+            sensors,
+            scans,
+            repeat,
+        } => bench_track_sweep(tracker, targets, sensors == "position", *scans, *repeat)?,
         BenchWhat::Fuse {
             fusion,
             targets,
@@ -363,11 +396,161 @@ fn bench_bias(scenario: &str, repeat: u32) -> Result<()> {
     Ok(())
 }
 
+/// What [`time_tracking`] measured.
+struct TrackTiming {
+    /// Measurements of the run.
+    measurements: usize,
+    /// Local-track rows the trackers reported.
+    rows: usize,
+    /// Tracks kept (confirmed and tentative) after each sensor-scan, summed.
+    track_scans: usize,
+    /// Sensors x scans.
+    sensor_scans: f64,
+    /// Best wall time of the tracking (s).
+    best: f64,
+}
+
+impl TrackTiming {
+    fn us_per_measurement(&self) -> f64 {
+        self.best * 1e6 / self.measurements.max(1) as f64
+    }
+    fn us_per_track_kept(&self) -> f64 {
+        self.best * 1e6 / self.track_scans.max(1) as f64
+    }
+    fn kept_per_measurement(&self) -> f64 {
+        self.track_scans as f64 / self.measurements.max(1) as f64
+    }
+}
+
 fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32) -> Result<()> {
     let (config, _) = load_scenario(Some(scenario))?;
     let cfg = flags.apply(&config.tracker)?;
     let sc = config.scenario;
     let sim = trackfuse::sim::simulate(&sc, 0);
+    let t = time_tracking(&sim, &sc, &cfg, repeat)?;
+    let n = t.measurements;
+    let per_sensor_scan = n as f64 / t.sensor_scans;
+    say!("scenario                    {}", sc.name);
+    say!(
+        "tracker                     {} + {}",
+        cfg.associator,
+        cfg.filter
+    );
+    say!(
+        "sensors x scans             {} x {}",
+        sc.sensors.len(),
+        sc.scans
+    );
+    say!("measurements                {n} ({per_sensor_scan:.0} per sensor-scan)");
+    say!("local-track rows            {}", t.rows);
+    say!(
+        "tracks kept per sensor-scan {:.0} ({:.2} per measurement; confirmed and tentative)",
+        t.track_scans as f64 / t.sensor_scans,
+        t.kept_per_measurement()
+    );
+    say!("wall time (1 thread, best)  {:.4} s", t.best);
+    say!(
+        "per sensor-scan             {:.1} us",
+        t.best * 1e6 / t.sensor_scans
+    );
+    say!(
+        "per track kept, per scan    {:.3} us",
+        t.us_per_track_kept()
+    );
+    say!("measurements/s per core     {:.0}", n as f64 / t.best);
+    Ok(())
+}
+
+/// The scenario of one size of [`bench_track_sweep`]: the built-in grid-bench text with
+/// the substitutions BENCHMARKS.md's sed recipe makes (series B; series C with
+/// `position`), each checked to apply.
+fn sweep_scenario(targets: usize, position: bool, scans: u32) -> Result<String> {
+    let base = trackfuse::config::RunConfig::builtin_text("grid-bench")
+        .ok_or_else(|| anyhow::anyhow!("the built-in grid-bench is missing"))?;
+    let side = (targets as f64).sqrt().ceil() as i64 * 1000;
+    let half = side / 2;
+    let mut text = base.to_string();
+    let mut swap = |from: &str, to: &str| -> Result<()> {
+        anyhow::ensure!(
+            text.contains(from),
+            "the built-in grid-bench has no `{from}` to change for the sweep"
+        );
+        text = text.replace(from, to);
+        Ok(())
+    };
+    swap("\nscans = 1000\n", &format!("\nscans = {scans}\n"))?;
+    swap("\ncount = 1000\n", &format!("\ncount = {targets}\n"))?;
+    swap("\ndensity = 0.01\n", "\ndensity = 0.08\n")?;
+    // through placeholders, so that a new value never matches a later pattern
+    swap("-50000.0", "@lo@")?;
+    swap("80000.0", "@hi@")?;
+    swap("40000.0", "@far@")?;
+    swap("@lo@", &format!("-{half}.0"))?;
+    swap("@hi@", &format!("{}.0", side + half))?;
+    swap("@far@", &format!("{}.0", side + 10_000))?;
+    if position {
+        swap("\nsigma_r = 20.0\n", "\nkind = \"position\"\n")?;
+        swap(
+            "\nsigma_theta = 0.002\n",
+            "\nsigma_x = 50.0\nsigma_y = 50.0\n",
+        )?;
+    }
+    Ok(text)
+}
+
+/// `bench track-sweep`: [`time_tracking`] on [`sweep_scenario`] at each size.
+fn bench_track_sweep(
+    flags: &TrackerFlags,
+    targets: &[usize],
+    position: bool,
+    scans: u32,
+    repeat: u32,
+) -> Result<()> {
+    anyhow::ensure!(!targets.is_empty(), "--targets: give at least one count");
+    say!(
+        "grid-bench at a fixed clutter density (0.08 per km^2 per scan), {} sensors, {scans} scans, one thread, best of at least {repeat} runs",
+        if position { "position (50 m)" } else { "radar (20 m, 0.002 rad)" }
+    );
+    say!("| targets | measurements per sensor-scan | tracks kept per measurement | us per measurement | us per track kept | per measurement / first |");
+    say!("|---|---|---|---|---|---|");
+    let mut first = None;
+    for &n in targets {
+        anyhow::ensure!(n > 0, "--targets: a count must be at least 1");
+        let text = sweep_scenario(n, position, scans)?;
+        let config = trackfuse::config::RunConfig::from_toml(&text, &format!("grid-bench x {n}"))?;
+        let cfg = flags.apply(&config.tracker)?;
+        // one untimed run first (it also warms the caches and the allocator); a size
+        // that runs in under 0.2 s is then repeated until about 0.5 s, at most 500
+        // times: a few milliseconds' best is mostly the machine's noise
+        let sim = trackfuse::sim::simulate(&config.scenario, 0);
+        let probe = time_tracking(&sim, &config.scenario, &cfg, 1)?;
+        let runs = if probe.best < 0.2 {
+            ((0.5 / probe.best.max(1e-6)).ceil() as u32).clamp(repeat, 500)
+        } else {
+            repeat
+        };
+        let t = time_tracking(&sim, &config.scenario, &cfg, runs)?;
+        let us = t.us_per_measurement();
+        let reference = *first.get_or_insert(us);
+        say!(
+            "| {n} | {:.0} | {:.2} | {us:.3} | {:.3} | {:.2}x |",
+            t.measurements as f64 / t.sensor_scans,
+            t.kept_per_measurement(),
+            t.us_per_track_kept(),
+            us / reference
+        );
+    }
+    Ok(())
+}
+
+/// Time the path `trackfuse track` runs on one thread on `sim` (run 0 of `sc`, in
+/// memory), best of `repeat`.
+fn time_tracking(
+    sim: &trackfuse::sim::SimulationOutput,
+    sc: &trackfuse::scenario::Scenario,
+    cfg: &trackfuse::local::TrackerConfig,
+    repeat: u32,
+) -> Result<TrackTiming> {
     let known = known_targets(&sim.truth);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let mut best = f64::INFINITY;
@@ -392,7 +575,7 @@ fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32) -> Result<()> 
         (rows, track_scans) = pool.install(|| {
             let mut tracker = MultiSensorTracker::new(
                 &sim.sensors,
-                &cfg,
+                cfg,
                 Some(sc.process_noise),
                 &known,
                 sc.seed,
@@ -410,38 +593,13 @@ fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32) -> Result<()> 
         })?;
         best = best.min(t0.elapsed().as_secs_f64());
     }
-    let n = sim.measurements.len();
-    let per_sensor_scan = n as f64 / (sc.scans as f64 * sim.sensors.len() as f64);
-    say!("scenario                    {}", sc.name);
-    say!(
-        "tracker                     {} + {}",
-        cfg.associator,
-        cfg.filter
-    );
-    say!(
-        "sensors x scans             {} x {}",
-        sim.sensors.len(),
-        sc.scans
-    );
-    say!("measurements                {n} ({per_sensor_scan:.0} per sensor-scan)");
-    say!("local-track rows            {rows}");
-    let sensor_scans = sc.scans as f64 * sim.sensors.len() as f64;
-    say!(
-        "tracks kept per sensor-scan {:.0} ({:.2} per measurement; confirmed and tentative)",
-        track_scans as f64 / sensor_scans,
-        track_scans as f64 / n.max(1) as f64
-    );
-    say!("wall time (1 thread, best)  {best:.4} s");
-    say!(
-        "per sensor-scan             {:.1} us",
-        best * 1e6 / sensor_scans
-    );
-    say!(
-        "per track kept, per scan    {:.3} us",
-        best * 1e6 / track_scans.max(1) as f64
-    );
-    say!("measurements/s per core     {:.0}", n as f64 / best);
-    Ok(())
+    Ok(TrackTiming {
+        measurements: sim.measurements.len(),
+        rows,
+        track_scans,
+        sensor_scans: sc.scans as f64 * sim.sensors.len() as f64,
+        best,
+    })
 }
 
 fn time_center(flags: &FusionFlags, scans: &[Vec<LocalTrack>]) -> Result<ScanTimes> {
@@ -516,4 +674,54 @@ fn bench_fuse(
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use trackfuse::types::SensorKind;
+
+    /// The sweep's scenario is BENCHMARKS.md's series: N targets on the 1 km grid of side
+    /// L = ceil(sqrt N) km, clutter 0.08 per km^2 over the grid plus L/2 on each side, the
+    /// sensors 10 km beyond the corners; radars, or 50 m position sensors. 6 400 targets
+    /// (L = 80 km, L/2 = 40 km) would have met a later pattern without the placeholders.
+    #[test]
+    fn sweep_scenarios_are_the_documented_series() {
+        for (n, side) in [(100usize, 10_000.0), (6_400, 80_000.0), (30_000, 174_000.0)] {
+            for position in [false, true] {
+                let text = sweep_scenario(n, position, 7).expect("scenario");
+                let sc = trackfuse::config::RunConfig::from_toml(&text, "sweep")
+                    .expect("valid")
+                    .scenario;
+                let half = side / 2.0;
+                assert_eq!(sc.scans, 7);
+                assert_eq!(sc.target_count(), n);
+                assert_eq!(sc.clutter.density, 0.08);
+                assert_eq!(
+                    sc.clutter.region,
+                    Some([-half, side + half, -half, side + half])
+                );
+                let far = side + 10_000.0;
+                let positions: Vec<[f64; 2]> = sc.sensors.iter().map(|s| s.position).collect();
+                assert_eq!(
+                    positions,
+                    vec![
+                        [-10_000.0, -10_000.0],
+                        [far, -10_000.0],
+                        [-10_000.0, far],
+                        [far, far]
+                    ]
+                );
+                for s in &sc.sensors {
+                    if position {
+                        assert_eq!(s.kind, SensorKind::Position);
+                        assert_eq!((s.sigma_x, s.sigma_y), (Some(50.0), Some(50.0)));
+                    } else {
+                        assert_eq!(s.kind, SensorKind::RangeBearing);
+                        assert_eq!((s.sigma_r, s.sigma_theta), (Some(20.0), Some(0.002)));
+                    }
+                }
+            }
+        }
+    }
 }
