@@ -507,6 +507,11 @@ fn bench_track_sweep(
     repeat: u32,
 ) -> Result<()> {
     anyhow::ensure!(!targets.is_empty(), "--targets: give at least one count");
+    anyhow::ensure!(
+        targets.iter().all(|&n| n > 0),
+        "--targets: a count must be at least 1"
+    );
+    anyhow::ensure!(scans > 0, "--scans: must be at least 1");
     say!(
         "grid-bench at a fixed clutter density (0.08 per km^2 per scan), {} sensors, {scans} scans, one thread, best of at least {repeat} runs",
         if position { "position (50 m)" } else { "radar (20 m, 0.002 rad)" }
@@ -515,7 +520,6 @@ fn bench_track_sweep(
     say!("|---|---|---|---|---|---|");
     let mut first = None;
     for &n in targets {
-        anyhow::ensure!(n > 0, "--targets: a count must be at least 1");
         let text = sweep_scenario(n, position, scans)?;
         let config = trackfuse::config::RunConfig::from_toml(&text, &format!("grid-bench x {n}"))?;
         let cfg = flags.apply(&config.tracker)?;
@@ -525,7 +529,9 @@ fn bench_track_sweep(
         let sim = trackfuse::sim::simulate(&config.scenario, 0);
         let probe = time_tracking(&sim, &config.scenario, &cfg, 1)?;
         let runs = if probe.best < 0.2 {
-            ((0.5 / probe.best.max(1e-6)).ceil() as u32).clamp(repeat, 500)
+            ((0.5 / probe.best.max(1e-6)).ceil() as u32)
+                .min(500)
+                .max(repeat)
         } else {
             repeat
         };
