@@ -120,6 +120,15 @@ impl Batch {
     }
 }
 
+/// A new file for what the service records (the journal, `--output`), behind a 1 MiB
+/// buffer: with 8 KiB, recording at 300 000 reports/s made the service fall behind
+/// (README, "Record and replay"); a crash loses at most the buffer.
+pub(crate) fn create_buffered(
+    path: &std::path::Path,
+) -> std::io::Result<std::io::BufWriter<std::fs::File>> {
+    std::fs::File::create(path).map(|f| std::io::BufWriter::with_capacity(1 << 20, f))
+}
+
 /// One fused instant's output: its fused tracks (sorted by `fused_id`), then one
 /// association per local track (sorted by sensor and track), as the center gave them.
 /// Encoding is left to whoever publishes it ([`InstantOutput::chunks`]), so that
@@ -340,13 +349,10 @@ impl Engine {
             );
         }
         let batcher = InstantBatcher::new(setup.period(), &setup.clocks());
-        // a 1 MiB buffer: with 8 KiB, recording at 300 000 reports/s made the service fall
-        // behind (README, "Record and replay")
         let journal = match journal {
             Some(p) => {
-                let f = std::fs::File::create(p)
+                let mut w = create_buffered(p)
                     .with_context(|| format!("creating journal {}", p.display()))?;
-                let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
                 let header = JournalHeader {
                     trackfuse_journal: 1,
                     setup: setup.clone(),

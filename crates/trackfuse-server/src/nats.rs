@@ -204,9 +204,7 @@ pub async fn start_nats(cfg: &ServiceConfig, outputs: Outputs) -> Result<NatsSer
         .output
         .as_deref()
         .map(|p| {
-            std::fs::File::create(p)
-                .map(|f| std::io::BufWriter::with_capacity(1 << 20, f))
-                .with_context(|| format!("creating {}", p.display()))
+            crate::engine::create_buffered(p).with_context(|| format!("creating {}", p.display()))
         })
         .transpose()?;
     let metrics = Arc::new(Metrics::new());

@@ -253,9 +253,7 @@ pub async fn start(cfg: &ServiceConfig, outputs: Outputs) -> Result<Service> {
         .output
         .as_deref()
         .map(|p| {
-            std::fs::File::create(p)
-                .map(|f| std::io::BufWriter::with_capacity(1 << 20, f))
-                .with_context(|| format!("creating {}", p.display()))
+            crate::engine::create_buffered(p).with_context(|| format!("creating {}", p.display()))
         })
         .transpose()?;
     let addrs = (
