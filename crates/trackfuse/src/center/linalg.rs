@@ -13,7 +13,8 @@
 //! - [`cholesky4`]: `Cholesky::new` (reads the lower triangle; fails, like nalgebra, when a
 //!   pivot is zero, negative or NaN).
 //! - [`solve_lower4`], [`solve_lower_vec4`]: `solve_lower_triangular` (matrix, vector).
-//! - [`chol_solve4`], [`chol_inverse4`]: `Cholesky::solve`, `Cholesky::inverse`.
+//! - [`chol_solve4`], [`chol_solve_vec4`], [`chol_inverse4`]: `Cholesky::solve` (matrix,
+//!   vector), `Cholesky::inverse`.
 //! - [`lu_solve`], [`lu_solve_many`], [`lu_nonsingular`]: `LU::new(..).solve(..)` for any
 //!   fixed `N` (partial pivoting), for several right-hand sides, and whether it succeeds.
 //! - [`cholesky_flat`], [`chol_solve_flat`]: the Cholesky factorisation and solve of an
@@ -132,6 +133,23 @@ pub(crate) fn chol_solve4(l: &StateCov, b: &StateCov) -> StateCov {
     forward_rows(l, &mut v);
     backward_rows(l, &mut v);
     from_rows(&v)
+}
+
+/// `(L L^T)^-1 b` of one vector from a Cholesky factor `L` ([`cholesky4`]):
+/// `Cholesky::solve` of a vector (forward substitution, then the backward one with each
+/// dot product of the solved part summed from the top, nalgebra's order).
+#[inline]
+pub(crate) fn chol_solve_vec4(l: &StateCov, b: &StateVec) -> StateVec {
+    let mut v = [b[0], b[1], b[2], b[3]];
+    forward_column(l, &mut v);
+    for i in (0..4).rev() {
+        let mut dot = 0.0;
+        for k in i + 1..4 {
+            dot += l[(k, i)] * v[k];
+        }
+        v[i] = (v[i] - dot) / l[(i, i)];
+    }
+    StateVec::from(v)
 }
 
 /// `(L L^T)^-1` from a Cholesky factor `L` ([`cholesky4`]): `Cholesky::inverse` (the
@@ -356,6 +374,7 @@ mod tests {
             let l = cholesky4(&a).unwrap();
             assert_eq!(l, ch.l());
             assert_eq!(chol_solve4(&l, &b), ch.solve(&b));
+            assert_eq!(chol_solve_vec4(&l, &v), ch.solve(&v));
             assert_eq!(chol_inverse4(&l), ch.inverse());
             assert_eq!(solve_lower4(&l, &b), ch.l().solve_lower_triangular(&b));
             assert_eq!(

@@ -25,6 +25,7 @@
 use super::assignment::GatedAssigner;
 use super::gospa::{gospa_and_ospa, GospaScratch};
 use super::EvaluationConfig;
+use crate::center::linalg::{chol_solve_vec4, cholesky4};
 use crate::types::{
     position_of, Association, FusedTrack, Id, LocalTrack, StateCov, StateVec, TruthState, Vec2,
 };
@@ -157,9 +158,12 @@ pub struct EvalInput<'a> {
     pub local: Option<&'a [LocalTrack]>,
 }
 
+/// `e^T P^-1 e` by a Cholesky factorisation, `None` when `P` is not positive definite
+/// (the crate's fixed-size 4x4 routines: nalgebra's `Cholesky::new(P)?.solve(e)` to the
+/// last bit, without its generic overhead).
 fn nees(err: &StateVec, cov: &StateCov) -> Option<f64> {
-    let chol = nalgebra::Cholesky::new(*cov)?;
-    Some(err.dot(&chol.solve(err)))
+    let l = cholesky4(cov)?;
+    Some(err.dot(&chol_solve_vec4(&l, err)))
 }
 
 fn group_by_scan<T, F: Fn(&T) -> u32>(items: &[T], scan: F) -> BTreeMap<u32, Vec<&T>> {
@@ -344,6 +348,10 @@ pub fn evaluate_run_with(
     let mut scores = GospaScratch::default();
     let mut assigner = GatedAssigner::default();
     let mut inverse: Vec<Option<usize>> = Vec::new();
+    // per-target squared errors summed in a hash map (one lookup per assigned pair, not
+    // a B-tree search) and moved into the ordered map at the end; each target's sum gets
+    // the same additions in the same order, so the sums are the same to the last bit
+    let mut target_sums: FxHashMap<Id, SumCount> = FxHashMap::default();
     for &(time, scan) in &times {
         let key = TimeKey(time);
         let fs = fused_t.get(&key).map_or(&empty_f, |v| &v.1);
@@ -382,14 +390,15 @@ pub fn evaluate_run_with(
             }
             None => assigner.solve(&fpos, &tpos, c),
         };
+        // this time's scan sum: looked up once, given the additions in order, put back
+        let mut scan_sum: Option<SumCount> = None;
         for (fi, &ti) in fused_truth.iter().enumerate() {
             if let Some(ti) = ti {
                 let e2 = (fpos[fi] - tpos[ti]).norm_squared();
-                m.fused_per_target
-                    .entry(ts[ti].target_id)
-                    .or_default()
+                target_sums.entry(ts[ti].target_id).or_default().add(e2);
+                scan_sum
+                    .get_or_insert_with(|| m.fused_per_scan.get(&scan).copied().unwrap_or_default())
                     .add(e2);
-                m.fused_per_scan.entry(scan).or_default().add(e2);
                 m.covered_points += 1;
                 match nees(&(fs[fi].state - ts[ti].state), &fs[fi].cov) {
                     Some(v) => m.nees_fused.add(v),
@@ -397,7 +406,11 @@ pub fn evaluate_run_with(
                 }
             }
         }
+        if let Some(sum) = scan_sum {
+            m.fused_per_scan.insert(scan, sum);
+        }
     }
+    m.fused_per_target.extend(target_sums);
 
     let Some(local) = input.local else { return m };
     let labels: FxHashMap<(u32, Id, Id), Id> =
@@ -624,15 +637,20 @@ fn label_local_tracks_into<S: BuildHasher + Default>(
     let empty_t: Vec<&TruthState> = Vec::new();
     let mut tpos: Vec<Vec2> = Vec::new();
     let mut lpos: Vec<Vec2> = Vec::new();
+    // a scan's tracks by sensor (sensors ascending, each in input order), reused
+    let mut by_sensor: Vec<&LocalTrack> = Vec::new();
+    // per (sensor, target) squared errors summed in a hash map and added to the metrics'
+    // ordered map at the end: each key's additions in the same order as before
+    let mut per_key: FxHashMap<(Id, Id), SumCount> = FxHashMap::default();
     for (scan, ls) in &group_by_scan(local, |l| l.scan) {
         let ts = truth.get(scan).unwrap_or(&empty_t);
         tpos.clear();
         tpos.extend(ts.iter().map(|t| position_of(&t.state)));
-        let mut by_sensor: BTreeMap<Id, Vec<&LocalTrack>> = BTreeMap::new();
-        for l in ls {
-            by_sensor.entry(l.sensor_id).or_default().push(l);
-        }
-        for (sensor, tracks) in by_sensor {
+        by_sensor.clear();
+        by_sensor.extend(ls.iter().copied());
+        by_sensor.sort_by_key(|l| l.sensor_id); // stable
+        for tracks in by_sensor.chunk_by(|a, b| a.sensor_id == b.sensor_id) {
+            let sensor = tracks[0].sensor_id;
             lpos.clear();
             lpos.extend(tracks.iter().map(|l| position_of(&l.state)));
             for (li, &ti) in assigner.solve(&lpos, &tpos, gate).iter().enumerate() {
@@ -640,7 +658,7 @@ fn label_local_tracks_into<S: BuildHasher + Default>(
                 let l = tracks[li];
                 labels.insert((*scan, sensor, l.track_id), ts[ti].target_id);
                 if let Some(m) = metrics.as_deref_mut() {
-                    m.local_per_sensor_target
+                    per_key
                         .entry((sensor, ts[ti].target_id))
                         .or_default()
                         .add((lpos[li] - tpos[ti]).norm_squared());
@@ -650,6 +668,12 @@ fn label_local_tracks_into<S: BuildHasher + Default>(
                     }
                 }
             }
+        }
+    }
+    if let Some(m) = metrics {
+        // (the map is empty here in `evaluate_run_with`, so each sum is moved unchanged)
+        for (k, v) in per_key {
+            m.local_per_sensor_target.entry(k).or_default().merge(&v);
         }
     }
     labels
