@@ -195,12 +195,12 @@ impl GatedAssigner {
         self.pred.resize(ncols, NONE);
         self.reached.clear();
         self.reached.resize(ncols, false);
-        for i in 0..nr {
+        for (i, r) in rows.iter().enumerate() {
             let b = self.best[i];
             if b < TIED && self.claims[b as usize] == 1 {
                 self.row_col[i] = b;
                 self.col_row[b as usize] = i as u32;
-                self.u[i] = (rows[i] - cols[b as usize]).norm_squared();
+                self.u[i] = (r - cols[b as usize]).norm_squared();
             }
         }
         for r in 0..nr {
