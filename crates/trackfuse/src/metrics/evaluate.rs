@@ -166,8 +166,17 @@ fn nees(err: &StateVec, cov: &StateCov) -> Option<f64> {
     Some(err.dot(&chol_solve_vec4(&l, err)))
 }
 
+/// `items` by scan, each scan's in input order. Rows in ascending scan order (what the
+/// pipeline and the files give) are grouped run by run, one map insertion per scan;
+/// others row by row, into the same map.
 fn group_by_scan<T, F: Fn(&T) -> u32>(items: &[T], scan: F) -> BTreeMap<u32, Vec<&T>> {
     let mut m: BTreeMap<u32, Vec<&T>> = BTreeMap::new();
+    if items.windows(2).all(|w| scan(&w[0]) <= scan(&w[1])) {
+        for run in items.chunk_by(|a, b| scan(a) == scan(b)) {
+            m.insert(scan(&run[0]), run.iter().collect());
+        }
+        return m;
+    }
     for it in items {
         m.entry(scan(it)).or_default().push(it);
     }
@@ -189,11 +198,20 @@ impl Ord for TimeKey {
     }
 }
 
+/// `items` by time (each time's scan: its first row's), each time's in input order;
+/// rows in ascending time order grouped run by run, as [`group_by_scan`].
 fn group_by_time<T, F: Fn(&T) -> (u32, f64)>(
     items: &[T],
     key: F,
 ) -> BTreeMap<TimeKey, (u32, Vec<&T>)> {
     let mut m: BTreeMap<TimeKey, (u32, Vec<&T>)> = BTreeMap::new();
+    let time = |it: &T| TimeKey(key(it).1);
+    if items.windows(2).all(|w| time(&w[0]) <= time(&w[1])) {
+        for run in items.chunk_by(|a, b| time(a).cmp(&time(b)).is_eq()) {
+            m.insert(time(&run[0]), (key(&run[0]).0, run.iter().collect()));
+        }
+        return m;
+    }
     for it in items {
         let (scan, time) = key(it);
         m.entry(TimeKey(time))
@@ -819,6 +837,51 @@ impl RunMetrics {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Grouping run by run (sorted rows) gives the map row-by-row grouping gives.
+    #[test]
+    fn grouping_sorted_and_unsorted_rows_agree() {
+        let rows: Vec<(u32, f64, u32)> = vec![
+            (0, 0.0, 0),
+            (0, 0.0, 1),
+            (1, 0.5, 2),
+            (1, 1.0, 3),
+            (3, 2.0, 4),
+            (3, 2.0, 5),
+        ];
+        let by_row = |rows: &[(u32, f64, u32)]| {
+            let mut m: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+            for r in rows {
+                m.entry(r.0).or_default().push(r.2);
+            }
+            m
+        };
+        let ids = |m: BTreeMap<u32, Vec<&(u32, f64, u32)>>| -> BTreeMap<u32, Vec<u32>> {
+            m.into_iter()
+                .map(|(k, v)| (k, v.iter().map(|r| r.2).collect()))
+                .collect()
+        };
+        let mut shuffled = rows.clone();
+        shuffled.swap(0, 4);
+        shuffled.swap(2, 5);
+        for r in [&rows, &shuffled] {
+            assert_eq!(ids(group_by_scan(r, |x| x.0)), by_row(r));
+            let t = group_by_time(r, |x| (x.0, x.1));
+            let times: Vec<(f64, u32, Vec<u32>)> = t
+                .iter()
+                .map(|(k, (s, v))| (k.0, *s, v.iter().map(|x| x.2).collect()))
+                .collect();
+            let first = |time: f64| r.iter().find(|x| x.1 == time).map(|x| x.0).unwrap();
+            let want: Vec<(f64, u32, Vec<u32>)> = [0.0, 0.5, 1.0, 2.0]
+                .iter()
+                .map(|&time| {
+                    let v = r.iter().filter(|x| x.1 == time).map(|x| x.2).collect();
+                    (time, first(time), v)
+                })
+                .collect();
+            assert_eq!(times, want);
+        }
+    }
 
     fn truth(scan: u32, id: Id, x: f64, y: f64) -> TruthState {
         TruthState {
