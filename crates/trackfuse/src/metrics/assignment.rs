@@ -260,14 +260,26 @@ impl GatedAssigner {
                         next = j;
                     }
                 }
-                // a row's own "unassigned" column is always reachable from it
+                // a row's own "unassigned" column is always reachable from it, at a
+                // finite cost unless the gate is infinite: then a row with no other way
+                // stays unassigned
+                if next == NONE {
+                    break None;
+                }
                 let j = next as usize;
                 min_val = lowest;
                 self.reached[j] = true;
                 if self.col_row[j] == NONE {
-                    break j;
+                    break Some(j);
                 }
                 i = self.col_row[j] as usize;
+            };
+            let Some(sink) = sink else {
+                for &j in &self.touched {
+                    self.dist[j as usize] = f64::INFINITY;
+                    self.reached[j as usize] = false;
+                }
+                continue;
             };
             // dual update
             self.u[r] += min_val;
@@ -449,6 +461,22 @@ mod tests {
         }
         // the cases exercise the augmentation, not only the shortcut
         assert!(conflicted > 1000, "{conflicted}");
+    }
+
+    /// An infinite gate (every pair a candidate, "unassigned" of infinite cost) and a
+    /// non-finite point: conflicts are still resolved, nothing panics.
+    #[test]
+    fn infinite_gate_and_non_finite_points() {
+        let rows = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(f64::NAN, 0.0),
+        ];
+        let cols = [Vec2::new(0.5, 0.0), Vec2::new(3.0, 0.0)];
+        let got = gated_assignment(&rows, &cols, f64::INFINITY);
+        assert_eq!(got, vec![Some(0), Some(1), None]);
+        let got = gated_assignment(&cols, &rows, f64::INFINITY);
+        assert_eq!(got, vec![Some(0), Some(1)]);
     }
 
     #[test]
