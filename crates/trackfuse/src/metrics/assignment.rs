@@ -115,14 +115,7 @@ impl GatedAssigner {
                 }
             } else {
                 let start = self.edges.len();
-                let edges = &mut self.edges;
-                // the grid's disc is inclusive; the gate is not
-                self.grid.for_each_within(r, |j, _| {
-                    let d2 = (r - cols[j]).norm_squared();
-                    if d2 < gate2 {
-                        edges.push((j as u32, d2));
-                    }
-                });
+                push_candidates(&self.grid, r, cols, gate2, &mut self.edges);
                 let best = nearest(&self.edges[start..]);
                 self.edges.truncate(start);
                 best
@@ -148,14 +141,7 @@ impl GatedAssigner {
         // the candidate lists of every row
         for r in rows {
             self.edge_start.push(self.edges.len() as u32);
-            let edges = &mut self.edges;
-            // the grid's disc is inclusive; the gate is not
-            self.grid.for_each_within(r, |j, _| {
-                let d2 = (r - cols[j]).norm_squared();
-                if d2 < gate2 {
-                    edges.push((j as u32, d2));
-                }
-            });
+            push_candidates(&self.grid, r, cols, gate2, &mut self.edges);
         }
         self.edge_start.push(self.edges.len() as u32);
         self.augment(rows, cols, gate2);
@@ -274,36 +260,10 @@ impl GatedAssigner {
                 }
                 i = self.col_row[j] as usize;
             };
-            let Some(sink) = sink else {
-                for &j in &self.touched {
-                    self.dist[j as usize] = f64::INFINITY;
-                    self.reached[j as usize] = false;
-                }
-                continue;
-            };
-            // dual update
-            self.u[r] += min_val;
-            for &k in &self.rows_seen[1..] {
-                let k = k as usize;
-                self.u[k] += min_val - self.dist[self.row_col[k] as usize];
+            if let Some(sink) = sink {
+                self.update_and_augment(r, sink, min_val);
             }
-            for &j in &self.touched {
-                let j = j as usize;
-                if self.reached[j] {
-                    self.v[j] -= min_val - self.dist[j];
-                }
-            }
-            // augment along the path back to row r
-            let mut j = sink as u32;
-            loop {
-                let k = self.pred[j as usize];
-                self.col_row[j as usize] = k;
-                let prev = std::mem::replace(&mut self.row_col[k as usize], j);
-                if k as usize == r {
-                    break;
-                }
-                j = prev;
-            }
+            // the search's state back to unreached for the next row
             for &j in &self.touched {
                 self.dist[j as usize] = f64::INFINITY;
                 self.reached[j as usize] = false;
@@ -316,13 +276,59 @@ impl GatedAssigner {
         }
     }
 
+    /// After the search from free row `r` reached free column `sink` at distance
+    /// `min_val`: the dual update, then the augmentation along the path back to `r`.
+    fn update_and_augment(&mut self, r: usize, sink: usize, min_val: f64) {
+        self.u[r] += min_val;
+        for &k in &self.rows_seen[1..] {
+            let k = k as usize;
+            self.u[k] += min_val - self.dist[self.row_col[k] as usize];
+        }
+        for &j in &self.touched {
+            let j = j as usize;
+            if self.reached[j] {
+                self.v[j] -= min_val - self.dist[j];
+            }
+        }
+        // augment along the path back to row r
+        let mut j = sink as u32;
+        loop {
+            let k = self.pred[j as usize];
+            self.col_row[j as usize] = k;
+            let prev = std::mem::replace(&mut self.row_col[k as usize], j);
+            if k as usize == r {
+                break;
+            }
+            j = prev;
+        }
+    }
+
     /// Whether the last [`Self::solve`]'s answer was proven the unique optimum without a
-    /// solver (every component passed the nearest-candidate test). The optimum of the
+    /// search (every row's nearest candidate strict and its own). The optimum of the
     /// transposed problem (columns to rows) is then the same pairs, and a caller may
     /// invert this answer instead of solving it.
     pub fn is_unique(&self) -> bool {
         self.unique
     }
+}
+
+/// Append row `r`'s candidates `(column, d^2)`: the columns of `grid` (built over
+/// `cols` with the gate as radius) strictly within the gate (the grid's disc is
+/// inclusive; the gate is not).
+#[inline]
+fn push_candidates(
+    grid: &EpsGrid,
+    r: &Vec2,
+    cols: &[Vec2],
+    gate2: f64,
+    edges: &mut Vec<(u32, f64)>,
+) {
+    grid.for_each_within(r, |j, _| {
+        let d2 = (r - cols[j]).norm_squared();
+        if d2 < gate2 {
+            edges.push((j as u32, d2));
+        }
+    });
 }
 
 /// The nearest candidate `(column, d^2)` of a row: its column, [`NO_BEST`] without any,
@@ -381,18 +387,23 @@ mod tests {
         out
     }
 
+    /// Uniform numbers in `[0, 1)` from a xorshift stream: test data independent of
+    /// the crate's generators.
+    fn uniform_stream(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// Estimates scattered around a grid of targets, some missing, some false: the
     /// shortcuts (own-cell nearest, nearest test per component) give the dense answer,
     /// and a proven-unique answer is the transposed problem's too.
     #[test]
     fn shortcuts_match_the_dense_solution() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = uniform_stream(0x2545_f491_4f6c_dd1d);
         let mut a = GatedAssigner::default();
         let mut t = GatedAssigner::default();
         for case in 0..300 {
@@ -428,13 +439,7 @@ mod tests {
     /// start reach the dense optimum, and a second solve with the same buffers agrees.
     #[test]
     fn augmenting_paths_match_the_dense_solution_under_heavy_conflict() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = uniform_stream(0x9e37_79b9_7f4a_7c15);
         let mut a = GatedAssigner::default();
         let mut conflicted = 0;
         for case in 0..400 {
