@@ -479,17 +479,18 @@ impl SensorTracker {
             }
             t.last_time = time;
             t.age += 1;
+            let Some(mut p) = self.filter.predict_measurement(&t.state, &self.sensor) else {
+                continue;
+            };
             if t.id.is_some() || known_mode {
-                if let Some(mut p) = self.filter.predict_measurement(&t.state, &self.sensor) {
-                    p.clutter_density = if p.angular {
-                        self.clutter_per_m2 * p.z[0].abs()
-                    } else {
-                        self.clutter_per_m2
-                    };
-                    self.predictions.push(p);
-                    self.predicted_of.push(i);
-                }
-            } else if let Some(p) = self.filter.predict_measurement(&t.state, &self.sensor) {
+                p.clutter_density = if p.angular {
+                    self.clutter_per_m2 * p.z[0].abs()
+                } else {
+                    self.clutter_per_m2
+                };
+                self.predictions.push(p);
+                self.predicted_of.push(i);
+            } else {
                 // a tentative track (its age is at least 1 here)
                 self.tentative.push((i as u32, p));
             }
