@@ -166,21 +166,26 @@ fn nees(err: &StateVec, cov: &StateCov) -> Option<f64> {
     Some(err.dot(&chol_solve_vec4(&l, err)))
 }
 
-/// `items` by scan, each scan's in input order. Rows in ascending scan order (what the
-/// pipeline and the files give) are grouped run by run, one map insertion per scan;
-/// others row by row, into the same map.
-fn group_by_scan<T, F: Fn(&T) -> u32>(items: &[T], scan: F) -> BTreeMap<u32, Vec<&T>> {
-    let mut m: BTreeMap<u32, Vec<&T>> = BTreeMap::new();
-    if items.windows(2).all(|w| scan(&w[0]) <= scan(&w[1])) {
-        for run in items.chunk_by(|a, b| scan(a) == scan(b)) {
-            m.insert(scan(&run[0]), run.iter().collect());
+/// `items` grouped by `key`, each group's in input order. Rows in ascending key order
+/// (what the pipeline and the files give) are grouped run by run, one map insertion per
+/// group; others row by row, into the same map.
+fn group_by_key<T, K: Ord, F: Fn(&T) -> K>(items: &[T], key: F) -> BTreeMap<K, Vec<&T>> {
+    let mut m: BTreeMap<K, Vec<&T>> = BTreeMap::new();
+    if items.windows(2).all(|w| key(&w[0]) <= key(&w[1])) {
+        for run in items.chunk_by(|a, b| key(a).cmp(&key(b)).is_eq()) {
+            m.insert(key(&run[0]), run.iter().collect());
         }
         return m;
     }
     for it in items {
-        m.entry(scan(it)).or_default().push(it);
+        m.entry(key(it)).or_default().push(it);
     }
     m
+}
+
+/// `items` by scan, each scan's in input order ([`group_by_key`]).
+fn group_by_scan<T, F: Fn(&T) -> u32>(items: &[T], scan: F) -> BTreeMap<u32, Vec<&T>> {
+    group_by_key(items, scan)
 }
 
 /// A time as an ordered map key (times are finite).
@@ -198,28 +203,15 @@ impl Ord for TimeKey {
     }
 }
 
-/// `items` by time (each time's scan: its first row's), each time's in input order;
-/// rows in ascending time order grouped run by run, as [`group_by_scan`].
+/// `items` by time ([`group_by_key`]), each time with its scan: its first row's.
 fn group_by_time<T, F: Fn(&T) -> (u32, f64)>(
     items: &[T],
     key: F,
 ) -> BTreeMap<TimeKey, (u32, Vec<&T>)> {
-    let mut m: BTreeMap<TimeKey, (u32, Vec<&T>)> = BTreeMap::new();
-    let time = |it: &T| TimeKey(key(it).1);
-    if items.windows(2).all(|w| time(&w[0]) <= time(&w[1])) {
-        for run in items.chunk_by(|a, b| time(a).cmp(&time(b)).is_eq()) {
-            m.insert(time(&run[0]), (key(&run[0]).0, run.iter().collect()));
-        }
-        return m;
-    }
-    for it in items {
-        let (scan, time) = key(it);
-        m.entry(TimeKey(time))
-            .or_insert_with(|| (scan, Vec::new()))
-            .1
-            .push(it);
-    }
-    m
+    group_by_key(items, |it| TimeKey(key(it).1))
+        .into_iter()
+        .map(|(time, rows)| (time, (key(rows[0]).0, rows)))
+        .collect()
 }
 
 fn median(mut v: Vec<f64>) -> Option<f64> {
