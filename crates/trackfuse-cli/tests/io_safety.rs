@@ -423,3 +423,60 @@ fn plot_writes_where_asked_not_into_the_run_directory() {
     let svg = std::fs::read_to_string(cwd.path().join("out/plot/scenario_map.svg")).expect("svg");
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
 }
+
+/// `serve` and `replay` check their outputs against their inputs as files, not as
+/// spellings: `./journal`, `dir/../center.toml` or a link to an input is refused before
+/// anything is created, and the input is left as it was.
+#[test]
+fn the_service_refuses_an_output_over_an_input_under_any_spelling() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let d = dir.path();
+    let sub = d.join("sub");
+    std::fs::create_dir(&sub).expect("dir");
+    let cfg = d.join("center.toml");
+    let cfg_text = "sensor_addr = \"127.0.0.1:0\"\nsubscriber_addr = \"127.0.0.1:0\"\n\
+                    http_addr = \"127.0.0.1:0\"\n[[sensors]]\nid = 0\nperiod = 1.0\n";
+    std::fs::write(&cfg, cfg_text).expect("config");
+    let serve = |extra: &[&Path]| {
+        let mut c = trackfuse();
+        c.args(["serve", "--config"]).arg(&cfg);
+        for (flag, p) in ["--record", "--output"].iter().zip(extra) {
+            c.arg(flag).arg(p);
+        }
+        c.timeout(std::time::Duration::from_secs(20))
+            .assert()
+            .failure()
+    };
+    // the config through `sub/..`, as the journal and as the output
+    let cfg_other = sub.join("..").join("center.toml");
+    serve(&[&cfg_other]).stderr(predicate::str::contains("may not replace an input"));
+    let journal = d.join("journal.ndjson");
+    serve(&[&journal, &cfg_other]).stderr(predicate::str::contains("may not replace an input"));
+    assert_eq!(std::fs::read_to_string(&cfg).expect("config"), cfg_text);
+    // the journal and the output one file not made yet
+    serve(&[&journal, &sub.join("..").join("journal.ndjson")])
+        .stderr(predicate::str::contains("may not be the same file"));
+    assert!(!journal.exists(), "nothing is created");
+
+    // replay into its own journal, spelt another way or through a link
+    let text = "{\"not\":\"a journal\"}\n";
+    std::fs::write(&journal, text).expect("journal");
+    let mut outs = vec![sub.join("..").join("journal.ndjson")];
+    #[cfg(unix)]
+    {
+        let link = d.join("link.ndjson");
+        std::os::unix::fs::symlink(&journal, &link).expect("symlink");
+        outs.push(link);
+    }
+    for out in outs {
+        trackfuse()
+            .arg("replay")
+            .arg(&journal)
+            .arg("--output")
+            .arg(&out)
+            .assert()
+            .failure()
+            .stderr(predicate::str::contains("may not replace the journal"));
+        assert_eq!(std::fs::read_to_string(&journal).expect("journal"), text);
+    }
+}

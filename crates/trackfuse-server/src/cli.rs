@@ -6,7 +6,7 @@ use crate::server::{start, Outputs};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Standard output's reader has gone (a broken pipe writing to it: `trackfuse ... |
 /// head -1`). Only [`out`] gives it, so a broken pipe elsewhere (a socket to a service
@@ -91,12 +91,55 @@ fn runtime_with(workers: usize) -> Result<tokio::runtime::Runtime> {
     b.enable_all().build().context("starting the async runtime")
 }
 
+/// Whether `a` and `b` name one file: the same existing file (same device and inode, so
+/// also through `./`, `..`, a symbolic or a hard link), or, when neither exists yet, the
+/// same name in the same directory. The service's outputs are checked with it against
+/// its inputs before anything is created, so that no spelling of an input's path lets an
+/// output truncate it.
+fn same_path(a: &Path, b: &Path) -> bool {
+    match (a.exists(), b.exists()) {
+        (true, true) => same_file::is_same_file(a, b).unwrap_or(false),
+        (false, false) => {
+            let a = in_canonical_dir(a);
+            a.is_some() && a == in_canonical_dir(b)
+        }
+        // an existing file and one not made yet
+        _ => false,
+    }
+}
+
+/// `p`'s directory made canonical, joined with its file name; none when the directory
+/// does not exist or `p` has no file name.
+fn in_canonical_dir(p: &Path) -> Option<PathBuf> {
+    let name = p.file_name()?;
+    let dir = match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    Some(dir.canonicalize().ok()?.join(name))
+}
+
 /// Run the service until SIGTERM or SIGINT, then shut down gracefully.
 pub fn serve(args: &ServeArgs) -> Result<()> {
     let cfg = ServiceConfig::from_file(&args.config)?;
+    let sensors = cfg.sensors_csv.as_deref().map(PathBuf::from);
     for p in [&args.record, &args.output].into_iter().flatten() {
-        if p == &args.config || cfg.sensors_csv.as_deref().map(PathBuf::from).as_ref() == Some(p) {
-            anyhow::bail!("{}: an output may not replace an input", p.display());
+        for input in [Some(&args.config), sensors.as_ref()].into_iter().flatten() {
+            if same_path(p, input) {
+                anyhow::bail!(
+                    "{}: an output may not replace an input ({})",
+                    p.display(),
+                    input.display()
+                );
+            }
+        }
+    }
+    if let (Some(record), Some(output)) = (&args.record, &args.output) {
+        if same_path(record, output) {
+            anyhow::bail!(
+                "{}: --record and --output may not be the same file",
+                output.display()
+            );
         }
     }
     let outputs = Outputs {
@@ -158,8 +201,12 @@ async fn wait_for_signal() -> Result<()> {
 pub fn replay(args: &ReplayArgs) -> Result<()> {
     let stats = match &args.output {
         Some(p) => {
-            if p == &args.journal {
-                anyhow::bail!("{}: the output may not replace the journal", p.display());
+            if same_path(p, &args.journal) {
+                anyhow::bail!(
+                    "{}: the output may not replace the journal {}",
+                    p.display(),
+                    args.journal.display()
+                );
             }
             let f =
                 std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
@@ -195,4 +242,42 @@ pub fn replay(args: &ReplayArgs) -> Result<()> {
         stats.accepted, stats.late, stats.instants_fused
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn same_path_sees_through_spellings_and_links() {
+        let d = tempfile::tempdir().expect("tmp");
+        let a = d.path().join("a.ndjson");
+        std::fs::write(&a, "x").expect("write");
+        let b = d.path().join("b.ndjson");
+        std::fs::write(&b, "x").expect("write");
+        // the same existing file: another spelling, a symbolic link, a hard link
+        assert!(same_path(&a, &d.path().join(".").join("a.ndjson")));
+        let sub = d.path().join("sub");
+        std::fs::create_dir(&sub).expect("dir");
+        assert!(same_path(&a, &sub.join("..").join("a.ndjson")));
+        #[cfg(unix)]
+        {
+            let link = d.path().join("link.ndjson");
+            std::os::unix::fs::symlink(&a, &link).expect("symlink");
+            assert!(same_path(&link, &a));
+        }
+        let hard = d.path().join("hard.ndjson");
+        std::fs::hard_link(&a, &hard).expect("hard link");
+        assert!(same_path(&hard, &a));
+        // different files, and an existing file against one not made yet
+        assert!(!same_path(&a, &b));
+        let new = d.path().join("new.ndjson");
+        assert!(!same_path(&a, &new));
+        // two files not made yet: the same name in the same directory
+        assert!(same_path(&new, &sub.join("..").join("new.ndjson")));
+        assert!(!same_path(&new, &d.path().join("other.ndjson")));
+        // in a directory that does not exist: nothing to compare
+        let gone = d.path().join("gone").join("x");
+        assert!(!same_path(&gone, &gone));
+    }
 }
