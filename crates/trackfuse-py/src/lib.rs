@@ -303,7 +303,13 @@ fn local_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<LocalTrack>> {
             cov: StateCov::from_fn(|r, c| cov[(i, r, c)]),
         });
     }
+    trackfuse::io::check_local_tracks(&out).map_err(record_error)?;
     Ok(out)
+}
+
+/// A record that breaks the readers' rules ([`trackfuse::io::RecordError`]): ValueError.
+fn record_error(e: trackfuse::io::RecordError) -> PyErr {
+    PyValueError::new_err(e.to_string())
 }
 
 fn truth_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<TruthState>> {
@@ -327,7 +333,7 @@ fn truth_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<TruthState>> {
             ("state", st.nrows()),
         ],
     )?;
-    (0..n)
+    let out = (0..n)
         .map(|i| {
             Ok(TruthState {
                 scan: scan_of(w, i, scan[i])?,
@@ -336,7 +342,9 @@ fn truth_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<TruthState>> {
                 state: StateVec::from_fn(|r, _| st[(i, r)]),
             })
         })
-        .collect()
+        .collect::<PyResult<Vec<_>>>()?;
+    trackfuse::io::check_truth(&out).map_err(record_error)?;
+    Ok(out)
 }
 
 fn measurements_from(d: &Bound<'_, PyDict>, sensors: &[Sensor]) -> PyResult<Vec<Measurement>> {
@@ -367,7 +375,7 @@ fn measurements_from(d: &Bound<'_, PyDict>, sensors: &[Sensor]) -> PyResult<Vec<
     }
     let n = check_len(w, &cols)?;
     let kinds: HashMap<Id, SensorKind> = sensors.iter().map(|s| (s.id, s.kind)).collect();
-    (0..n)
+    let out = (0..n)
         .map(|i| {
             let kind = *kinds.get(&sid[i]).ok_or_else(|| {
                 PyValueError::new_err(format!(
@@ -384,7 +392,9 @@ fn measurements_from(d: &Bound<'_, PyDict>, sensors: &[Sensor]) -> PyResult<Vec<
                 target_id: target.as_ref().map_or(-1, |t| t[i]),
             })
         })
-        .collect()
+        .collect::<PyResult<Vec<_>>>()?;
+    trackfuse::io::check_measurements(&out).map_err(record_error)?;
+    Ok(out)
 }
 
 fn fused_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<FusedTrack>> {
@@ -561,6 +571,7 @@ fn sensors_from(list: &Bound<'_, PyAny>) -> PyResult<Vec<Sensor>> {
             clutter_density: clutter,
         });
     }
+    trackfuse::io::check_sensors(&out).map_err(record_error)?;
     Ok(out)
 }
 

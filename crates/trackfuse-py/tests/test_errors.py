@@ -101,3 +101,44 @@ def test_fused_sources_must_add_up(local):
     f["sources_count"][0] = -1
     with pytest.raises(ValueError, match="negative or overflowing"):
         tf.evaluate(s["truth"], f)
+
+
+def test_arrays_pass_the_file_readers_checks(local):
+    """What measurements.csv, local_tracks.csv, truth.csv or sensors.csv would refuse is
+    refused from arrays too, naming the row and the field; rows in any scan order are
+    accepted and give the same tracks."""
+    s, lt = local
+    sensors, meas, truth = s["sensors"], s["measurements"], s["truth"]
+
+    def edited(d, key, i, value):
+        e = {k: v.copy() for k, v in d.items()}
+        e[key][i] = value
+        return e
+
+    with pytest.raises(ValueError, match=r"measurements: row 5, value: NaN is not finite"):
+        tf.track(sensors, edited(meas, "value", 5, [np.nan, 0.0]), scenario="000-s1")
+    with pytest.raises(ValueError, match=r"measurements: row 2, value: range -1 is negative"):
+        tf.track(sensors, edited(meas, "value", 2, [-1.0, 0.0]), scenario="000-s1")
+    backwards = {k: v.copy() for k, v in meas.items()}
+    backwards["time"] = backwards["time"][::-1].copy()
+    with pytest.raises(ValueError, match="has two times"):
+        tf.track(sensors, backwards, scenario="000-s1")
+    bad_pd = [dict(x) for x in sensors]
+    bad_pd[1]["pd"] = 1.5
+    with pytest.raises(ValueError, match=r"sensors: row 1, pd: pd 1.5 must be in \[0, 1\]"):
+        tf.track(bad_pd, meas, scenario="000-s1")
+    cov = lt["cov"].copy()
+    cov[4, 0, 2] += 1.0
+    with pytest.raises(ValueError, match=r"local_tracks: row 4, cov: covariance is not symmetric"):
+        tf.fuse(dict(lt, cov=cov))
+    dup = {k: np.concatenate([v, v[:1]]) for k, v in lt.items()}
+    with pytest.raises(ValueError, match=r"local_tracks: row \d+: duplicate"):
+        tf.fuse(dup)
+    with pytest.raises(ValueError, match=r"truth: row 0, state: inf is not finite"):
+        tf.evaluate(edited(truth, "state", 0, [np.inf, 0, 0, 0]), tf.fuse(lt)["fused"])
+    # any scan order: the same tracks
+    perm = np.random.default_rng(7).permutation(len(meas["scan"]))
+    shuffled = {k: v[perm] for k, v in meas.items()}
+    a = tf.track(sensors, meas, scenario="000-s1")
+    b = tf.track(sensors, shuffled, scenario="000-s1")
+    assert all(np.array_equal(a[k], b[k]) for k in a)

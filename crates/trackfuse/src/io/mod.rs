@@ -55,6 +55,7 @@
 //! Memory: a stream holds one scan's rows plus, per key, the latest time (the rule
 //! above); duplicate sets and per-scan maps are cleared at every scan.
 
+mod checks;
 mod error;
 mod lines;
 mod quick;
@@ -62,6 +63,7 @@ mod reader;
 mod records;
 mod writer;
 
+pub use checks::{check_local_tracks, check_measurements, check_sensors, check_truth, RecordError};
 pub use error::InputError;
 pub use quick::{quick_report_times, quick_report_times_from};
 pub use reader::{
