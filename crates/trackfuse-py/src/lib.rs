@@ -447,7 +447,7 @@ fn fused_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<FusedTrack>> {
         )));
     }
     let mut at = 0usize;
-    (0..n)
+    let out = (0..n)
         .map(|i| {
             let k = count[i] as usize;
             let sources = (at..at + k).map(|j| (src[(j, 0)], src[(j, 1)])).collect();
@@ -466,7 +466,9 @@ fn fused_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<FusedTrack>> {
                 },
             })
         })
-        .collect()
+        .collect::<PyResult<Vec<_>>>()?;
+    trackfuse::io::check_fused_tracks(&out).map_err(record_error)?;
+    Ok(out)
 }
 
 fn states_i64<'py>(
@@ -509,7 +511,7 @@ fn associations_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<Association>> {
             ("fused_id", fid.len()),
         ],
     )?;
-    (0..n)
+    let out = (0..n)
         .map(|i| {
             Ok(Association {
                 scan: scan_of(w, i, scan[i])?,
@@ -518,7 +520,9 @@ fn associations_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<Association>> {
                 fused_id: fid[i],
             })
         })
-        .collect()
+        .collect::<PyResult<Vec<_>>>()?;
+    trackfuse::io::check_associations(&out).map_err(record_error)?;
+    Ok(out)
 }
 
 fn sensors_from(list: &Bound<'_, PyAny>) -> PyResult<Vec<Sensor>> {

@@ -136,6 +136,11 @@ def test_arrays_pass_the_file_readers_checks(local):
         tf.fuse(dup)
     with pytest.raises(ValueError, match=r"truth: row 0, state: inf is not finite"):
         tf.evaluate(edited(truth, "state", 0, [np.inf, 0, 0, 0]), tf.fuse(lt)["fused"])
+    fused = tf.fuse(lt)["fused"]
+    nan_cov = {k: v.copy() for k, v in fused.items()}
+    nan_cov["cov"][0, 1, 1] = np.nan
+    with pytest.raises(ValueError, match=r"fused: row 0, cov: NaN is not finite"):
+        tf.evaluate(truth, nan_cov)
     # any scan order: the same tracks
     perm = np.random.default_rng(7).permutation(len(meas["scan"]))
     shuffled = {k: v[perm] for k, v in meas.items()}

@@ -11,7 +11,9 @@
 //! reader wraps it; a bearing is an angle either way).
 
 use crate::covariance::check_covariance;
-use crate::types::{Id, LocalTrack, Measurement, Sensor, SensorKind, TruthState};
+use crate::types::{
+    Association, FusedTrack, Id, LocalTrack, Measurement, Sensor, SensorKind, TruthState,
+};
 use std::collections::{HashMap, HashSet};
 
 /// A record that breaks a rule: `what` (the set: "sensors", "measurements", ...), the
@@ -227,7 +229,7 @@ pub fn check_measurements(rows: &[Measurement]) -> Result<(), RecordError> {
     Ok(())
 }
 
-/// local_tracks.csv's rules: finite time and state; a valid covariance
+/// local_tracks.csv's rules: finite time, state and covariance; a valid covariance
 /// ([`check_covariance`]); one record per sensor, track and scan; per `(sensor_id,
 /// track_id)`, time not going backwards.
 pub fn check_local_tracks(rows: &[LocalTrack]) -> Result<(), RecordError> {
@@ -236,6 +238,7 @@ pub fn check_local_tracks(rows: &[LocalTrack]) -> Result<(), RecordError> {
     for (i, l) in rows.iter().enumerate() {
         finite(W, i, "time", &[l.time])?;
         finite(W, i, "state", l.state.as_slice())?;
+        finite(W, i, "cov", l.cov.as_slice())?;
         check_covariance(&l.cov).map_err(|e| err(W, i, Some("cov"), e.to_string()))?;
         if let Some(prev) = seen.insert((l.scan, l.sensor_id, l.track_id), i) {
             return Err(err(
@@ -278,6 +281,55 @@ pub fn check_truth(rows: &[TruthState]) -> Result<(), RecordError> {
     for i in scan_order(rows.iter().map(|t| t.scan)) {
         let t = &rows[i];
         time_forward(W, &mut last, t.target_id, i, t.scan, t.time)?;
+    }
+    Ok(())
+}
+
+/// fused_tracks.csv's rules: finite time, state and covariance; a valid covariance; one record per
+/// `fused_id` and scan; per `fused_id`, time not going backwards.
+pub fn check_fused_tracks(rows: &[FusedTrack]) -> Result<(), RecordError> {
+    const W: &str = "fused";
+    let mut seen: HashMap<(u32, Id), usize> = HashMap::new();
+    for (i, f) in rows.iter().enumerate() {
+        finite(W, i, "time", &[f.time])?;
+        finite(W, i, "state", f.state.as_slice())?;
+        finite(W, i, "cov", f.cov.as_slice())?;
+        check_covariance(&f.cov).map_err(|e| err(W, i, Some("cov"), e.to_string()))?;
+        if let Some(prev) = seen.insert((f.scan, f.fused_id), i) {
+            return Err(err(
+                W,
+                i,
+                None,
+                format!(
+                    "duplicate: scan {}, fused_id {} already in row {prev}",
+                    f.scan, f.fused_id
+                ),
+            ));
+        }
+    }
+    let mut last = HashMap::new();
+    for i in scan_order(rows.iter().map(|f| f.scan)) {
+        let f = &rows[i];
+        time_forward(W, &mut last, f.fused_id, i, f.scan, f.time)?;
+    }
+    Ok(())
+}
+
+/// associations.csv's rule: a `(sensor_id, track_id)` once per scan.
+pub fn check_associations(rows: &[Association]) -> Result<(), RecordError> {
+    let mut seen: HashMap<(u32, Id, Id), usize> = HashMap::new();
+    for (i, a) in rows.iter().enumerate() {
+        if let Some(prev) = seen.insert((a.scan, a.sensor_id, a.track_id), i) {
+            return Err(err(
+                "associations",
+                i,
+                None,
+                format!(
+                    "duplicate: scan {}, sensor {}, track {} already in row {prev}",
+                    a.scan, a.sensor_id, a.track_id
+                ),
+            ));
+        }
     }
     Ok(())
 }
@@ -414,10 +466,13 @@ mod tests {
         assert!(check_local_tracks(&[local(1, 1.0, 7), local(0, 0.0, 7)]).is_ok());
         let mut not_psd = local(0, 0.0, 1);
         not_psd.cov[(0, 0)] = -1.0;
+        let mut nan_cov = local(0, 0.0, 1);
+        nan_cov.cov[(2, 2)] = f64::NAN;
         let mut nan_state = local(0, 0.0, 1);
         nan_state.state[2] = f64::NAN;
         let cases: Vec<(Vec<LocalTrack>, usize, Option<&str>)> = vec![
             (vec![not_psd], 0, Some("cov")),
+            (vec![nan_cov], 0, Some("cov")),
             (vec![nan_state], 0, Some("state")),
             (vec![local(0, 0.0, 1), local(0, 0.0, 1)], 1, None),
             (vec![local(0, 2.0, 1), local(1, 1.0, 1)], 1, Some("time")),
@@ -426,6 +481,34 @@ mod tests {
             let e = check_local_tracks(&l).expect_err("bad local tracks");
             assert_eq!((e.row, e.field), (row, field), "{e}");
         }
+
+        let fused = |scan: u32, time: f64, fused_id: Id| FusedTrack {
+            scan,
+            time,
+            fused_id,
+            state: StateVec::zeros(),
+            cov: StateCov::identity(),
+            sources: vec![(0, 1)],
+            status: Default::default(),
+        };
+        assert!(
+            check_fused_tracks(&[fused(1, 1.0, 3), fused(0, 0.0, 3), fused(0, 0.0, 4)]).is_ok()
+        );
+        let e = check_fused_tracks(&[fused(0, 0.0, 3), fused(0, 0.0, 3)]).expect_err("duplicate");
+        assert_eq!(e.row, 1);
+        let mut bad = fused(0, 0.0, 3);
+        bad.cov[(1, 1)] = f64::NAN;
+        let e = check_fused_tracks(&[bad]).expect_err("covariance");
+        assert_eq!(e.field, Some("cov"));
+        let assoc = |scan: u32, track_id: Id| Association {
+            scan,
+            sensor_id: 0,
+            track_id,
+            fused_id: 9,
+        };
+        assert!(check_associations(&[assoc(0, 1), assoc(0, 2), assoc(1, 1)]).is_ok());
+        let e = check_associations(&[assoc(0, 1), assoc(0, 1)]).expect_err("duplicate");
+        assert_eq!(e.row, 1);
 
         let truth = |scan: u32, time: f64, target_id: Id| TruthState {
             scan,

@@ -63,7 +63,10 @@ mod reader;
 mod records;
 mod writer;
 
-pub use checks::{check_local_tracks, check_measurements, check_sensors, check_truth, RecordError};
+pub use checks::{
+    check_associations, check_fused_tracks, check_local_tracks, check_measurements, check_sensors,
+    check_truth, RecordError,
+};
 pub use error::InputError;
 pub use quick::{quick_report_times, quick_report_times_from};
 pub use reader::{
