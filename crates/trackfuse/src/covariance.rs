@@ -45,6 +45,9 @@ pub enum CovarianceError {
     /// The smallest eigenvalue is below `-1e-9` relative.
     #[error("covariance is not positive semi-definite (smallest eigenvalue {min_eigenvalue})")]
     NotPositiveSemidefinite { min_eigenvalue: f64 },
+    /// An entry is NaN or infinite.
+    #[error("covariance is not finite: P{row}{col} = {value}")]
+    NotFinite { row: usize, col: usize, value: f64 },
 }
 
 /// The largest `|P_rc|` (at least the smallest positive normal number, so a zero matrix
@@ -55,12 +58,24 @@ pub fn scale(p: &StateCov) -> f64 {
         .max(f64::MIN_POSITIVE)
 }
 
-/// Check that a covariance is symmetric positive semi-definite within `1e-9` relative
-/// (the module docs). A positive definite matrix (its Cholesky factorisation succeeds)
-/// is accepted without the eigen-decomposition: its smallest eigenvalue is above
-/// `-1e-15` of its scale (the factorisation is backward stable), so the answer is the
-/// same.
+/// Check that a covariance is finite and symmetric positive semi-definite within `1e-9`
+/// relative (the module docs). A positive definite matrix (its Cholesky factorisation
+/// succeeds) is accepted without the eigen-decomposition: its smallest eigenvalue is
+/// above `-1e-15` of its scale (the factorisation is backward stable), so the answer is
+/// the same.
 pub fn check_covariance(p: &StateCov) -> Result<(), CovarianceError> {
+    // a NaN passes every comparison below unseen: checked first (row-major order)
+    for r in 0..4 {
+        for c in 0..4 {
+            if !p[(r, c)].is_finite() {
+                return Err(CovarianceError::NotFinite {
+                    row: r,
+                    col: c,
+                    value: p[(r, c)],
+                });
+            }
+        }
+    }
     let scale = scale(p);
     for r in 0..4 {
         for c in (r + 1)..4 {
@@ -155,6 +170,18 @@ mod tests {
         p[(3, 3)] = 0.0;
         assert_eq!(check_covariance(&p), Ok(()));
         assert_eq!(check_covariance(&StateCov::zeros()), Ok(()));
+        let mut nan = StateCov::identity();
+        nan[(2, 1)] = f64::NAN;
+        assert!(matches!(
+            check_covariance(&nan),
+            Err(CovarianceError::NotFinite { row: 2, col: 1, .. })
+        ));
+        let mut inf = StateCov::identity();
+        inf[(3, 3)] = f64::INFINITY;
+        assert!(matches!(
+            check_covariance(&inf),
+            Err(CovarianceError::NotFinite { row: 3, col: 3, .. })
+        ));
         p[(3, 3)] = -0.9e-9;
         assert_eq!(check_covariance(&p), Ok(()));
         p[(3, 3)] = -1.1e-9;
