@@ -256,7 +256,26 @@ fn states<'py>(
     Ok(a)
 }
 
+/// The local tracks of `d`, checked with the CSV reader's rules
+/// ([`trackfuse::io::check_local_tracks`]).
 fn local_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<LocalTrack>> {
+    let out = local_unchecked(d)?;
+    trackfuse::io::check_local_tracks(&out).map_err(record_error)?;
+    Ok(out)
+}
+
+/// The local tracks of `d` for the fusion center, which refuses a non-finite track or
+/// an invalid covariance itself when it fuses (naming the scan, sensor and track), so
+/// only the rest of the readers' rules is checked here
+/// ([`trackfuse::io::check_local_track_keys`]): the per-row covariance check again cost
+/// the streaming class a third of its time (BENCHMARKS.md, Python bindings).
+fn local_for_center(d: &Bound<'_, PyDict>) -> PyResult<Vec<LocalTrack>> {
+    let out = local_unchecked(d)?;
+    trackfuse::io::check_local_track_keys(&out).map_err(record_error)?;
+    Ok(out)
+}
+
+fn local_unchecked(d: &Bound<'_, PyDict>) -> PyResult<Vec<LocalTrack>> {
     let w = "local_tracks";
     let scan = col1::<i64>(d, w, "scan")?;
     let time = col1::<f64>(d, w, "time")?;
@@ -303,7 +322,6 @@ fn local_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<LocalTrack>> {
             cov: StateCov::from_fn(|r, c| cov[(i, r, c)]),
         });
     }
-    trackfuse::io::check_local_tracks(&out).map_err(record_error)?;
     Ok(out)
 }
 
@@ -919,7 +937,7 @@ fn fuse<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let cfg = fusion_config(scenario, method, rule, bias, params, config)?;
     let sensors = sensors.map(sensors_from).transpose()?;
-    let local = local_from(local_tracks)?;
+    let local = local_for_center(local_tracks)?;
     let truth = truth.map(truth_from).transpose()?;
     let labels = truth
         .as_ref()
@@ -954,7 +972,7 @@ fn fuse<'py>(
 /// thread CPU s)`. The difference to a whole `fuse` call is the bindings' own cost.
 #[pyfunction]
 fn _fuse_library_seconds(local_tracks: &Bound<'_, PyDict>) -> PyResult<(f64, f64)> {
-    let local = local_from(local_tracks)?;
+    let local = local_for_center(local_tracks)?;
     let cfg = FusionConfig::default();
     let (t0, c0) = (std::time::Instant::now(), cpu_time::ThreadTime::now());
     let run = trackfuse::center::instants::fuse_all_at_instants(&local, &cfg, None, None)
@@ -1115,7 +1133,7 @@ impl FusionCenter {
         py: Python<'py>,
         tracks: &Bound<'py, PyDict>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let tracks = local_from(tracks)?;
+        let tracks = local_for_center(tracks)?;
         self.center
             .process_scan_into(&tracks, &mut self.out)
             .map_err(center_error)?;
@@ -1131,7 +1149,7 @@ impl FusionCenter {
         time: f64,
         tracks: &Bound<'py, PyDict>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let mut tracks = local_from(tracks)?;
+        let mut tracks = local_for_center(tracks)?;
         self.center
             .process_at_into(scan, time, &mut tracks, &mut self.out)
             .map_err(center_error)?;

@@ -103,7 +103,7 @@ def test_fused_sources_must_add_up(local):
         tf.evaluate(s["truth"], f)
 
 
-def test_arrays_pass_the_file_readers_checks(local):
+def test_arrays_pass_the_file_readers_checks(local, tmp_path):
     """What measurements.csv, local_tracks.csv, truth.csv or sensors.csv would refuse is
     refused from arrays too, naming the row and the field; rows in any scan order are
     accepted and give the same tracks."""
@@ -129,8 +129,12 @@ def test_arrays_pass_the_file_readers_checks(local):
         tf.track(bad_pd, meas, scenario="000-s1")
     cov = lt["cov"].copy()
     cov[4, 0, 2] += 1.0
-    with pytest.raises(ValueError, match=r"local_tracks: row 4, cov: covariance is not symmetric"):
+    # the center names the track; writing names the row
+    with pytest.raises(ValueError, match=r"local track \d+:\d+ of scan \d+: covariance is not symmetric"):
         tf.fuse(dict(lt, cov=cov))
+    with pytest.raises(ValueError, match=r"local_tracks: row 4, cov: covariance is not symmetric"):
+        tf.write_local_tracks(str(tmp_path / "lt.csv"), dict(lt, cov=cov))
+    assert not (tmp_path / "lt.csv").exists()
     dup = {k: np.concatenate([v, v[:1]]) for k, v in lt.items()}
     with pytest.raises(ValueError, match=r"local_tracks: row \d+: duplicate"):
         tf.fuse(dup)

@@ -14,6 +14,7 @@ use crate::covariance::check_covariance;
 use crate::types::{
     Association, FusedTrack, Id, LocalTrack, Measurement, Sensor, SensorKind, TruthState,
 };
+use rustc_hash::FxHashMap;
 use std::collections::{HashMap, HashSet};
 
 /// A record that breaks a rule: `what` (the set: "sensors", "measurements", ...), the
@@ -60,10 +61,13 @@ fn finite(
     }
 }
 
-/// The record indices in scan order, ties in the caller's order.
+/// The record indices in scan order, ties in the caller's order (no sort when the
+/// records are in scan order already).
 fn scan_order(scans: impl Iterator<Item = u32>) -> Vec<usize> {
     let mut order: Vec<(u32, usize)> = scans.enumerate().map(|(i, s)| (s, i)).collect();
-    order.sort_unstable();
+    if !order.is_sorted() {
+        order.sort_unstable();
+    }
     order.into_iter().map(|(_, i)| i).collect()
 }
 
@@ -71,7 +75,7 @@ fn scan_order(scans: impl Iterator<Item = u32>) -> Vec<usize> {
 /// latest scan, time and record.
 fn time_forward<K: std::hash::Hash + Eq + std::fmt::Debug>(
     what: &'static str,
-    last: &mut HashMap<K, (u32, f64, usize)>,
+    last: &mut FxHashMap<K, (u32, f64, usize)>,
     key: K,
     row: usize,
     scan: u32,
@@ -221,7 +225,7 @@ pub fn check_measurements(rows: &[Measurement]) -> Result<(), RecordError> {
             ));
         }
     }
-    let mut last = HashMap::new();
+    let mut last = FxHashMap::default();
     for i in scan_order(rows.iter().map(|m| m.scan)) {
         let m = &rows[i];
         time_forward(W, &mut last, m.sensor_id, i, m.scan, m.time)?;
@@ -230,29 +234,43 @@ pub fn check_measurements(rows: &[Measurement]) -> Result<(), RecordError> {
 }
 
 /// local_tracks.csv's rules: finite time, state and covariance; a valid covariance
-/// ([`check_covariance`]); one record per sensor, track and scan; per `(sensor_id,
-/// track_id)`, time not going backwards.
+/// ([`check_covariance`]); and [`check_local_track_keys`].
 pub fn check_local_tracks(rows: &[LocalTrack]) -> Result<(), RecordError> {
     const W: &str = "local_tracks";
-    let mut seen: HashMap<(u32, Id, Id), usize> = HashMap::new();
     for (i, l) in rows.iter().enumerate() {
         finite(W, i, "time", &[l.time])?;
         finite(W, i, "state", l.state.as_slice())?;
         finite(W, i, "cov", l.cov.as_slice())?;
         check_covariance(&l.cov).map_err(|e| err(W, i, Some("cov"), e.to_string()))?;
-        if let Some(prev) = seen.insert((l.scan, l.sensor_id, l.track_id), i) {
-            return Err(err(
-                W,
-                i,
-                None,
-                format!(
-                    "duplicate: scan {}, sensor {}, track {} already in row {prev}",
-                    l.scan, l.sensor_id, l.track_id
-                ),
-            ));
+    }
+    check_local_track_keys(rows)
+}
+
+/// The part of [`check_local_tracks`] the fusion center does not check itself (it
+/// refuses a non-finite track or an invalid covariance when it fuses, naming the track):
+/// one record per sensor, track and scan; per `(sensor_id, track_id)`, time not going
+/// backwards. Rows in `(scan, sensor_id, track_id)` order (files, the trackers' output)
+/// are distinct by that order alone and need no hashing, as in the CSV reader.
+pub fn check_local_track_keys(rows: &[LocalTrack]) -> Result<(), RecordError> {
+    const W: &str = "local_tracks";
+    let key = |l: &LocalTrack| (l.scan, l.sensor_id, l.track_id);
+    if !rows.windows(2).all(|w| key(&w[0]) < key(&w[1])) {
+        let mut seen: FxHashMap<(u32, Id, Id), usize> = FxHashMap::default();
+        for (i, l) in rows.iter().enumerate() {
+            if let Some(prev) = seen.insert(key(l), i) {
+                return Err(err(
+                    W,
+                    i,
+                    None,
+                    format!(
+                        "duplicate: scan {}, sensor {}, track {} already in row {prev}",
+                        l.scan, l.sensor_id, l.track_id
+                    ),
+                ));
+            }
         }
     }
-    let mut last = HashMap::new();
+    let mut last = FxHashMap::default();
     for i in scan_order(rows.iter().map(|l| l.scan)) {
         let l = &rows[i];
         time_forward(W, &mut last, (l.sensor_id, l.track_id), i, l.scan, l.time)?;
@@ -277,7 +295,7 @@ pub fn check_truth(rows: &[TruthState]) -> Result<(), RecordError> {
             ));
         }
     }
-    let mut last = HashMap::new();
+    let mut last = FxHashMap::default();
     for i in scan_order(rows.iter().map(|t| t.scan)) {
         let t = &rows[i];
         time_forward(W, &mut last, t.target_id, i, t.scan, t.time)?;
@@ -307,7 +325,7 @@ pub fn check_fused_tracks(rows: &[FusedTrack]) -> Result<(), RecordError> {
             ));
         }
     }
-    let mut last = HashMap::new();
+    let mut last = FxHashMap::default();
     for i in scan_order(rows.iter().map(|f| f.scan)) {
         let f = &rows[i];
         time_forward(W, &mut last, f.fused_id, i, f.scan, f.time)?;

@@ -64,8 +64,8 @@ mod records;
 mod writer;
 
 pub use checks::{
-    check_associations, check_fused_tracks, check_local_tracks, check_measurements, check_sensors,
-    check_truth, RecordError,
+    check_associations, check_fused_tracks, check_local_track_keys, check_local_tracks,
+    check_measurements, check_sensors, check_truth, RecordError,
 };
 pub use error::InputError;
 pub use quick::{quick_report_times, quick_report_times_from};
