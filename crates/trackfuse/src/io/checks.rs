@@ -12,10 +12,11 @@
 
 use crate::covariance::check_covariance;
 use crate::types::{
-    Association, FusedTrack, Id, LocalTrack, Measurement, Sensor, SensorKind, TruthState,
+    Association, FusedTrack, Id, LocalTrack, Measurement, Sensor, SensorKind, StateCov, StateVec,
+    TruthState,
 };
-use rustc_hash::FxHashMap;
-use std::collections::{HashMap, HashSet};
+use rustc_hash::{FxHashMap, FxHashSet};
+use std::collections::HashMap;
 
 /// A record that breaks a rule: `what` (the set: "sensors", "measurements", ...), the
 /// record's index, the field when one is to blame, and the reason.
@@ -71,31 +72,60 @@ fn scan_order(scans: impl Iterator<Item = u32>) -> Vec<usize> {
     order.into_iter().map(|(_, i)| i).collect()
 }
 
-/// Time must not go backwards within one key, in scan order: `last` holds each key's
-/// latest scan, time and record.
-fn time_forward<K: std::hash::Hash + Eq + std::fmt::Debug>(
+/// Time must not go backwards within one key, in scan order: `of` gives a record's key,
+/// scan and time.
+fn times_forward<R, K: std::hash::Hash + Eq + std::fmt::Debug>(
     what: &'static str,
-    last: &mut FxHashMap<K, (u32, f64, usize)>,
-    key: K,
-    row: usize,
-    scan: u32,
-    time: f64,
+    rows: &[R],
+    of: impl Fn(&R) -> (K, u32, f64),
 ) -> Result<(), RecordError> {
-    if let Some(&(s_prev, t_prev, r_prev)) = last.get(&key) {
-        if s_prev != scan && time < t_prev {
-            return Err(err(
-                what,
-                row,
-                Some("time"),
-                format!(
-                    "time goes backwards for {key:?}: scan {scan} at {time} but scan {s_prev} \
-                     (row {r_prev}) at {t_prev}"
-                ),
-            ));
+    // each key's latest scan, time and record
+    let mut last: FxHashMap<K, (u32, f64, usize)> = FxHashMap::default();
+    for row in scan_order(rows.iter().map(|r| of(r).1)) {
+        let (key, scan, time) = of(&rows[row]);
+        if let Some(&(s_prev, t_prev, r_prev)) = last.get(&key) {
+            if s_prev != scan && time < t_prev {
+                return Err(err(
+                    what,
+                    row,
+                    Some("time"),
+                    format!(
+                        "time goes backwards for {key:?}: scan {scan} at {time} but scan {s_prev} \
+                         (row {r_prev}) at {t_prev}"
+                    ),
+                ));
+            }
         }
+        last.insert(key, (scan, time, row));
     }
-    last.insert(key, (scan, time, row));
     Ok(())
+}
+
+/// The first record whose `key` an earlier record has, with that earlier record's index:
+/// `(row, earlier row)`.
+fn first_duplicate<R, K: std::hash::Hash + Eq>(
+    rows: &[R],
+    key: impl Fn(&R) -> K,
+) -> Option<(usize, usize)> {
+    let mut seen: FxHashMap<K, usize> = FxHashMap::default();
+    rows.iter()
+        .enumerate()
+        .find_map(|(i, r)| seen.insert(key(r), i).map(|prev| (i, prev)))
+}
+
+/// A track's time, state and covariance finite, and the covariance valid
+/// ([`check_covariance`]).
+fn state_and_cov(
+    what: &'static str,
+    row: usize,
+    time: f64,
+    state: &StateVec,
+    cov: &StateCov,
+) -> Result<(), RecordError> {
+    finite(what, row, "time", &[time])?;
+    finite(what, row, "state", state.as_slice())?;
+    finite(what, row, "cov", cov.as_slice())?;
+    check_covariance(cov).map_err(|e| err(what, row, Some("cov"), e.to_string()))
 }
 
 /// sensors.csv's rules: at least one sensor; ids not negative and distinct; finite
@@ -180,8 +210,8 @@ pub fn check_sensors(sensors: &[Sensor]) -> Result<(), RecordError> {
 /// known and of its kind, the trackers check.)
 pub fn check_measurements(rows: &[Measurement]) -> Result<(), RecordError> {
     const W: &str = "measurements";
-    let mut scan_time: HashMap<(u32, Id), (f64, usize)> = HashMap::new();
-    let mut seen: HashMap<(u32, Id, u64, u64), usize> = HashMap::new();
+    let mut scan_time: FxHashMap<(u32, Id), (f64, usize)> = FxHashMap::default();
+    let mut seen: FxHashMap<(u32, Id, u64, u64), usize> = FxHashMap::default();
     for (i, m) in rows.iter().enumerate() {
         finite(W, i, "time", &[m.time])?;
         finite(W, i, "value", m.value.as_slice())?;
@@ -225,12 +255,7 @@ pub fn check_measurements(rows: &[Measurement]) -> Result<(), RecordError> {
             ));
         }
     }
-    let mut last = FxHashMap::default();
-    for i in scan_order(rows.iter().map(|m| m.scan)) {
-        let m = &rows[i];
-        time_forward(W, &mut last, m.sensor_id, i, m.scan, m.time)?;
-    }
-    Ok(())
+    times_forward(W, rows, |m| (m.sensor_id, m.scan, m.time))
 }
 
 /// local_tracks.csv's rules: finite time, state and covariance; a valid covariance
@@ -238,10 +263,7 @@ pub fn check_measurements(rows: &[Measurement]) -> Result<(), RecordError> {
 pub fn check_local_tracks(rows: &[LocalTrack]) -> Result<(), RecordError> {
     const W: &str = "local_tracks";
     for (i, l) in rows.iter().enumerate() {
-        finite(W, i, "time", &[l.time])?;
-        finite(W, i, "state", l.state.as_slice())?;
-        finite(W, i, "cov", l.cov.as_slice())?;
-        check_covariance(&l.cov).map_err(|e| err(W, i, Some("cov"), e.to_string()))?;
+        state_and_cov(W, i, l.time, &l.state, &l.cov)?;
     }
     check_local_track_keys(rows)
 }
@@ -255,34 +277,27 @@ pub fn check_local_track_keys(rows: &[LocalTrack]) -> Result<(), RecordError> {
     const W: &str = "local_tracks";
     let key = |l: &LocalTrack| (l.scan, l.sensor_id, l.track_id);
     if !rows.windows(2).all(|w| key(&w[0]) < key(&w[1])) {
-        let mut seen: FxHashMap<(u32, Id, Id), usize> = FxHashMap::default();
-        for (i, l) in rows.iter().enumerate() {
-            if let Some(prev) = seen.insert(key(l), i) {
-                return Err(err(
-                    W,
-                    i,
-                    None,
-                    format!(
-                        "duplicate: scan {}, sensor {}, track {} already in row {prev}",
-                        l.scan, l.sensor_id, l.track_id
-                    ),
-                ));
-            }
+        if let Some((i, prev)) = first_duplicate(rows, key) {
+            let l = &rows[i];
+            return Err(err(
+                W,
+                i,
+                None,
+                format!(
+                    "duplicate: scan {}, sensor {}, track {} already in row {prev}",
+                    l.scan, l.sensor_id, l.track_id
+                ),
+            ));
         }
     }
-    let mut last = FxHashMap::default();
-    for i in scan_order(rows.iter().map(|l| l.scan)) {
-        let l = &rows[i];
-        time_forward(W, &mut last, (l.sensor_id, l.track_id), i, l.scan, l.time)?;
-    }
-    Ok(())
+    times_forward(W, rows, |l| ((l.sensor_id, l.track_id), l.scan, l.time))
 }
 
 /// truth.csv's rules: finite time and state; one record per target and scan; per
 /// target, time not going backwards.
 pub fn check_truth(rows: &[TruthState]) -> Result<(), RecordError> {
     const W: &str = "truth";
-    let mut seen: HashSet<(u32, Id)> = HashSet::new();
+    let mut seen: FxHashSet<(u32, Id)> = FxHashSet::default();
     for (i, t) in rows.iter().enumerate() {
         finite(W, i, "time", &[t.time])?;
         finite(W, i, "state", t.state.as_slice())?;
@@ -295,24 +310,16 @@ pub fn check_truth(rows: &[TruthState]) -> Result<(), RecordError> {
             ));
         }
     }
-    let mut last = FxHashMap::default();
-    for i in scan_order(rows.iter().map(|t| t.scan)) {
-        let t = &rows[i];
-        time_forward(W, &mut last, t.target_id, i, t.scan, t.time)?;
-    }
-    Ok(())
+    times_forward(W, rows, |t| (t.target_id, t.scan, t.time))
 }
 
 /// fused_tracks.csv's rules: finite time, state and covariance; a valid covariance; one record per
 /// `fused_id` and scan; per `fused_id`, time not going backwards.
 pub fn check_fused_tracks(rows: &[FusedTrack]) -> Result<(), RecordError> {
     const W: &str = "fused";
-    let mut seen: HashMap<(u32, Id), usize> = HashMap::new();
+    let mut seen: FxHashMap<(u32, Id), usize> = FxHashMap::default();
     for (i, f) in rows.iter().enumerate() {
-        finite(W, i, "time", &[f.time])?;
-        finite(W, i, "state", f.state.as_slice())?;
-        finite(W, i, "cov", f.cov.as_slice())?;
-        check_covariance(&f.cov).map_err(|e| err(W, i, Some("cov"), e.to_string()))?;
+        state_and_cov(W, i, f.time, &f.state, &f.cov)?;
         if let Some(prev) = seen.insert((f.scan, f.fused_id), i) {
             return Err(err(
                 W,
@@ -325,20 +332,15 @@ pub fn check_fused_tracks(rows: &[FusedTrack]) -> Result<(), RecordError> {
             ));
         }
     }
-    let mut last = FxHashMap::default();
-    for i in scan_order(rows.iter().map(|f| f.scan)) {
-        let f = &rows[i];
-        time_forward(W, &mut last, f.fused_id, i, f.scan, f.time)?;
-    }
-    Ok(())
+    times_forward(W, rows, |f| (f.fused_id, f.scan, f.time))
 }
 
 /// associations.csv's rule: a `(sensor_id, track_id)` once per scan.
 pub fn check_associations(rows: &[Association]) -> Result<(), RecordError> {
-    let mut seen: HashMap<(u32, Id, Id), usize> = HashMap::new();
-    for (i, a) in rows.iter().enumerate() {
-        if let Some(prev) = seen.insert((a.scan, a.sensor_id, a.track_id), i) {
-            return Err(err(
+    match first_duplicate(rows, |a| (a.scan, a.sensor_id, a.track_id)) {
+        Some((i, prev)) => {
+            let a = &rows[i];
+            Err(err(
                 "associations",
                 i,
                 None,
@@ -346,16 +348,16 @@ pub fn check_associations(rows: &[Association]) -> Result<(), RecordError> {
                     "duplicate: scan {}, sensor {}, track {} already in row {prev}",
                     a.scan, a.sensor_id, a.track_id
                 ),
-            ));
+            ))
         }
+        None => Ok(()),
     }
-    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::types::{StateCov, StateVec, Vec2};
+    use crate::types::Vec2;
 
     fn radar(id: Id) -> Sensor {
         Sensor {
