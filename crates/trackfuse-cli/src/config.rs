@@ -8,7 +8,7 @@ use trackfuse::center::bias;
 use trackfuse::center::registry as center_registry;
 use trackfuse::center::{CenterError, FusionConfig, Publish};
 use trackfuse::local::registry as local_registry;
-use trackfuse::local::{InitiationMethod, TrackerConfig};
+use trackfuse::local::{InitiationMethod, PairGate, TrackerConfig};
 use trackfuse::params::{parse_cli_param, ParamTables};
 
 fn set_params(tables: &mut ParamTables, flag: &str, name: &str, params: &[String]) -> Result<()> {
@@ -67,6 +67,12 @@ pub struct TrackerFlags {
     /// Largest target speed (m/s) for two-point initiation.
     #[arg(long)]
     pub max_speed: Option<f64>,
+    /// Which pairs of points may start a tentative track: mahalanobis (default: the
+    /// Mahalanobis distance from the displacement to the max-speed disc is at most 3) or
+    /// max-axis (within max_speed dt plus 3 times each position's larger standard
+    /// deviation, the gate before this option).
+    #[arg(long)]
+    pub pair_gate: Option<String>,
     /// Delete a confirmed track after this many consecutive misses.
     #[arg(long)]
     pub delete_after: Option<u32>,
@@ -122,6 +128,10 @@ impl TrackerFlags {
         }
         if let Some(v) = self.max_speed {
             c.initiation.max_speed = v;
+        }
+        if let Some(g) = &self.pair_gate {
+            c.initiation.pair_gate = PairGate::from_name(g)
+                .ok_or_else(|| anyhow!("--pair-gate {g}: expected mahalanobis or max-axis"))?;
         }
         if let Some(d) = self.delete_after {
             c.initiation.delete_after = d;

@@ -33,7 +33,7 @@ use super::filter::common::log_likelihood;
 use super::filter::{Filter, FilterState, PredictedMeasurement};
 use super::gating::{gate_threshold, GateGrid, Gates};
 use super::registry::{AssociatorContext, AssociatorSettings, FilterSettings, LocalRegistry};
-use super::{InitiationMethod, KnownStart, TrackerConfig, DEFAULT_PROCESS_NOISE};
+use super::{InitiationMethod, KnownStart, PairGate, TrackerConfig, DEFAULT_PROCESS_NOISE};
 use crate::clock::{ReportClock, ReportTimes};
 use crate::models::range_bearing_to_position;
 use crate::params::ParamError;
@@ -843,7 +843,16 @@ impl SensorTracker {
                 self.to_cartesian(z)
             });
         }
-        let spread = |c: &Mat2| c[(0, 0)].max(c[(1, 1)]).max(0.0).sqrt();
+        // A position's error allowance in the distance test: the larger axis' standard
+        // deviation for `max-axis`; for `mahalanobis` the root of the trace, which
+        // bounds the largest eigenvalue's, so that the distance test and the box below
+        // hold every pair the Mahalanobis test can accept (sqrt(lambda_max(P_1 + P_2))
+        // <= sqrt(tr P_1) + sqrt(tr P_2)).
+        let gate = self.cfg.initiation.pair_gate;
+        let spread = |c: &Mat2| match gate {
+            PairGate::MaxAxis => c[(0, 0)].max(c[(1, 1)]).max(0.0).sqrt(),
+            PairGate::Mahalanobis => (c[(0, 0)].max(0.0) + c[(1, 1)].max(0.0)).sqrt(),
+        };
         let max_dt = seeds.iter().map(|s| time - s.time).fold(0.0, f64::max);
         let max_seed_sigma = seeds.iter().map(|s| spread(&s.cov)).fold(0.0, f64::max);
         // The seeds in a two-dimensional grid: a measurement looks at the seeds in the
@@ -858,7 +867,7 @@ impl SensorTracker {
                 continue;
             }
             let sp = spread(&pc);
-            let reach_max = max_speed * max_dt + 3.0 * (sp + max_seed_sigma);
+            let reach_max = max_speed * max_dt + PAIR_SIGMAS * (sp + max_seed_sigma);
             let (x_lo, x_hi) = (p[0] - reach_max, p[0] + reach_max);
             let reach_y = reach_max * 1.01 + 1e-6;
             let (lo, hi) = ([x_lo, p[1] - reach_y], [x_hi, p[1] + reach_y]);
@@ -871,9 +880,12 @@ impl SensorTracker {
                 if dt <= 0.0 {
                     return;
                 }
-                let reach = max_speed * dt + 3.0 * (sp + spread(&s.cov));
+                let reach = max_speed * dt + PAIR_SIGMAS * (sp + spread(&s.cov));
                 let d = (p - s.position).norm();
-                if d <= reach {
+                if d <= reach
+                    && (gate == PairGate::MaxAxis
+                        || pair_within(p - s.position, &(pc + s.cov), max_speed * dt, PAIR_SIGMAS))
+                {
                     pairs.push(sort_key(d / dt, m as u32, si));
                 }
             });
@@ -905,8 +917,15 @@ impl SensorTracker {
             // the pair's score: ln(P_D / (lambda A)), A the disc the speed gate let the
             // second point fall in (uniform under "target", lambda A under "clutter")
             let score = if scored {
-                let reach = max_speed * dt + 3.0 * (spread(&pc) + spread(&s.cov));
-                let area = std::f64::consts::PI * reach * reach;
+                let area = match gate {
+                    PairGate::MaxAxis => {
+                        let reach = max_speed * dt + PAIR_SIGMAS * (spread(&pc) + spread(&s.cov));
+                        std::f64::consts::PI * reach * reach
+                    }
+                    PairGate::Mahalanobis => {
+                        pair_region_area(&(pc + s.cov), max_speed * dt, PAIR_SIGMAS)
+                    }
+                };
                 self.sensor.pd.ln() - (lambda * area).ln()
             } else {
                 0.0
@@ -940,6 +959,106 @@ impl SensorTracker {
             meas_paired,
         };
     }
+}
+
+/// Standard deviations of the two-point gate: `3 (sigma_1 + sigma_2)` for
+/// [`PairGate::MaxAxis`], a Mahalanobis distance of 3 for [`PairGate::Mahalanobis`].
+const PAIR_SIGMAS: f64 = 3.0;
+
+/// The principal axes of a 2x2 covariance: the eigenvalues `(s1, s2)`, `s1 >= s2`, each
+/// at least `1e-12` m^2 (a position known to a micrometre: it keeps the metric finite),
+/// and the unit eigenvector of `s1`.
+fn principal_axes(cov: &Mat2) -> (f64, f64, Vec2) {
+    let (a, b, c) = (cov[(0, 0)], 0.5 * (cov[(0, 1)] + cov[(1, 0)]), cov[(1, 1)]);
+    let mid = 0.5 * (a + c);
+    let h = 0.5 * (a - c);
+    let half = (h * h + b * b).sqrt();
+    let floor = 1e-12;
+    let s1 = (mid + half).max(floor);
+    let s2 = (mid - half).max(floor);
+    // (s1 - c, b) and (b, s1 - a) are both eigenvectors of s1; the first is not small
+    // when a >= c, the second when a < c
+    let (x, y) = if half == 0.0 {
+        (1.0, 0.0)
+    } else if a >= c {
+        (s1 - c, b)
+    } else {
+        (b, s1 - a)
+    };
+    let n = (x * x + y * y).sqrt();
+    (s1, s2, Vec2::new(x / n, y / n))
+}
+
+/// [`PairGate::Mahalanobis`]: whether a target moving at most `r` (metres, `max_speed
+/// dt`) could have made the displacement `d` between two positions whose errors have
+/// the summed covariance `cov`, i.e. whether `min_{|u| <= r} (d - u)^T cov^-1 (d - u)
+/// <= k^2`.
+///
+/// In the principal axes of `cov` (variances `s_i`, `d`'s components `e_i`) the
+/// minimiser on the circle `|u| = r` is `u_i(mu) = e_i / (1 + mu s_i)` for the Lagrange
+/// multiplier `mu >= 0` with `|u(mu)| = r`, and the squared distance is `D(mu) = mu^2
+/// sum e_i^2 s_i / (1 + mu s_i)^2`, increasing in `mu`. Newton's method on `phi(mu) = 1 /
+/// |u(mu)| - 1 / r` (concave and increasing, so the iterates rise monotonically to the
+/// root from `mu = 0`; Nocedal & Wright 2006, Algorithm 4.3) ends the search as soon as
+/// `D` exceeds `k^2` at an iterate (then it does at the root) or `phi` reaches 0. Two
+/// bounds decide most pairs without it: along each principal axis the disc covers at
+/// most `r`, so `D >= (|e_i| - r)^2 / s_i`; and the disc's point nearest to `d` in
+/// metres gives `D <= (1 - r / |d|)^2 sum e_i^2 / s_i`. Hand-written: a 2-D
+/// trust-region step, which no linear-algebra crate offers.
+fn pair_within(d: Vec2, cov: &Mat2, r: f64, k: f64) -> bool {
+    let dd = d.norm_squared();
+    if dd <= r * r {
+        return true;
+    }
+    let (s1, s2, v) = principal_axes(cov);
+    let e1 = v[0] * d[0] + v[1] * d[1];
+    let e2 = -v[1] * d[0] + v[0] * d[1];
+    let k2 = k * k;
+    for (e, s) in [(e2, s2), (e1, s1)] {
+        let gap = e.abs() - r;
+        if gap > 0.0 && gap * gap > k2 * s {
+            return false;
+        }
+    }
+    let (q1, q2) = (e1 * e1, e2 * e2);
+    let shrink = 1.0 - r / dd.sqrt();
+    if shrink * shrink * (q1 / s1 + q2 / s2) <= k2 {
+        return true;
+    }
+    let mut mu = 0.0f64;
+    for _ in 0..100 {
+        let (t1, t2) = (1.0 + mu * s1, 1.0 + mu * s2);
+        if mu * mu * (q1 * s1 / (t1 * t1) + q2 * s2 / (t2 * t2)) > k2 {
+            return false;
+        }
+        let f = q1 / (t1 * t1) + q2 / (t2 * t2);
+        let phi = 1.0 / f.sqrt() - 1.0 / r;
+        if phi >= -1e-12 / r {
+            return true;
+        }
+        let df = -2.0 * (q1 * s1 / (t1 * t1 * t1) + q2 * s2 / (t2 * t2 * t2));
+        let dphi = -0.5 * df / (f * f.sqrt());
+        let step = phi / dphi;
+        if !step.is_finite() {
+            break;
+        }
+        mu -= step;
+    }
+    // not converged in 100 Newton steps (not seen in the tests): refused
+    false
+}
+
+/// The area (m^2) of the region [`pair_within`] accepts: the disc of radius `r` widened
+/// by the ellipse `E = {x: x^T cov^-1 x <= k^2}` (their Minkowski sum; Steiner's formula
+/// for convex sets: `area(E) + r perimeter(E) + pi r^2`), the perimeter by Ramanujan's
+/// second approximation (relative error below 4e-4 for any axis ratio, 0 for a circle).
+fn pair_region_area(cov: &Mat2, r: f64, k: f64) -> f64 {
+    use std::f64::consts::PI;
+    let (s1, s2, _) = principal_axes(cov);
+    let (a, b) = (k * s1.sqrt(), k * s2.sqrt());
+    let h = ((a - b) / (a + b)).powi(2);
+    let perimeter = PI * (a + b) * (1.0 + 3.0 * h / (10.0 + (4.0 - 3.0 * h).sqrt()));
+    PI * a * b + r * perimeter + PI * r * r
 }
 
 /// The two-point initiation's per-scan buffers ([`SensorTracker::initiate`]), kept so
@@ -1769,6 +1888,146 @@ max_range = 60000.0
         m3of4.initiation.m = 3;
         m3of4.initiation.n = 4;
         assert!(confirmed(&m3of4, true) > 0);
+    }
+
+    /// The smallest squared Mahalanobis distance (metric `cov^-1`) from `d` to the disc
+    /// of radius `r`, by brute force: `d` itself when inside, else the minimum over
+    /// 200 000 points of the circle refined by golden-section search around the best.
+    fn brute_disc_distance(d: Vec2, cov: &Mat2, r: f64) -> f64 {
+        if d.norm() <= r {
+            return 0.0;
+        }
+        let inv = cov.try_inverse().expect("invertible");
+        let at = |t: f64| {
+            let e = d - Vec2::new(r * t.cos(), r * t.sin());
+            e.dot(&(inv * e))
+        };
+        let n = 200_000;
+        let step = std::f64::consts::TAU / n as f64;
+        let best = (0..n)
+            .map(|i| i as f64 * step)
+            .min_by(|a, b| at(*a).total_cmp(&at(*b)))
+            .expect("points");
+        let (mut lo, mut hi) = (best - step, best + step);
+        let g = (5f64.sqrt() - 1.0) / 2.0;
+        for _ in 0..100 {
+            let (a, b) = (hi - g * (hi - lo), lo + g * (hi - lo));
+            if at(a) < at(b) {
+                hi = b;
+            } else {
+                lo = a;
+            }
+        }
+        at(0.5 * (lo + hi))
+    }
+
+    /// `pair_within` decides as the brute-force distance does, for covariances from round
+    /// to 10^6 : 1 (a far radar's cross-range against its range error), any
+    /// orientation, displacements inside, near and far outside the disc (cases within
+    /// 0.1 % of the threshold are skipped: the brute force is not that exact).
+    #[test]
+    fn the_mahalanobis_pair_gate_decides_as_brute_force() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let (mut accepted, mut refused, mut newton) = (0, 0, 0);
+        for _ in 0..400 {
+            let sd1: f64 = 10f64.powf(rng.random_range(0.5..3.5));
+            let sd2: f64 = sd1 / 10f64.powf(rng.random_range(0.0..3.0));
+            let angle: f64 = rng.random_range(0.0..std::f64::consts::PI);
+            let (c, s) = (angle.cos(), angle.sin());
+            let rot = Mat2::new(c, -s, s, c);
+            let cov = rot * Mat2::new(sd1 * sd1, 0.0, 0.0, sd2 * sd2) * rot.transpose();
+            let r: f64 = rng.random_range(50.0..2000.0);
+            let dir: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+            let len = r + rng.random_range(-0.5..4.0) * sd1;
+            let d = Vec2::new(len * dir.cos(), len * dir.sin());
+            let exact = brute_disc_distance(d, &cov, r);
+            if (exact - 9.0).abs() < 9e-3 {
+                continue;
+            }
+            let got = pair_within(d, &cov, r, 3.0);
+            assert_eq!(
+                got,
+                exact <= 9.0,
+                "d {d:?} cov {cov:?} r {r}: distance^2 {exact}"
+            );
+            if got {
+                accepted += 1;
+            } else {
+                refused += 1;
+            }
+            // the cases the two bounds leave to Newton's method
+            let (s1, s2, v) = principal_axes(&cov);
+            let e1 = v.dot(&d);
+            let e2 = v[0] * d[1] - v[1] * d[0];
+            let shrink = 1.0 - r / d.norm();
+            let lower_refuses = [(e1, s1), (e2, s2)]
+                .iter()
+                .any(|&(e, s)| e.abs() > r && (e.abs() - r).powi(2) > 9.0 * s);
+            let upper_accepts = shrink * shrink * (e1 * e1 / s1 + e2 * e2 / s2) <= 9.0;
+            if d.norm() > r && !lower_refuses && !upper_accepts {
+                newton += 1;
+            }
+        }
+        assert!(
+            accepted > 50 && refused > 50,
+            "{accepted} accepted, {refused} refused"
+        );
+        assert!(newton > 20, "only {newton} cases reached Newton's method");
+    }
+
+    /// `pair_region_area` against a count of grid points the gate accepts, and its
+    /// limits: a disc (`pi r^2 + ...` with a round covariance is the disc of radius
+    /// `r + 3 sigma`) and, for `r = 0`, the 3-sigma ellipse.
+    #[test]
+    fn the_pair_gate_area_is_the_accepted_region_area() {
+        use std::f64::consts::PI;
+        let round = Mat2::new(100.0 * 100.0, 0.0, 0.0, 100.0 * 100.0);
+        let a = pair_region_area(&round, 500.0, 3.0);
+        assert!((a / (PI * 800.0 * 800.0) - 1.0).abs() < 1e-12, "{a}");
+        let flat = Mat2::new(400.0 * 400.0, 0.0, 0.0, 20.0 * 20.0);
+        let e = pair_region_area(&flat, 0.0, 3.0);
+        assert!((e / (PI * 1200.0 * 60.0) - 1.0).abs() < 1e-12, "{e}");
+        // rotated, elongated: count the accepted points of a 10 m grid
+        let (c, s) = (0.6f64, 0.8f64);
+        let rot = Mat2::new(c, -s, s, c);
+        let cov = rot * flat * rot.transpose();
+        let r = 300.0;
+        let h = 10.0;
+        let mut count = 0u64;
+        for i in -200..=200 {
+            for j in -200..=200 {
+                let d = Vec2::new(i as f64 * h, j as f64 * h);
+                if pair_within(d, &cov, r, 3.0) {
+                    count += 1;
+                }
+            }
+        }
+        let counted = count as f64 * h * h;
+        let area = pair_region_area(&cov, r, 3.0);
+        assert!(
+            (counted / area - 1.0).abs() < 0.01,
+            "{counted} against {area}"
+        );
+    }
+
+    /// `max-axis` accepts a displacement across a far radar's line of sight and the
+    /// same displacement along it; `mahalanobis` only the first, where the position is
+    /// uncertain (a track along the range would have to be faster than `max_speed`).
+    #[test]
+    fn the_mahalanobis_gate_follows_the_error_ellipse() {
+        // converted positions 300 km due east of a radar: 20 m in range (x), 600 m
+        // across (y), two of them
+        let one = Mat2::new(20.0 * 20.0, 0.0, 0.0, 600.0 * 600.0);
+        let cov = one + one;
+        let r = 500.0;
+        let across = Vec2::new(0.0, 2500.0);
+        let along = Vec2::new(2500.0, 0.0);
+        assert!(pair_within(across, &cov, r, 3.0));
+        assert!(!pair_within(along, &cov, r, 3.0));
+        // the max-axis gate's reach: 500 + 3 (600 + 600) = 4100 m either way
+        let reach = r + 3.0 * (600.0 + 600.0);
+        assert!(across.norm() <= reach && along.norm() <= reach);
     }
 
     #[test]
