@@ -965,17 +965,23 @@ impl SensorTracker {
 /// [`PairGate::MaxAxis`], a Mahalanobis distance of 3 for [`PairGate::Mahalanobis`].
 const PAIR_SIGMAS: f64 = 3.0;
 
-/// The principal axes of a 2x2 covariance: the eigenvalues `(s1, s2)`, `s1 >= s2`, each
-/// at least `1e-12` m^2 (a position known to a micrometre: it keeps the metric finite),
-/// and the unit eigenvector of `s1`.
-fn principal_axes(cov: &Mat2) -> (f64, f64, Vec2) {
+/// The eigenvalues `(s1, s2)`, `s1 >= s2`, of a symmetric 2x2 covariance, each at least
+/// `1e-12` m^2 (a position known to a micrometre: it keeps the metric finite), and the
+/// half-difference of the eigenvalues before the floor.
+fn eigenvalues(cov: &Mat2) -> (f64, f64, f64) {
     let (a, b, c) = (cov[(0, 0)], 0.5 * (cov[(0, 1)] + cov[(1, 0)]), cov[(1, 1)]);
     let mid = 0.5 * (a + c);
     let h = 0.5 * (a - c);
     let half = (h * h + b * b).sqrt();
     let floor = 1e-12;
-    let s1 = (mid + half).max(floor);
-    let s2 = (mid - half).max(floor);
+    ((mid + half).max(floor), (mid - half).max(floor), half)
+}
+
+/// The principal axes of a 2x2 covariance: [`eigenvalues`] and the unit eigenvector of
+/// `s1`.
+fn principal_axes(cov: &Mat2) -> (f64, f64, Vec2) {
+    let (a, b, c) = (cov[(0, 0)], 0.5 * (cov[(0, 1)] + cov[(1, 0)]), cov[(1, 1)]);
+    let (s1, s2, half) = eigenvalues(cov);
     // (s1 - c, b) and (b, s1 - a) are both eigenvectors of s1; the first is not small
     // when a >= c, the second when a < c
     let (x, y) = if half == 0.0 {
@@ -1000,20 +1006,26 @@ fn principal_axes(cov: &Mat2) -> (f64, f64, Vec2) {
 /// sum e_i^2 s_i / (1 + mu s_i)^2`, increasing in `mu`. Newton's method on `phi(mu) = 1 /
 /// |u(mu)| - 1 / r` (concave and increasing, so the iterates rise monotonically to the
 /// root from `mu = 0`; Nocedal & Wright 2006, Algorithm 4.3) ends the search as soon as
-/// `D` exceeds `k^2` at an iterate (then it does at the root) or `phi` reaches 0. Two
-/// bounds decide most pairs without it: along each principal axis the disc covers at
-/// most `r`, so `D >= (|e_i| - r)^2 / s_i`; and the disc's point nearest to `d` in
-/// metres gives `D <= (1 - r / |d|)^2 sum e_i^2 / s_i`. Hand-written: a 2-D
-/// trust-region step, which no linear-algebra crate offers.
+/// `D` exceeds `k^2` at an iterate (then it does at the root) or `phi` reaches 0. Three
+/// bounds decide most pairs without it: `D >= (|d| - r)^2 / s_1` (the largest variance;
+/// no eigenvector needed); along each principal axis the disc covers at most `r`, so
+/// `D >= (|e_i| - r)^2 / s_i`; and the disc's point nearest to `d` in metres gives
+/// `D <= (1 - r / |d|)^2 sum e_i^2 / s_i`. Hand-written: a 2-D trust-region step,
+/// which no linear-algebra crate offers.
 fn pair_within(d: Vec2, cov: &Mat2, r: f64, k: f64) -> bool {
     let dd = d.norm_squared();
     if dd <= r * r {
         return true;
     }
+    let k2 = k * k;
+    let (s1, _, _) = eigenvalues(cov);
+    let gap = dd.sqrt() - r;
+    if gap * gap > k2 * s1 {
+        return false;
+    }
     let (s1, s2, v) = principal_axes(cov);
     let e1 = v[0] * d[0] + v[1] * d[1];
     let e2 = -v[1] * d[0] + v[0] * d[1];
-    let k2 = k * k;
     for (e, s) in [(e2, s2), (e1, s1)] {
         let gap = e.abs() - r;
         if gap > 0.0 && gap * gap > k2 * s {
