@@ -5,7 +5,7 @@ import pytest
 
 import trackfuse as tf
 from conftest import (SCENARIO, assert_same, csv_associations, csv_fused, csv_local,
-                      csv_rows, load_json)
+                      csv_rows, load_json, run_cli)
 
 
 def test_simulate_equals_cli_files(cli_run):
@@ -55,6 +55,27 @@ def test_track_methods_and_params_are_the_clis():
     with pytest.raises(ValueError, match="bogus"):
         tf.track(s["sensors"], s["measurements"], associator="gnn",
                  params={"gnn": {"bogus": 1}})
+
+
+def test_the_pair_gate_is_selectable_as_on_the_cli(tmp_path):
+    """`[tracker.initiation] pair_gate` from Python: `max-axis` gives the CLI's
+    `--pair-gate max-axis` tracks to the bit and other tracks than the default
+    `mahalanobis`; an unknown gate is a ValueError naming it."""
+    sim = tmp_path / "sim"
+    run_cli("simulate", "000-s3", "--out", sim)
+    run_cli("track", "--data", sim, "--scenario", "000-s3", "--pair-gate", "max-axis",
+            "--out", tmp_path / "tr")
+    sensors = tf.read_sensors(str(sim / "sensors.csv"))
+    meas = tf.read_measurements(str(sim / "measurements.csv"), sensors)
+    old = tf.track(sensors, meas, scenario="000-s3",
+                   config={"initiation": {"pair_gate": "max-axis"}})
+    assert_same(old, csv_local(tmp_path / "tr" / "local_tracks.csv"), "max-axis tracks")
+    new = tf.track(sensors, meas, scenario="000-s3")
+    assert len(new["time"]) > 100
+    assert not (len(new["time"]) == len(old["time"])
+                and np.array_equal(new["state"], old["state"]))
+    with pytest.raises(ValueError, match="pair_gate|nope"):
+        tf.track(sensors, meas, config={"initiation": {"pair_gate": "nope"}})
 
 
 def test_fuse_equals_cli(cli_run):
