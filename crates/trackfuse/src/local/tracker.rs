@@ -914,8 +914,10 @@ impl SensorTracker {
             if !mean.iter().all(|v| v.is_finite()) {
                 continue;
             }
-            // the pair's score: ln(P_D / (lambda A)), A the disc the speed gate let the
-            // second point fall in (uniform under "target", lambda A under "clutter")
+            // the pair's score: ln(P_D / (lambda A)), A the area of the region the pair
+            // gate let the second point fall in (uniform under "target", lambda A under
+            // "clutter"): the disc for `max-axis`, disc plus error ellipse for
+            // `mahalanobis`
             let score = if scored {
                 let area = match gate {
                     PairGate::MaxAxis => {
