@@ -383,6 +383,95 @@ where
     })
 }
 
+/// Where [`write_behind`]'s body hands its batches of rows: written on the spot, or
+/// queued for the writer thread.
+pub enum Emit<'a, B> {
+    /// One thread: `write` runs in [`Emit::send`]; `spare` is the last batch, for reuse.
+    Inline {
+        write: &'a mut dyn FnMut(&B) -> Result<()>,
+        spare: B,
+    },
+    /// The writer thread's queue, and the batches it hands back.
+    Queued {
+        tx: std::sync::mpsc::SyncSender<B>,
+        back: std::sync::mpsc::Receiver<B>,
+    },
+}
+
+impl<B: Default> Emit<'_, B> {
+    /// A batch to fill next: one the writer is done with (its rows still in it, to be
+    /// cleared by the caller; its allocations kept), else an empty one.
+    pub fn buffer(&mut self) -> B {
+        match self {
+            Emit::Inline { spare, .. } => std::mem::take(spare),
+            Emit::Queued { back, .. } => back.try_recv().unwrap_or_default(),
+        }
+    }
+
+    /// Hand over one batch, to be written after every batch handed before it. Fails with
+    /// the write's error (one thread), or when the writer thread has stopped on an error
+    /// of its own, which [`write_behind`] then returns in place of this one.
+    pub fn send(&mut self, batch: B) -> Result<()> {
+        match self {
+            Emit::Inline { write, spare } => {
+                write(&batch)?;
+                *spare = batch;
+                Ok(())
+            }
+            Emit::Queued { tx, .. } => tx
+                .send(batch)
+                .map_err(|_| anyhow::anyhow!("the output writer stopped")),
+        }
+    }
+}
+
+/// Run `body`, which makes batches of rows and hands each to [`Emit::send`], and write
+/// every batch with `write`, in the order handed over.
+///
+/// With `behind`, `write` runs on a thread of its own (a queue of two batches, batches
+/// handed back for reuse), so formatting and writing the rows overlap the work that
+/// makes the next batch; without it, on the calling thread inside `send`. `write` sees
+/// the same batches in the same order either way, so the bytes written are the same.
+/// The first error stops both: a write error is returned before the body's (the body
+/// only sees that the writer stopped), and a body error stops the writer once it has
+/// written what was queued before it (the caller discards a failed output). Hand-written
+/// over `std::sync::mpsc` and `std::thread::scope`, like [`for_each_scan`]: stages of a
+/// stream kept in order, which rayon's data parallelism does not express.
+pub fn write_behind<B, F, Body, R>(behind: bool, mut write: F, body: Body) -> Result<R>
+where
+    B: Send + Default,
+    F: FnMut(&B) -> Result<()> + Send,
+    Body: FnOnce(&mut Emit<'_, B>) -> Result<R>,
+{
+    if !behind {
+        let mut emit = Emit::Inline {
+            write: &mut write,
+            spare: B::default(),
+        };
+        return body(&mut emit);
+    }
+    std::thread::scope(|s| {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<B>(2);
+        let (back_tx, back_rx) = std::sync::mpsc::channel::<B>();
+        let writer = s.spawn(move || -> Result<()> {
+            for batch in rx.iter() {
+                write(&batch)?;
+                // the body may have finished: then the batch is not needed
+                let _ = back_tx.send(batch);
+            }
+            Ok(())
+        });
+        let mut emit = Emit::Queued { tx, back: back_rx };
+        let result = body(&mut emit);
+        // closes the queue: the writer ends after the batches already queued
+        drop(emit);
+        let written = writer
+            .join()
+            .unwrap_or_else(|_| Err(anyhow::anyhow!("the output writer thread panicked")));
+        written.and(result)
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -395,5 +484,74 @@ mod tests {
             "name = \"x\"\nseed = 9\n[[sensors]]\nseed_x = 1\n"
         );
         assert!(with_seed("dt = 1.0\n", 5).starts_with("seed = 5\n"));
+    }
+
+    /// Make batches 0..n (batch k: k+1 rows `100 k + i`), reusing what `buffer` returns;
+    /// collect what `write` sees. `fail_write_at` / `fail_body_at`: the batch whose write
+    /// / making fails.
+    fn behind_run(
+        behind: bool,
+        n: usize,
+        fail_write_at: Option<usize>,
+        fail_body_at: Option<usize>,
+    ) -> (Result<usize>, Vec<Vec<u32>>) {
+        let mut seen = Vec::new();
+        let write = |b: &Vec<u32>| -> Result<()> {
+            if fail_write_at == Some(seen.len()) {
+                anyhow::bail!("disk full at batch {}", seen.len());
+            }
+            seen.push(b.clone());
+            Ok(())
+        };
+        let result = write_behind(behind, write, |emit| {
+            let mut reused = 0;
+            for k in 0..n {
+                if fail_body_at == Some(k) {
+                    anyhow::bail!("bad row in batch {k}");
+                }
+                let mut b = emit.buffer();
+                if b.capacity() > 0 {
+                    reused += 1;
+                }
+                b.clear();
+                b.extend((0..=k as u32).map(|i| 100 * k as u32 + i));
+                emit.send(b)?;
+            }
+            Ok(reused)
+        });
+        (result, seen)
+    }
+
+    #[test]
+    fn write_behind_writes_the_same_batches_in_order_on_one_thread_or_two() {
+        let expected: Vec<Vec<u32>> = (0..50u32)
+            .map(|k| (0..=k).map(|i| 100 * k + i).collect())
+            .collect();
+        for behind in [false, true] {
+            let (result, seen) = behind_run(behind, 50, None, None);
+            let reused = result.expect("no error");
+            assert_eq!(seen, expected, "behind = {behind}");
+            // one thread: every batch after the first is the previous one's buffer
+            if !behind {
+                assert_eq!(reused, 49);
+            }
+        }
+    }
+
+    #[test]
+    fn write_behind_returns_the_first_error_and_stops() {
+        for behind in [false, true] {
+            // a write error: the body stops (it is told the writer stopped), and the
+            // caller gets the write's error, not that notice
+            let (result, seen) = behind_run(behind, 50, Some(7), None);
+            let e = result.expect_err("the write fails").to_string();
+            assert_eq!(e, "disk full at batch 7", "behind = {behind}");
+            assert_eq!(seen.len(), 7);
+            // a body error: what was handed over before it is written, then it is returned
+            let (result, seen) = behind_run(behind, 50, None, Some(12));
+            let e = result.expect_err("the body fails").to_string();
+            assert_eq!(e, "bad row in batch 12", "behind = {behind}");
+            assert_eq!(seen.len(), 12);
+        }
     }
 }

@@ -8,8 +8,9 @@
 //! `trackfuse::io::quick_report_times`; `trackfuse::center::instants`), each
 //! instant's fused tracks and associations written before the next batch is read, so
 //! memory does not grow with the number of scans (with more than one thread the next
-//! batch is read on a second thread while the current one is fused:
-//! `common::for_each_scan`, the same bytes at any thread count). Synchronous sensors are fused batch
+//! batch is read on a second thread while the current one is fused, and the previous
+//! instant's rows are formatted and written on a third: `common::for_each_scan`,
+//! `common::write_behind`, the same bytes at any thread count). Synchronous sensors are fused batch
 //! by batch exactly as scan by scan. `--two-pass` streams
 //! twice: pass 1 estimates the biases, pass 2 reads the files again and fuses every scan
 //! corrected with pass 1's final estimates. Errors found while
@@ -18,7 +19,7 @@
 //! error while streaming the partial outputs are removed and the output folder is left
 //! as it was (nothing has been renamed into place yet).
 
-use crate::common::{for_each_scan, load_scenario, scenario_input};
+use crate::common::{for_each_scan, load_scenario, scenario_input, write_behind};
 use crate::config::FusionFlags;
 use crate::output::{Outputs, FUSE_OUTPUTS};
 use anyhow::{Context, Result};
@@ -287,7 +288,7 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         }
         Ok(())
     };
-    let mut write = |out: &ScanOutput| -> Result<()> {
+    let write = |out: &ScanOutput| -> Result<()> {
         for f in &out.fused {
             fw.write(f).with_context(|| ctx(&fused_path))?;
         }
@@ -296,7 +297,19 @@ pub fn run(args: &FuseArgs) -> Result<()> {
         }
         Ok(())
     };
-    let streamed = (|| -> Result<_> {
+    // with more than one thread the fused tracks and associations are formatted and
+    // written on a thread of their own, an instant behind the center (the same bytes)
+    let behind = rayon::current_num_threads() > 1;
+    let streamed = write_behind(behind, write, |emit| -> Result<_> {
+        // the instant's output goes to the writer; the center fills a batch the writer
+        // is done with (cleared) next
+        let mut hand = |out: &mut ScanOutput| -> Result<()> {
+            let mut spare = emit.buffer();
+            spare.fused.clear();
+            spare.associations.clear();
+            std::mem::swap(out, &mut spare);
+            emit.send(spare)
+        };
         Ok(if args.two_pass {
             // pass 1 estimates the biases and writes nothing; pass 2 reads the files again,
             // corrects every scan with pass 1's final estimates and fuses without estimator
@@ -309,17 +322,17 @@ pub fn run(args: &FuseArgs) -> Result<()> {
             let mut second = new_center(args, &second_cfg, sensors.as_deref(), &labels)?;
             let mut again = StreamFusion::open(args, &labels, sensors.as_deref())?;
             again.schedule = (period, clocks);
-            let mut stats = again.run(&mut second, Some(&center), |out, _, _, _| write(out))?;
+            let mut stats = again.run(&mut second, Some(&center), |out, _, _, _| hand(out))?;
             stats.elapsed += first_stats.elapsed;
             (stats, center.bias_estimates())
         } else {
             let stats = first.run(&mut center, None, |out, c, s, t| {
-                write(out)?;
+                hand(out)?;
                 record(c, s, t)
             })?;
             (stats, center.bias_estimates())
         })
-    })();
+    });
     let (stats, bias) = match streamed {
         Ok(v) => v,
         Err(e) => {
@@ -511,7 +524,8 @@ impl<'a> StreamFusion<'a> {
 
     /// Fuse the whole file with `center` at the center's update instants
     /// ([`InstantBatcher`]: batch after batch of rows sharing one time, each instant's
-    /// fresh latest reports predicted to it), handing each instant's output to `write`.
+    /// fresh latest reports predicted to it), handing each instant's output to `write`
+    /// (which may take its rows: the center clears the output before filling it).
     /// With `corrector` (pass 2 of `--two-pass`), each batch's local tracks are first
     /// corrected with that center's bias estimates; the truth labels are those of the
     /// rows as read, as in `fuse_all_two_pass`.
@@ -519,7 +533,7 @@ impl<'a> StreamFusion<'a> {
         &mut self,
         center: &mut FusionCenter,
         corrector: Option<&FusionCenter>,
-        mut write: impl FnMut(&ScanOutput, &FusionCenter, u32, f64) -> Result<()>,
+        mut write: impl FnMut(&mut ScanOutput, &FusionCenter, u32, f64) -> Result<()>,
     ) -> Result<FuseStats> {
         let mut stats = FuseStats::default();
         let mut out = ScanOutput::default();
@@ -589,7 +603,7 @@ impl<'a> StreamFusion<'a> {
                 stats.elapsed += t0.elapsed();
                 stats.fused_rows += out.fused.len();
                 stats.ids.extend(out.fused.iter().map(|f| f.fused_id));
-                write(&out, center, s, t)
+                write(&mut out, center, s, t)
             })?;
             Ok(())
         })?;

@@ -5,13 +5,14 @@
 //! It streams: measurements are read one scan at a time, tracked, and that scan's local
 //! tracks written before the next scan is read, so memory does not grow with the number
 //! of scans. With more than one thread (`--threads`, default all cores) the next scan is
-//! read on a second thread while the current one is tracked (`common::for_each_scan`):
-//! the same bytes and the same errors at any thread count. Before that, a quick pass
+//! read on a second thread while the current one is tracked (`common::for_each_scan`),
+//! and the previous scan's rows are formatted and written on a third
+//! (`common::write_behind`): the same bytes and the same errors at any thread count. Before that, a quick pass
 //! reads each row's sensor and time for the sensors' report clocks
 //! (`trackfuse::io::quick_report_times`). On an error (a bad row late in the file) the
 //! partial local_tracks.csv is removed and the output folder is left as it was.
 
-use crate::common::{for_each_scan, load_scenario, scenario_input};
+use crate::common::{for_each_scan, load_scenario, scenario_input, write_behind};
 use crate::config::TrackerFlags;
 use crate::output::{Outputs, TRACK_OUTPUTS};
 use anyhow::{anyhow, Context, Result};
@@ -24,7 +25,7 @@ use trackfuse::io::Sink;
 use trackfuse::io::{read_sensors, LocalTrackWriter, MeasurementStream};
 use trackfuse::local::{MultiSensorTracker, TrackerConfig};
 use trackfuse::pipeline::scenario_known_targets;
-use trackfuse::{Id, Measurement};
+use trackfuse::{Id, LocalTrack, Measurement};
 
 #[derive(Args, Debug)]
 pub struct TrackArgs {
@@ -156,17 +157,23 @@ struct TrackStats {
 
 /// Read the measurements scan by scan, track each scan and write its local tracks before
 /// reading the next: memory holds one scan, whatever the number of scans.
-fn track_stream<W: Sink>(
+///
+/// With more than one thread (`--threads`) the three stages run side by side: the next
+/// scan is read on one thread ([`for_each_scan`]), the current one tracked on this one,
+/// and the previous one's rows formatted and written on a third ([`write_behind`]), at most
+/// two scans of rows queued. The rows go to the writer in the same order, so the file
+/// has the same bytes at any thread count; the first error stops all three (a write
+/// error is reported before a tracking error it caused to be noticed late).
+fn track_stream<W: Sink + Send>(
     measurements: &mut MeasurementStream,
     tracker: &mut MultiSensorTracker,
     w: &mut LocalTrackWriter<W>,
     out: &std::path::Path,
 ) -> Result<TrackStats> {
     let mut stats = TrackStats::default();
-    let mut local = Vec::new();
     let meas_path = measurements.path().to_path_buf();
-    // reading on a second thread when more than one is asked for (`--threads`)
-    let prefetch = rayon::current_num_threads() > 1;
+    // reading and writing on threads of their own when more than one is asked for
+    let pipelined = rayon::current_num_threads() > 1;
     let next = |rows: &mut Vec<Measurement>, lines: &mut Vec<u64>| {
         let scan = measurements.next_scan(rows)?;
         for m in rows.iter_mut() {
@@ -176,27 +183,35 @@ fn track_stream<W: Sink>(
         lines.extend_from_slice(measurements.lines());
         Ok::<_, trackfuse::io::InputError>(scan)
     };
-    for_each_scan(prefetch, next, |scan, scan_meas, lines| {
-        local.clear();
-        let t0 = std::time::Instant::now();
-        tracker
-            .process_scan(scan, scan_meas, &mut local)
-            .map_err(|e| {
-                let line = lines.first().copied().unwrap_or(0);
-                anyhow!(
-                    "{}:{line}: scan {scan} (from this line on): {e}",
-                    meas_path.display()
-                )
-            })?;
-        stats.elapsed += t0.elapsed();
-        stats.measurements += scan_meas.len();
-        stats.rows += local.len();
-        for l in &local {
+    let mut tracks = BTreeSet::new();
+    let write = |rows: &Vec<LocalTrack>| -> Result<()> {
+        for l in rows {
             w.write(l)
                 .with_context(|| format!("writing {}", out.display()))?;
-            stats.tracks.insert((l.sensor_id, l.track_id));
+            tracks.insert((l.sensor_id, l.track_id));
         }
         Ok(())
+    };
+    write_behind(pipelined, write, |emit| {
+        for_each_scan(pipelined, next, |scan, scan_meas, lines| {
+            let mut local = emit.buffer();
+            local.clear();
+            let t0 = std::time::Instant::now();
+            tracker
+                .process_scan(scan, scan_meas, &mut local)
+                .map_err(|e| {
+                    let line = lines.first().copied().unwrap_or(0);
+                    anyhow!(
+                        "{}:{line}: scan {scan} (from this line on): {e}",
+                        meas_path.display()
+                    )
+                })?;
+            stats.elapsed += t0.elapsed();
+            stats.measurements += scan_meas.len();
+            stats.rows += local.len();
+            emit.send(local)
+        })
     })?;
+    stats.tracks = tracks;
     Ok(stats)
 }

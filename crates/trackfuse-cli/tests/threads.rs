@@ -1,6 +1,6 @@
 //! `track` and `fuse` give the same bytes at any `--threads`: with more than one thread
-//! they read the next scan on a second thread and track the sensors in parallel, with
-//! one they do everything on one thread. The same holds for their errors: a bad row late
+//! they read the next scan on a second thread, track the sensors in parallel and write
+//! the previous scan's rows on a third; with one they do everything on one thread. The same holds for their errors: a bad row late
 //! in the file is reported with the same message, after the same work.
 
 use assert_cmd::Command;
