@@ -140,17 +140,35 @@ fn take_line(
             true
         }
         Some(l) => {
+            // the fields are the pieces between commas (as `split(',')` gives them): the
+            // commas found with `memchr` (SIMD) up to the later of the two cells, then
+            // only counted; a row of local tracks has 24 fields, the two cells are
+            // usually among the first four
             let (mut sensor, mut time) = (None, None);
+            let last = l.sensor.max(l.time);
+            let mut commas = memchr::memchr_iter(b',', line);
+            let mut cell_start = 0;
             let mut n = 0;
-            for (i, cell) in line.split(|&b| b == b',').enumerate() {
-                if i == l.sensor {
+            loop {
+                let end = commas.next();
+                let cell = &line[cell_start..end.unwrap_or(line.len())];
+                if n == l.sensor {
                     sensor = small_int(cell.trim_ascii());
-                } else if i == l.time {
+                } else if n == l.time {
                     time = fast_float2::parse::<f64, _>(cell.trim_ascii())
                         .ok()
                         .filter(|v: &f64| v.is_finite());
                 }
-                n = i + 1;
+                n += 1;
+                match end {
+                    None => break,
+                    Some(_) if n > last => {
+                        // the fields after this comma: one more than the commas left
+                        n += 1 + commas.count();
+                        break;
+                    }
+                    Some(e) => cell_start = e + 1,
+                }
             }
             match (n == l.fields, sensor, time) {
                 (true, Some(s), Some(t)) => {
@@ -235,18 +253,47 @@ mod tests {
         let quoted = text.replacen(",1,7,", ",\"1\",7,", 1);
         let lone_cr = text.replacen('\n', "\r", 3);
         let short = text.replacen(",1,7,1,2,", ",1,7,1,", 1);
+        let long = text.replacen(",1,7,1,2,", ",1,7,1,2,5,", 1);
+        let trailing_comma = text.replacen(",0,0,1\n", ",0,0,1,\n", 2);
         let plus = text.replacen(",1,7,", ",+1,7,", 1);
         let nan = text.replacen("0.5,1,7", "NaN,1,7", 1);
         for t in [
             quoted,
             lone_cr,
             short,
+            long,
+            trailing_comma,
             plus,
             nan,
             String::new(),
             "x,y\n1,2\n".into(),
         ] {
             assert_eq!(quick(&t), None, "{t}");
+        }
+    }
+
+    #[test]
+    fn the_two_cells_are_found_wherever_the_header_puts_them() {
+        // the sensor and time columns last, first, and apart; cells counted after them
+        let text = file("\n");
+        let mut rows: Vec<Vec<&str>> = text.lines().map(|l| l.split(',').collect()).collect();
+        let n = rows[0].len();
+        for order in [
+            (0..n).rev().collect::<Vec<_>>(),
+            [2, 1]
+                .into_iter()
+                .chain((0..n).filter(|&i| i != 1 && i != 2))
+                .collect(),
+            (3..n).chain([1, 0, 2]).collect(),
+        ] {
+            let moved: String = rows
+                .iter_mut()
+                .map(|r| order.iter().map(|&i| r[i]).collect::<Vec<_>>().join(",") + "\n")
+                .collect();
+            let q = quick(&moved).expect("read by the quick pass");
+            assert_eq!(Some(q.clone()), full(&moved), "{moved}");
+            assert_eq!(q[&1].period, 2.0);
+            assert_eq!(q[&2].period, 3.0);
         }
     }
 }
