@@ -36,6 +36,10 @@ if [ ! -x "$TF" ]; then
     echo "$0: no trackfuse binary at $TF (cargo build --release -p trackfuse-cli)" >&2
     exit 2
 fi
+if [ ! -x /usr/bin/time ]; then
+    echo "$0: needs GNU time at /usr/bin/time (Debian, Ubuntu: apt install time)" >&2
+    exit 2
+fi
 if [ -e "$1" ]; then
     echo "$0: $1 exists; give a new folder" >&2
     exit 2
