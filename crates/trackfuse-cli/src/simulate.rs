@@ -1,13 +1,13 @@
 //! `trackfuse simulate`: write sensors.csv, truth.csv, measurements.csv and the scenario.
 
-use crate::common::{load_scenario, scenario_input, with_seed};
+use crate::common::{load_scenario, scenario_input, with_seed, write_behind};
 use crate::output::{Outputs, SIMULATE_OUTPUTS};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::path::PathBuf;
 use trackfuse::io::{write_sensors, MeasurementWriter, TruthWriter};
 use trackfuse::sim::Simulation;
-use trackfuse::Scenario;
+use trackfuse::{Measurement, Scenario, TruthState};
 
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
@@ -31,7 +31,9 @@ pub struct SimulateStats {
 }
 
 /// Stream a scenario run to the output folder (one scan in memory at a time): sensors.csv,
-/// truth.csv, measurements.csv, each atomically.
+/// truth.csv, measurements.csv, each atomically. With more than one thread
+/// (`--threads`), each scan's rows are formatted and written on a thread of their own
+/// while the next scan is simulated ([`write_behind`]; the same bytes).
 pub fn simulate_to_dir(sc: &Scenario, run: u64, outs: &mut Outputs) -> Result<SimulateStats> {
     let mut sim = Simulation::new(sc, run);
     let sensors = sim.sensors();
@@ -44,24 +46,33 @@ pub fn simulate_to_dir(sc: &Scenario, run: u64, outs: &mut Outputs) -> Result<Si
     write_sensors(&sp, &sensors).with_context(|| ctx(&sp))?;
     let mut tw = TruthWriter::create(&tp).with_context(|| ctx(&tp))?;
     let mut mw = MeasurementWriter::create(&mp, &sensors).with_context(|| ctx(&mp))?;
-    let (mut truth, mut meas) = (Vec::new(), Vec::new());
     let mut stats = SimulateStats {
         truth_rows: 0,
         measurement_rows: 0,
     };
-    while sim
-        .next_scan(&mut truth, &mut meas)
-        .with_context(|| format!("simulating {}", scenario_label(sc)))?
-    {
-        for t in &truth {
+    let write = |(truth, meas): &(Vec<TruthState>, Vec<Measurement>)| -> Result<()> {
+        for t in truth {
             tw.write(t).with_context(|| ctx(&tp))?;
         }
-        for m in &meas {
+        for m in meas {
             mw.write(m).with_context(|| ctx(&mp))?;
+        }
+        Ok(())
+    };
+    let behind = rayon::current_num_threads() > 1;
+    write_behind(behind, write, |emit| loop {
+        // `next_scan` clears both before filling them
+        let (mut truth, mut meas) = emit.buffer();
+        if !sim
+            .next_scan(&mut truth, &mut meas)
+            .with_context(|| format!("simulating {}", scenario_label(sc)))?
+        {
+            return Ok(());
         }
         stats.truth_rows += truth.len() as u64;
         stats.measurement_rows += meas.len() as u64;
-    }
+        emit.send((truth, meas))?;
+    })?;
     tw.finish().with_context(|| ctx(&tp))?;
     mw.finish().with_context(|| ctx(&mp))?;
     Ok(stats)
