@@ -162,8 +162,8 @@ struct TrackStats {
 /// scan is read on one thread ([`for_each_scan`]), the current one tracked on this one,
 /// and the previous one's rows formatted and written on a third ([`write_behind`]), at most
 /// two scans of rows queued. The rows go to the writer in the same order, so the file
-/// has the same bytes at any thread count; the first error stops all three (a write
-/// error is reported before a tracking error it caused to be noticed late).
+/// has the same bytes at any thread count; the first error stops all three (when a
+/// write fails, its error is the one reported: it concerns earlier rows).
 fn track_stream<W: Sink + Send>(
     measurements: &mut MeasurementStream,
     tracker: &mut MultiSensorTracker,
