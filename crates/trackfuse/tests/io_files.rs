@@ -199,6 +199,38 @@ fn nan_and_infinity() {
 }
 
 #[test]
+fn mirrored_covariance_cells_read_alike_whatever_their_spelling() {
+    // the reader takes a cell below the diagonal from its mirror when the two have the
+    // same bytes; spelled differently it parses it: the same matrix either way, and a
+    // bad cell below the diagonal is still reported at its own column
+    let dir = tempfile::tempdir().expect("tmp");
+    let same = "4,0.5,0.25,0,0.5,9,0,0,0.25,0,16,1e-3,0,0,1e-3,25";
+    let spelled = "4,0.5,0.25,0,5e-1,9,0,0,0.250,0,16,0.001,-0,0.0,1E-3,25";
+    let rows: Vec<_> = [same, spelled]
+        .iter()
+        .enumerate()
+        .map(|(i, cov)| {
+            let p = write(
+                dir.path(),
+                &format!("lt{i}.csv"),
+                &format!("{}\n0,0,0,1,10,1,20,2,{cov}\n", local_header()),
+            );
+            read_local_tracks(&p).expect("valid").remove(0)
+        })
+        .collect();
+    assert_eq!(rows[0].cov, rows[1].cov);
+    assert_eq!(rows[0].cov[(1, 0)], 0.5);
+    assert_eq!(rows[0].cov[(3, 2)], 1e-3);
+    let bad = "4,0.5,0.25,0,0.5,9,0,0,0.25,0,16,1e-3,0,0,x,25";
+    let p = write(
+        dir.path(),
+        "bad.csv",
+        &format!("{}\n0,0,0,1,10,1,20,2,{bad}\n", local_header()),
+    );
+    expect_err(read_local_tracks(&p), Some(2), Some("P32"), "not a number");
+}
+
+#[test]
 fn covariance_not_symmetric_psd() {
     let dir = tempfile::tempdir().expect("tmp");
     let asym = "1,0.5,0,0,0,1,0,0,0,0,1,0,0,0,0,1";

@@ -512,7 +512,15 @@ impl StateCols {
         }
         let mut p = StateCov::zeros();
         for i in 0..16 {
-            p[(i / 4, i % 4)] = row.f64(self.cov[i])?;
+            let (r, c) = (i / 4, i % 4);
+            // below the diagonal, a cell with the same bytes as its mirror above (read
+            // earlier: row-major order) has its value; the parse would give the same
+            // (most writers write a symmetric matrix's two copies alike)
+            p[(r, c)] = if r > c && row.cell(self.cov[i]) == row.cell(self.cov[c * 4 + r]) {
+                p[(c, r)]
+            } else {
+                row.f64(self.cov[i])?
+            };
         }
         check_covariance(&p)
             .map_err(|e| InputError::line(&row.table.path, row.line, e.to_string()))?;
