@@ -383,6 +383,14 @@ where
     })
 }
 
+/// Whether a streaming command runs its stages on threads of their own (reading ahead
+/// with [`for_each_scan`], writing behind with [`write_behind`]): when more than one
+/// worker thread is asked for (`--threads`, default all cores). The output is the same
+/// either way.
+pub fn stages_on_threads() -> bool {
+    rayon::current_num_threads() > 1
+}
+
 /// Where [`write_behind`]'s body hands its batches of rows: written on the spot, or
 /// queued for the writer thread.
 pub enum Emit<'a, B> {

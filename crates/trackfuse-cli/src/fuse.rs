@@ -19,7 +19,9 @@
 //! error while streaming the partial outputs are removed and the output folder is left
 //! as it was (nothing has been renamed into place yet).
 
-use crate::common::{for_each_scan, load_scenario, scenario_input, write_behind};
+use crate::common::{
+    for_each_scan, load_scenario, scenario_input, stages_on_threads, write_behind,
+};
 use crate::config::FusionFlags;
 use crate::output::{Outputs, FUSE_OUTPUTS};
 use anyhow::{Context, Result};
@@ -299,7 +301,7 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     };
     // with more than one thread the fused tracks and associations are formatted and
     // written on a thread of their own, an instant behind the center (the same bytes)
-    let behind = rayon::current_num_threads() > 1;
+    let behind = stages_on_threads();
     let streamed = write_behind(behind, write, |emit| -> Result<_> {
         // the instant's output goes to the writer; the center fills a batch the writer
         // is done with (cleared) next
@@ -552,7 +554,7 @@ impl<'a> StreamFusion<'a> {
             ..
         } = self;
         // reading on a second thread when more than one is asked for (`--threads`)
-        let prefetch = rayon::current_num_threads() > 1;
+        let prefetch = stages_on_threads();
         let next = |rows: &mut Vec<LocalTrack>, lines: &mut Vec<u64>| {
             let scan = local.next_scan(rows)?;
             lines.clear();

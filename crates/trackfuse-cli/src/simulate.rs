@@ -1,6 +1,6 @@
 //! `trackfuse simulate`: write sensors.csv, truth.csv, measurements.csv and the scenario.
 
-use crate::common::{load_scenario, scenario_input, with_seed, write_behind};
+use crate::common::{load_scenario, scenario_input, stages_on_threads, with_seed, write_behind};
 use crate::output::{Outputs, SIMULATE_OUTPUTS};
 use anyhow::{Context, Result};
 use clap::Args;
@@ -59,7 +59,7 @@ pub fn simulate_to_dir(sc: &Scenario, run: u64, outs: &mut Outputs) -> Result<Si
         }
         Ok(())
     };
-    let behind = rayon::current_num_threads() > 1;
+    let behind = stages_on_threads();
     write_behind(behind, write, |emit| loop {
         // `next_scan` clears both before filling them
         let (mut truth, mut meas) = emit.buffer();

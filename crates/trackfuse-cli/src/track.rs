@@ -12,7 +12,9 @@
 //! (`trackfuse::io::quick_report_times`). On an error (a bad row late in the file) the
 //! partial local_tracks.csv is removed and the output folder is left as it was.
 
-use crate::common::{for_each_scan, load_scenario, scenario_input, write_behind};
+use crate::common::{
+    for_each_scan, load_scenario, scenario_input, stages_on_threads, write_behind,
+};
 use crate::config::TrackerFlags;
 use crate::output::{Outputs, TRACK_OUTPUTS};
 use anyhow::{anyhow, Context, Result};
@@ -172,8 +174,7 @@ fn track_stream<W: Sink + Send>(
 ) -> Result<TrackStats> {
     let mut stats = TrackStats::default();
     let meas_path = measurements.path().to_path_buf();
-    // reading and writing on threads of their own when more than one is asked for
-    let pipelined = rayon::current_num_threads() > 1;
+    let pipelined = stages_on_threads();
     let next = |rows: &mut Vec<Measurement>, lines: &mut Vec<u64>| {
         let scan = measurements.next_scan(rows)?;
         for m in rows.iter_mut() {
