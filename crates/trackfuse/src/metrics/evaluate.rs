@@ -457,36 +457,7 @@ pub fn evaluate_run_with(
         if let Some(pc) = groups.probability_correct() {
             m.pc.add(pc);
         }
-        // rates
-        for (k, a) in rows.iter().enumerate() {
-            let label = groups.labels[k];
-            let partners = groups
-                .members_of(a.fused_id)
-                .iter()
-                .filter(|x| x.sensor != a.sensor_id);
-            let mut wrong = false;
-            let mut right = false;
-            for x in partners {
-                if x.label.is_some() && x.label == label {
-                    right = true;
-                } else {
-                    wrong = true;
-                }
-            }
-            let true_partner_exists = label.is_some_and(|t| {
-                groups
-                    .followers_of(t)
-                    .iter()
-                    .any(|x| x.sensor != a.sensor_id)
-            });
-            if wrong {
-                counts.false_ += 1;
-            } else if right {
-                counts.correct += 1;
-            } else if true_partner_exists {
-                counts.missed += 1;
-            }
-        }
+        groups.count_rates(&mut counts);
     }
     m.rates = Some(counts);
     m
@@ -520,6 +491,8 @@ struct ScanGroups {
     followers: Vec<GroupRow>,
     /// The label of each association row.
     labels: Vec<Option<Id>>,
+    /// Per association row, [`Self::count_rates`]' scratch.
+    partner_exists: Vec<bool>,
 }
 
 impl ScanGroups {
@@ -570,9 +543,46 @@ impl ScanGroups {
         Self::group(&self.members, fused)
     }
 
-    /// The local tracks following target `t`, in association order.
-    fn followers_of(&self, t: Id) -> &[GroupRow] {
-        Self::group(&self.followers, t)
+    /// Add the scan's association outcomes to `counts`, one per association row: false
+    /// when a member of its fused track from another sensor follows another target or
+    /// none (or the row itself follows none and has such a partner), else correct when
+    /// one follows its target, else missed when a local track of another sensor follows
+    /// its target.
+    ///
+    /// One pass over each sorted list: a fused track's members are compared within
+    /// their group, and a target's followers include a track of another sensor than a
+    /// given follower's exactly when they come from two sensors or more (the follower
+    /// is one of them). The counts are those of looking each row's groups up (the
+    /// order of the rows does not enter a count).
+    fn count_rates(&mut self, counts: &mut AssociationCounts) {
+        // per association row: does its target have a follower of another sensor
+        self.partner_exists.clear();
+        self.partner_exists.resize(self.labels.len(), false);
+        for fl in self.followers.chunk_by(|a, b| a.key == b.key) {
+            let two_sensors = fl.iter().any(|x| x.sensor != fl[0].sensor);
+            for x in fl {
+                self.partner_exists[x.row as usize] = two_sensors;
+            }
+        }
+        for group in self.members.chunk_by(|a, b| a.key == b.key) {
+            for a in group {
+                let (mut wrong, mut right) = (false, false);
+                for x in group.iter().filter(|x| x.sensor != a.sensor) {
+                    if x.label.is_some() && x.label == a.label {
+                        right = true;
+                    } else {
+                        wrong = true;
+                    }
+                }
+                if wrong {
+                    counts.false_ += 1;
+                } else if right {
+                    counts.correct += 1;
+                } else if a.label.is_some() && self.partner_exists[a.row as usize] {
+                    counts.missed += 1;
+                }
+            }
+        }
     }
 
     /// `N_c / N_public` of the scan (000 eq. 19); `None` without a common target (one
@@ -948,6 +958,64 @@ mod tests {
         assert_eq!((r.correct, r.false_, r.missed), (4, 4, 0));
         // local RMSE 5 m for each sensor-target
         assert!((m.local_per_sensor_target[&(0, 0)].rms().expect("rms") - 5.0).abs() < 1e-12);
+    }
+
+    /// [`ScanGroups::count_rates`] against the definition read row by row (each row's
+    /// fused track's members and its target's followers looked up): random scans of up
+    /// to 4 sensors, 6 targets (some tracks unlabelled) and 6 fused tracks.
+    #[test]
+    fn rates_in_one_pass_match_the_row_by_row_definition() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(19);
+        let (mut groups, mut seen) = (ScanGroups::default(), [0u64; 3]);
+        for _ in 0..2000 {
+            let n = rng.random_range(0..12);
+            let rows: Vec<Association> = (0..n)
+                .map(|k| assoc(0, rng.random_range(0..4), k, rng.random_range(0..6)))
+                .collect();
+            let mut labels: HashMap<(u32, Id, Id), Id> = HashMap::new();
+            for a in &rows {
+                if rng.random_bool(0.8) {
+                    labels.insert((0, a.sensor_id, a.track_id), rng.random_range(0..6));
+                }
+            }
+            let label = |a: &Association| labels.get(&(0, a.sensor_id, a.track_id)).copied();
+            let mut want = AssociationCounts::default();
+            for a in &rows {
+                let partners = rows
+                    .iter()
+                    .filter(|x| x.fused_id == a.fused_id && x.sensor_id != a.sensor_id);
+                let (mut right, mut wrong) = (false, false);
+                for x in partners {
+                    if label(x).is_some() && label(x) == label(a) {
+                        right = true;
+                    } else {
+                        wrong = true;
+                    }
+                }
+                let partner = label(a).is_some_and(|t| {
+                    rows.iter()
+                        .any(|x| label(x) == Some(t) && x.sensor_id != a.sensor_id)
+                });
+                if wrong {
+                    want.false_ += 1;
+                } else if right {
+                    want.correct += 1;
+                } else if partner {
+                    want.missed += 1;
+                }
+            }
+            let refs: Vec<&Association> = rows.iter().collect();
+            groups.build(0, &refs, &labels);
+            let mut got = AssociationCounts::default();
+            groups.count_rates(&mut got);
+            assert_eq!(got, want, "{rows:?} {labels:?}");
+            seen[0] += want.correct;
+            seen[1] += want.false_;
+            seen[2] += want.missed;
+        }
+        // every outcome occurred
+        assert!(seen.iter().all(|&c| c > 100), "{seen:?}");
     }
 
     #[test]
