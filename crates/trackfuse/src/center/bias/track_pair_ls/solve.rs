@@ -130,9 +130,15 @@ pub(super) struct Evaluation {
     /// Residuals in `scratch[start..start + len]`.
     pub(super) start: usize,
     pub(super) len: usize,
+    /// The chi-square of the residuals, the position error eliminated; NaN when it was
+    /// not asked for (an ungated pass uses none).
     pub(super) chi2: f64,
     pub(super) dof: u32,
     pub(super) weight: f64,
+    /// `(sum h' w h)^-1` of the residuals (symmetrised first): the elimination of the
+    /// position error, the same for the chi-square and the normal equations
+    /// ([`TrackPairLs::accumulate`]), so computed once.
+    pub(super) a_inv: Mat2,
 }
 
 impl TrackPairLs {
@@ -201,11 +207,14 @@ impl TrackPairLs {
     ///
     /// `trig` must hold the sine and cosine of `-b_theta` of every estimated sensor of
     /// `b` ([`Self::set_trig`]).
+    ///
+    /// `with_chi2`: compute the evaluation's chi-square (else NaN).
     pub(super) fn evaluate(
         &mut self,
         g: StoredGroup,
         b: &DVector<f64>,
         weight: f64,
+        with_chi2: bool,
     ) -> Option<Evaluation> {
         // the reference position: information-weighted mean of the corrected members
         let mut info = Mat2::zeros();
@@ -292,46 +301,51 @@ impl TrackPairLs {
         let mut g_vec = Vec2::zeros();
         let mut rwr = 0.0;
         for r in rs {
-            let res = match r.bias {
-                Some(bi) => r.y - Vec2::new(b[2 * bi], b[2 * bi + 1]),
-                None => r.y,
-            };
             let htw = r.h.transpose() * r.w;
             a += htw * r.h;
-            g_vec += htw * res;
-            rwr += res.dot(&(r.w * res));
+            if with_chi2 {
+                let res = match r.bias {
+                    Some(bi) => r.y - Vec2::new(b[2 * bi], b[2 * bi + 1]),
+                    None => r.y,
+                };
+                g_vec += htw * res;
+                rwr += res.dot(&(r.w * res));
+            }
         }
         let Some(a_inv) = symmetrize(&a).try_inverse() else {
             self.scratch.truncate(start);
             return None;
         };
-        let chi2 = (rwr - g_vec.dot(&(a_inv * g_vec))).max(0.0);
+        let chi2 = if with_chi2 {
+            (rwr - g_vec.dot(&(a_inv * g_vec))).max(0.0)
+        } else {
+            f64::NAN
+        };
         Some(Evaluation {
             start,
             len,
             chi2,
             dof: 2 * len as u32 - 2,
             weight,
+            a_inv,
         })
     }
 
-    /// Add one evaluated group's normal equations, the position error eliminated.
+    /// Add one evaluated group's normal equations, the position error eliminated
+    /// (`a_inv`: the evaluation's [`Evaluation::a_inv`] of the residuals `rs`).
     pub(super) fn accumulate(
         rs: &[Residual],
+        a_inv: &Mat2,
         weight: f64,
         info: &mut DMatrix<f64>,
         vector: &mut DVector<f64>,
     ) {
-        let mut a = Mat2::zeros();
+        let a_inv = *a_inv;
         let mut c = Vec2::zeros();
         for r in rs {
             let htw = r.h.transpose() * r.w;
-            a += htw * r.h;
             c += htw * r.y;
         }
-        let Some(a_inv) = symmetrize(&a).try_inverse() else {
-            return;
-        };
         // `w h` of the first members, once each instead of once per pair of members
         const KEPT: usize = 8;
         let mut wh = [Mat2::zeros(); KEPT];
@@ -376,8 +390,9 @@ impl TrackPairLs {
         }
     }
 
-    /// Evaluate every stored group at `b` (into `evaluations`).
-    pub(super) fn evaluate_all(&mut self, b: &DVector<f64>) {
+    /// Evaluate every stored group at `b` (into `evaluations`), with their chi-squares
+    /// when `with_chi2`.
+    pub(super) fn evaluate_all(&mut self, b: &DVector<f64>, with_chi2: bool) {
         self.set_trig(b);
         self.scratch.clear();
         self.evaluations.clear();
@@ -389,7 +404,7 @@ impl TrackPairLs {
             } else {
                 g.weight
             };
-            if let Some(e) = self.evaluate(g, b, weight) {
+            if let Some(e) = self.evaluate(g, b, weight, with_chi2) {
                 self.evaluations.push(e);
             }
         }
@@ -411,7 +426,8 @@ impl TrackPairLs {
         let mut gated = false;
         let (mut gated_done, mut relinearised) = (0, 0);
         for _ in 0..self.params.iterations + MAX_RELINEARISATIONS {
-            self.evaluate_all(&b);
+            // the chi-squares serve the residual gate and its scale only
+            self.evaluate_all(&b, gated);
             if gated {
                 // scale: the median normalised chi-square, when above 1
                 self.ratios.clear();
@@ -437,6 +453,7 @@ impl TrackPairLs {
                 }
                 Self::accumulate(
                     &self.scratch[e.start..e.start + e.len],
+                    &e.a_inv,
                     e.weight,
                     &mut info,
                     &mut vector,
@@ -496,10 +513,11 @@ impl TrackPairLs {
             } else {
                 g.weight
             };
-            if let Some(e) = self.evaluate(g, &b, weight) {
+            if let Some(e) = self.evaluate(g, &b, weight, true) {
                 if e.chi2 <= self.gate(e.dof) {
                     Self::accumulate(
                         &self.scratch[e.start..e.start + e.len],
+                        &e.a_inv,
                         e.weight,
                         &mut self.folded_info,
                         &mut self.folded_vector,
