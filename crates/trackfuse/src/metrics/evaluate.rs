@@ -481,9 +481,10 @@ struct GroupRow {
 /// local tracks following it, of one scan's associations, each group in association
 /// order.
 ///
-/// Two flat lists sorted by `(key, row)` and searched by key, rebuilt in place scan after
-/// scan: the hash maps of `Vec`s they replace allocated two vectors per fused track and
-/// target every scan. The groups hold the same rows in the same order, so no output
+/// Two flat lists sorted by `(key, row)`, rebuilt in place scan after scan: the hash maps
+/// of `Vec`s they replace allocated two vectors per fused track and target every scan.
+/// The rates walk each list's groups in turn ([`ScanGroups::count_rates`]); P_c searches
+/// the members by key. The groups hold the same rows in the same order, so no output
 /// changes.
 #[derive(Debug, Clone, Default)]
 struct ScanGroups {
