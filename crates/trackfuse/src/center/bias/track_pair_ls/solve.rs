@@ -139,6 +139,9 @@ pub(super) struct Evaluation {
     /// position error, the same for the chi-square and the normal equations
     /// ([`TrackPairLs::accumulate`]), so computed once.
     pub(super) a_inv: Mat2,
+    /// `sum h' w y` of the residuals, for the normal equations: summed in the same pass
+    /// as `a` (each residual's `h' w` once).
+    pub(super) hwy: Vec2,
 }
 
 impl TrackPairLs {
@@ -299,10 +302,12 @@ impl TrackPairLs {
         // chi-square of the residuals at b, the position error eliminated
         let mut a = Mat2::zeros();
         let mut g_vec = Vec2::zeros();
+        let mut hwy = Vec2::zeros();
         let mut rwr = 0.0;
         for r in rs {
             let htw = r.h.transpose() * r.w;
             a += htw * r.h;
+            hwy += htw * r.y;
             if with_chi2 {
                 let res = match r.bias {
                     Some(bi) => r.y - Vec2::new(b[2 * bi], b[2 * bi + 1]),
@@ -328,24 +333,19 @@ impl TrackPairLs {
             dof: 2 * len as u32 - 2,
             weight,
             a_inv,
+            hwy,
         })
     }
 
-    /// Add one evaluated group's normal equations, the position error eliminated
-    /// (`a_inv`: the evaluation's [`Evaluation::a_inv`] of the residuals `rs`).
+    /// Add one evaluated group's normal equations, the position error eliminated (`e`:
+    /// its evaluation, `rs` its residuals).
     pub(super) fn accumulate(
         rs: &[Residual],
-        a_inv: &Mat2,
-        weight: f64,
+        e: &Evaluation,
         info: &mut DMatrix<f64>,
         vector: &mut DVector<f64>,
     ) {
-        let a_inv = *a_inv;
-        let mut c = Vec2::zeros();
-        for r in rs {
-            let htw = r.h.transpose() * r.w;
-            c += htw * r.y;
-        }
+        let (a_inv, c, weight) = (e.a_inv, e.hwy, e.weight);
         // `w h` of the first members, once each instead of once per pair of members
         const KEPT: usize = 8;
         let mut wh = [Mat2::zeros(); KEPT];
@@ -453,8 +453,7 @@ impl TrackPairLs {
                 }
                 Self::accumulate(
                     &self.scratch[e.start..e.start + e.len],
-                    &e.a_inv,
-                    e.weight,
+                    &e,
                     &mut info,
                     &mut vector,
                 );
@@ -517,8 +516,7 @@ impl TrackPairLs {
                 if e.chi2 <= self.gate(e.dof) {
                     Self::accumulate(
                         &self.scratch[e.start..e.start + e.len],
-                        &e.a_inv,
-                        e.weight,
+                        &e,
                         &mut self.folded_info,
                         &mut self.folded_vector,
                     );
