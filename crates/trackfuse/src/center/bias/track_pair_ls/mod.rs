@@ -39,10 +39,11 @@
 //! `dp = 0`, equal weights, one scan, an exact anchor (tested).
 //!
 //! Choices where the paper is silent:
-//! - **Relinearisation.** The last `max_groups` groups are kept as raw observations and
-//!   re-solved each scan by Gauss-Newton passes, `p_hat` the information-weighted mean
-//!   of the members corrected with the current estimate. Older groups are folded into a
-//!   fixed information matrix at the estimate of the time (those failing the gate are
+//! - **Relinearisation.** The groups of the last `relinearise_scans` scans, at most the
+//!   last `max_groups`, are kept as raw observations and re-solved each scan by
+//!   Gauss-Newton passes, `p_hat` the information-weighted mean of the members
+//!   corrected with the current estimate. Older groups are folded into a fixed
+//!   information matrix at the estimate of the time (those failing the gate are
 //!   dropped); with `forgetting < 1` every group's information decays by that factor per
 //!   scan.
 //! - **Residual gate.** Passes without the gate run until a pass moves the estimate by
@@ -120,8 +121,9 @@
 //! under the deprecated name): `prior_range_sigma = 1000` m, `prior_bearing_sigma =
 //! 0.1` rad, `forgetting = 1`, `reference_sensors = []`, `pairing = "consensus"`,
 //! `pair_gate_probability = 0.9999`, `pair_tolerance = 10` m, `gate_probability =
-//! 0.999`, `model_sigma = 1` m, `max_groups = 500`, `iterations = 3`, `confirm_scans =
-//! 2`, `inflate_covariance = true`; each is documented on the struct.
+//! 0.999`, `model_sigma = 1` m, `max_groups = 500`, `relinearise_scans = 20`,
+//! `iterations = 3`, `confirm_scans = 2`, `inflate_covariance = true`; each is
+//! documented on the struct.
 //!
 //! # Cost
 //! Per scan: grid queries over each sensor pair's tracks (`O(m log m)` at bounded
@@ -129,7 +131,8 @@
 //! consensus only over unsettled components (at most `1 + 20 + 20 * 19 / 2` hypotheses),
 //! so a dense scene's split tracks and close targets do not make every scan an
 //! acquisition over all its tracks; the re-solve is at most `iterations`
-//! passes (up to 4 more, fewer once a gated pass has settled) over at most `max_groups` groups plus a Cholesky factorisation
+//! passes (up to 4 more, fewer once a gated pass has settled) over the groups of at
+//! most `relinearise_scans` scans and at most `max_groups` groups, plus a Cholesky factorisation
 //! of the `2 n x 2 n` normal matrix of `n` sensors. All buffers are reused.
 //!
 //! # Code

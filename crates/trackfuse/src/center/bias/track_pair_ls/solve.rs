@@ -496,15 +496,21 @@ impl TrackPairLs {
         self.estimate = b;
     }
 
-    /// Fold the oldest stored groups beyond `max_groups` into the fixed information (at
-    /// the current estimate; those failing the residual gate are dropped).
+    /// Fold the oldest stored groups beyond `max_groups`, and every group that has taken
+    /// part in `relinearise_scans` re-solves, into the fixed information (at the current
+    /// estimate; those failing the residual gate are dropped). Called after the scan's
+    /// solve; the groups are stored in scan order, so the ones to fold are at the front.
     pub(super) fn fold(&mut self) {
         let b = self.estimate.clone();
         self.set_trig(&b);
-        while self.groups.len() > self.params.max_groups {
-            let Some(g) = self.groups.pop_front() else {
+        let (max_groups, scans) = (self.params.max_groups, self.params.relinearise_scans);
+        while let Some(&g) = self.groups.front() {
+            // re-solves taken part in: the scans from `stamp` to now
+            let solves = self.scans + 1 - g.stamp;
+            if self.groups.len() <= max_groups && solves < scans {
                 break;
-            };
+            }
+            self.groups.pop_front();
             self.scratch.clear();
             let f = self.params.forgetting;
             let weight = if f < 1.0 {

@@ -191,9 +191,15 @@ fn equation_15_average_against_an_anchor() {
 fn converges_on_scenario_two_geometry() {
     let (sensors, biases, targets) = scenario_two();
     let mut est = TrackPairLs::new(TrackPairLsParams::default()).unwrap();
+    let mut kept = TrackPairLs::new(TrackPairLsParams {
+        relinearise_scans: u64::MAX,
+        ..TrackPairLsParams::default()
+    })
+    .unwrap();
     for scan in 0..40 {
         let raw = scan_tracks(&sensors, &biases, &targets, scan, 3.0);
         est.observe(&raw, &sensors);
+        kept.observe(&raw, &sensors);
     }
     for (s, &(br, bt)) in sensors.iter().zip(&biases) {
         let (r, b) = est.estimate_of(s.id).unwrap();
@@ -207,8 +213,11 @@ fn converges_on_scenario_two_geometry() {
         assert!(sr < 10.0 && sb < 1e-3, "converged: sigma {sr}, {sb}");
     }
     // every scan but the first gave three groups of three (a pair is learnt from its
-    // second consecutive acceptance on, confirm_scans = 2)
-    assert_eq!(est.stored_groups(), 117);
+    // second consecutive acceptance on, confirm_scans = 2); with the default each group
+    // takes part in 20 re-solves (relinearise_scans), so after the scan's fold the last
+    // 19 scans' groups are raw
+    assert_eq!(kept.stored_groups(), 117);
+    assert_eq!(est.stored_groups(), 57);
     assert_eq!(est.estimates().len(), 3);
 }
 
@@ -749,6 +758,50 @@ fn forgetting_and_folding_keep_the_estimate() {
     }
 }
 
+/// `relinearise_scans`: a stored group takes part in the re-solves of that many scans
+/// (the one that stored it included) and is then folded, however few groups there are;
+/// the estimate stays that of never folding by age to a small fraction of the noise.
+#[test]
+fn groups_are_folded_after_relinearise_scans() {
+    let (sensors, biases, targets) = scenario_two();
+    let window = TrackPairLsParams {
+        relinearise_scans: 5,
+        ..TrackPairLsParams::default()
+    };
+    let unbounded = TrackPairLsParams {
+        relinearise_scans: u64::MAX,
+        ..TrackPairLsParams::default()
+    };
+    let mut est = TrackPairLs::new(window).unwrap();
+    let mut all = TrackPairLs::new(unbounded).unwrap();
+    for scan in 0..60 {
+        let raw = scan_tracks(&sensors, &biases, &targets, scan, 3.0);
+        est.observe(&raw, &sensors);
+        all.observe(&raw, &sensors);
+        // after the scan's solve and fold: only the last four scans' groups are raw
+        assert!(
+            est.groups.iter().all(|g| est.scans - g.stamp < 4),
+            "scan {scan}"
+        );
+    }
+    assert!(est.stored_groups() > 0);
+    assert!(all.stored_groups() > 3 * est.stored_groups());
+    for s in &sensors {
+        let (r, b) = est.estimate_of(s.id).unwrap();
+        let (r_all, b_all) = all.estimate_of(s.id).unwrap();
+        assert!(
+            (r - r_all).abs() < 0.1,
+            "sensor {}: range {r} vs {r_all}",
+            s.id
+        );
+        assert!(
+            (b - b_all).abs() < 1e-5,
+            "sensor {}: bearing {b} vs {b_all}",
+            s.id
+        );
+    }
+}
+
 #[test]
 fn params_are_validated() {
     let mut tables = ParamTables::new();
@@ -803,6 +856,10 @@ fn params_are_validated() {
         },
         TrackPairLsParams {
             max_groups: 0,
+            ..d()
+        },
+        TrackPairLsParams {
+            relinearise_scans: 0,
             ..d()
         },
         TrackPairLsParams {
