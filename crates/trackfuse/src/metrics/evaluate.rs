@@ -494,6 +494,30 @@ struct ScanGroups {
     labels: Vec<Option<Id>>,
     /// Per association row, [`Self::count_rates`]' scratch.
     partner_exists: Vec<bool>,
+    /// [`sort_by_key_then_row`]'s scratch.
+    sort_keys: Vec<u128>,
+    sorted: Vec<GroupRow>,
+}
+
+/// Sort `list`, pushed in increasing `row` order, by `(key, row)`: one `u128` per row
+/// (the key's order-preserving bits above the row's position in `list`, which follows
+/// its `row`) sorted as a number, then the rows gathered in that order. The same order
+/// as `sort_unstable_by_key(|x| (x.key, x.row))` (the pairs are unique), for a fraction of
+/// the comparisons' and moves' cost of sorting the 48-byte rows themselves.
+fn sort_by_key_then_row(
+    list: &mut Vec<GroupRow>,
+    keys: &mut Vec<u128>,
+    sorted: &mut Vec<GroupRow>,
+) {
+    keys.clear();
+    keys.extend(list.iter().enumerate().map(|(i, x)| {
+        let key = (x.key as u64) ^ (1 << 63);
+        ((key as u128) << 64) | i as u128
+    }));
+    keys.sort_unstable();
+    sorted.clear();
+    sorted.extend(keys.iter().map(|&k| list[k as u64 as usize]));
+    std::mem::swap(list, sorted);
 }
 
 impl ScanGroups {
@@ -528,8 +552,8 @@ impl ScanGroups {
             }
         }
         // (key, row) is unique: the order is fixed
-        self.members.sort_unstable_by_key(|x| (x.key, x.row));
-        self.followers.sort_unstable_by_key(|x| (x.key, x.row));
+        sort_by_key_then_row(&mut self.members, &mut self.sort_keys, &mut self.sorted);
+        sort_by_key_then_row(&mut self.followers, &mut self.sort_keys, &mut self.sorted);
     }
 
     /// The rows of the group `key` of a list sorted by key.
@@ -959,6 +983,35 @@ mod tests {
         assert_eq!((r.correct, r.false_, r.missed), (4, 4, 0));
         // local RMSE 5 m for each sensor-target
         assert!((m.local_per_sensor_target[&(0, 0)].rms().expect("rms") - 5.0).abs() < 1e-12);
+    }
+
+    proptest::proptest! {
+        /// The packed-key sort of a scan's group rows is the `(key, row)` comparison
+        /// sort: keys repeated or not, negative, and at the ends of the id range.
+        #[test]
+        fn sort_by_key_then_row_is_the_comparison_sort(
+            keys in proptest::collection::vec(
+                proptest::prop_oneof![-3i64..4, proptest::num::i64::ANY],
+                0..200,
+            ),
+            gaps in proptest::collection::vec(1u32..4, 200),
+        ) {
+            let mut row = 0;
+            let mut list: Vec<GroupRow> = keys
+                .iter()
+                .zip(&gaps)
+                .map(|(&key, &gap)| {
+                    row += gap;
+                    GroupRow { key, row, sensor: key, label: Some(key), fused: -key }
+                })
+                .collect();
+            let mut expected = list.clone();
+            expected.sort_unstable_by_key(|x| (x.key, x.row));
+            sort_by_key_then_row(&mut list, &mut Vec::new(), &mut Vec::new());
+            let got: Vec<(Id, u32)> = list.iter().map(|x| (x.key, x.row)).collect();
+            let want: Vec<(Id, u32)> = expected.iter().map(|x| (x.key, x.row)).collect();
+            proptest::prop_assert_eq!(got, want);
+        }
     }
 
     /// [`ScanGroups::count_rates`] against the definition read row by row (each row's
