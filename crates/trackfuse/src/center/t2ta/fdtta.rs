@@ -456,6 +456,38 @@ pub struct Fdtta {
     index: SweepIndex,
     entries: Vec<Entry>,
     chosen: Vec<usize>,
+    groups: GroupBuffers,
+}
+
+/// The scan's groups as they form, flat (a `Vec` per group cost an allocation per group
+/// and scan): each group's global track and first member, and every `(group, track)`
+/// membership in the order the members joined.
+#[derive(Debug, Clone, Default)]
+struct GroupBuffers {
+    global: Vec<Option<usize>>,
+    first: Vec<usize>,
+    members: Vec<(usize, usize)>,
+    // output buffers: groups ordered by first member, each group's members gathered
+    order: Vec<usize>,
+    rank: Vec<usize>,
+    start: Vec<usize>,
+    gathered: Vec<usize>,
+}
+
+impl GroupBuffers {
+    fn clear(&mut self) {
+        self.global.clear();
+        self.first.clear();
+        self.members.clear();
+    }
+
+    /// A new group of track `i`, continuing global track `global`; its index.
+    fn start_group(&mut self, i: usize, global: Option<usize>) -> usize {
+        self.global.push(global);
+        self.first.push(i);
+        self.members.push((self.global.len() - 1, i));
+        self.global.len() - 1
+    }
 }
 
 impl Fdtta {
@@ -478,6 +510,7 @@ impl Fdtta {
             index: SweepIndex::default(),
             entries: Vec::new(),
             chosen: Vec::new(),
+            groups: GroupBuffers::default(),
         })
     }
 
@@ -523,7 +556,6 @@ impl Fdtta {
         globals: &[GlobalTrack],
         a: usize,
         b: usize,
-        groups: &mut Vec<(Vec<usize>, Option<usize>)>,
     ) {
         let scan = ctx.scan;
         let sensor = tracks[a].sensor_id;
@@ -553,7 +585,7 @@ impl Fdtta {
                             similarity(&self.params, (&t.state, &t.cov), (&cand.state, &cand.cov));
                         if f >= self.params.release {
                             self.taken_by[c] = sensor;
-                            let g = join(&mut self.candidates[c], groups, i);
+                            let g = join(&mut self.candidates[c], &mut self.groups, i);
                             self.decisions[i] = FdttaDecision {
                                 sensor_id: t.sensor_id,
                                 track_id: t.track_id,
@@ -650,7 +682,7 @@ impl Fdtta {
             let i = self.rows[row as usize];
             let c = col as usize;
             self.taken_by[c] = sensor;
-            let g = join(&mut self.candidates[c], groups, i);
+            let g = join(&mut self.candidates[c], &mut self.groups, i);
             self.decisions[i] = FdttaDecision {
                 sensor_id: sensor,
                 track_id: tracks[i].track_id,
@@ -742,8 +774,7 @@ impl Fdtta {
             }
             let i = self.rows[r];
             let t = &tracks[i];
-            groups.push((vec![i], None));
-            let g = groups.len() - 1;
+            let g = self.groups.start_group(i, None);
             self.candidates.push(Candidate {
                 state: t.state,
                 cov: t.cov,
@@ -766,12 +797,12 @@ impl Fdtta {
 
 /// Add track `i` to the group of candidate `cand` (created on its first member); returns
 /// the group index.
-fn join(cand: &mut Candidate, groups: &mut Vec<(Vec<usize>, Option<usize>)>, i: usize) -> usize {
+fn join(cand: &mut Candidate, groups: &mut GroupBuffers, i: usize) -> usize {
     if cand.group == NONE {
-        groups.push((Vec::new(), cand.global));
-        cand.group = groups.len() - 1;
+        cand.group = groups.start_group(i, cand.global);
+    } else {
+        groups.members.push((cand.group, i));
     }
-    groups[cand.group].0.push(i);
     cand.group
 }
 
@@ -789,6 +820,19 @@ impl TrackAssociator for Fdtta {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError> {
+        let mut groups = Vec::new();
+        self.associate_into(ctx, tracks, globals, &mut groups)?;
+        Ok(groups)
+    }
+
+    /// The groups are written into `out`'s existing groups, whose buffers are reused.
+    fn associate_into(
+        &mut self,
+        ctx: &AssociationContext<'_>,
+        tracks: &[LocalTrack],
+        globals: &[GlobalTrack],
+        out: &mut Vec<TrackGroup>,
+    ) -> Result<(), CenterError> {
         ctx.check_predictions(NAME, globals)?;
         if let Some(last) = self.last_scan {
             if ctx.scan <= last {
@@ -824,14 +868,14 @@ impl TrackAssociator for Fdtta {
         };
         self.decisions.clear();
         self.decisions.resize(tracks.len(), placeholder);
-        let mut groups: Vec<(Vec<usize>, Option<usize>)> = Vec::new();
+        self.groups.clear();
         let mut a = 0;
         while a < tracks.len() {
             let mut b = a + 1;
             while b < tracks.len() && tracks[b].sensor_id == tracks[a].sensor_id {
                 b += 1;
             }
-            self.sensor_pass(ctx, tracks, globals, a, b, &mut groups);
+            self.sensor_pass(ctx, tracks, globals, a, b);
             a = b;
         }
         // forget tracks unseen for more than n0 scans
@@ -839,28 +883,58 @@ impl TrackAssociator for Fdtta {
         let scan = ctx.scan;
         self.history
             .retain(|_, h| scan.saturating_sub(h.last_seen) <= n0);
-        // groups ordered by their first member
-        let mut order: Vec<usize> = (0..groups.len()).collect();
-        order.sort_unstable_by_key(|&g| groups[g].0.first().copied().unwrap_or(NONE));
-        let mut rank = vec![0; groups.len()];
-        for (new, &old) in order.iter().enumerate() {
-            rank[old] = new;
+        // groups ordered by their first member (a track is in one group: no ties)
+        let gs = &mut self.groups;
+        let n = gs.global.len();
+        gs.order.clear();
+        gs.order.extend(0..n);
+        let first = &gs.first;
+        gs.order.sort_unstable_by_key(|&g| first[g]);
+        gs.rank.clear();
+        gs.rank.resize(n, 0);
+        for (new, &old) in gs.order.iter().enumerate() {
+            gs.rank[old] = new;
         }
         for d in self.decisions.iter_mut() {
             if d.group != NONE {
-                d.group = rank[d.group];
+                d.group = gs.rank[d.group];
             }
         }
-        let mut out: Vec<TrackGroup> = Vec::with_capacity(groups.len());
-        for &g in &order {
-            let (members, global) = std::mem::take(&mut groups[g]);
-            out.push(TrackGroup {
-                weights: vec![1.0; members.len()],
-                members,
-                global,
-            });
+        // each group's members in the order they joined: a counting sort by group
+        gs.start.clear();
+        gs.start.resize(n + 1, 0);
+        for &(g, _) in &gs.members {
+            gs.start[g + 1] += 1;
         }
-        Ok(out)
+        for g in 0..n {
+            gs.start[g + 1] += gs.start[g];
+        }
+        gs.gathered.clear();
+        gs.gathered.resize(gs.members.len(), 0);
+        for &(g, i) in &gs.members {
+            gs.gathered[gs.start[g]] = i;
+            gs.start[g] += 1;
+        }
+        // `start[g]` is now the end of group g's members, `start[g - 1]` its start
+        out.truncate(n);
+        for (new, &g) in gs.order.iter().enumerate() {
+            let begin = if g == 0 { 0 } else { gs.start[g - 1] };
+            let members = &gs.gathered[begin..gs.start[g]];
+            if new == out.len() {
+                out.push(TrackGroup {
+                    members: Vec::with_capacity(members.len()),
+                    weights: Vec::with_capacity(members.len()),
+                    global: None,
+                });
+            }
+            let group = &mut out[new];
+            group.members.clear();
+            group.members.extend_from_slice(members);
+            group.weights.clear();
+            group.weights.resize(members.len(), 1.0);
+            group.global = gs.global[g];
+        }
+        Ok(())
     }
 }
 
@@ -1138,6 +1212,50 @@ mod tests {
             let target = tracks[g.members[0]].track_id % 100;
             assert_eq!(g.global.map(|n| globals[n].id), Some(target));
         }
+    }
+
+    /// `associate_into` a reused buffer gives what `associate` gives, scan after scan,
+    /// while the number of groups and their sizes change (groups of one to three
+    /// sensors, fewer tracks, then more).
+    #[test]
+    fn reused_group_buffers_give_the_same_groups() {
+        let scan_tracks = |scan: u32| {
+            let mut tracks = Vec::new();
+            for s in 0..3i64 {
+                for t in 0..12i64 {
+                    if (t + 2 * s + scan as i64) % 5 == 0 || (scan == 2 && t > 4) {
+                        continue;
+                    }
+                    let off = ((t * 7 + s * 3) % 5) as f64 * 2.0 - 4.0;
+                    let x = [t as f64 * 400.0 + off, 10.0, off, -5.0];
+                    tracks.push(track(s, t + 100 * s, x, diag(40.0, 2.0)));
+                }
+            }
+            tracks
+        };
+        let mut fresh = Fdtta::new(FdttaParams::default()).unwrap();
+        let mut reused = Fdtta::new(FdttaParams::default()).unwrap();
+        let mut out = Vec::new();
+        let mut sizes = Vec::new();
+        for scan in 0..5 {
+            let tracks = scan_tracks(scan);
+            let globals: Vec<GlobalTrack> = (0..12)
+                .filter(|t| scan % 2 == 1 || t % 3 != 0)
+                .map(|t| global(t, [t as f64 * 400.0, 10.0, 0.0, -5.0], diag(30.0, 1.0)))
+                .collect();
+            let pred = predicted(&globals);
+            let expected = fresh
+                .associate(&ctx(scan, &pred), &tracks, &globals)
+                .unwrap();
+            reused
+                .associate_into(&ctx(scan, &pred), &tracks, &globals, &mut out)
+                .unwrap();
+            assert_eq!(out, expected, "scan {scan}");
+            assert_eq!(reused.decisions(), fresh.decisions(), "scan {scan}");
+            sizes.push(out.len());
+        }
+        // the buffer shrank and grew again
+        assert!(sizes[2] < sizes[1] && sizes[3] > sizes[2], "{sizes:?}");
     }
 
     #[test]
