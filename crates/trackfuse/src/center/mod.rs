@@ -140,6 +140,20 @@ pub trait TrackAssociator: Send {
     }
 }
 
+/// [`TrackAssociator::associate`] of a method that implements
+/// [`TrackAssociator::associate_into`] (reusing the center's buffers): its groups in a
+/// new vector.
+pub(crate) fn associate_via_into<A: TrackAssociator + ?Sized>(
+    method: &mut A,
+    ctx: &AssociationContext<'_>,
+    tracks: &[LocalTrack],
+    globals: &[GlobalTrack],
+) -> Result<Vec<TrackGroup>, CenterError> {
+    let mut groups = Vec::new();
+    method.associate_into(ctx, tracks, globals, &mut groups)?;
+    Ok(groups)
+}
+
 /// What a fusion rule may know when it fuses one group.
 #[derive(Debug, Clone, Copy)]
 pub struct FusionContext<'a> {

@@ -652,9 +652,7 @@ impl TrackAssociator for FdbscTa {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError> {
-        let mut groups = Vec::new();
-        self.associate_into(ctx, tracks, globals, &mut groups)?;
-        Ok(groups)
+        crate::center::associate_via_into(self, ctx, tracks, globals)
     }
 
     fn associate_into(

@@ -820,9 +820,7 @@ impl TrackAssociator for Fdtta {
         tracks: &[LocalTrack],
         globals: &[GlobalTrack],
     ) -> Result<Vec<TrackGroup>, CenterError> {
-        let mut groups = Vec::new();
-        self.associate_into(ctx, tracks, globals, &mut groups)?;
-        Ok(groups)
+        crate::center::associate_via_into(self, ctx, tracks, globals)
     }
 
     /// The groups are written into `out`'s existing groups, whose buffers are reused.
