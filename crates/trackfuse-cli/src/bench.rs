@@ -53,7 +53,8 @@ pub enum BenchWhat {
     /// 10 km beyond the grid's corners; per size the tracks kept per measurement, the
     /// time per measurement and per track kept (one thread, after an untimed run, best
     /// of --repeat runs, or of as many as fill about 0.5 s for a size that takes under
-    /// 0.2 s), and the cost per measurement relative to the first size.
+    /// 0.2 s), and the cost per measurement relative to the first size; with --steps, a
+    /// second table of where that time goes.
     TrackSweep {
         #[command(flatten)]
         tracker: TrackerFlags,
@@ -71,6 +72,12 @@ pub enum BenchWhat {
         /// Repetitions per size at least (the best is reported).
         #[arg(long, default_value_t = 3)]
         repeat: u32,
+        /// Also time each step of the trackers' scans (predict, convert, gate,
+        /// associate, update, tentative, delete, initiate, report) in one more run per
+        /// size, with the step clocks on (not one of the timed runs), and print them in
+        /// ns per measurement after the table.
+        #[arg(long)]
+        steps: bool,
     },
     /// Fusion-center throughput on synthetic local tracks: targets on a 1 km grid, each
     /// seen by every sensor with 20 m / 5 m/s noise; local tracks per second per core at
@@ -177,7 +184,15 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             sensors,
             scans,
             repeat,
-        } => bench_track_sweep(tracker, targets, sensors == "position", *scans, *repeat)?,
+            steps,
+        } => bench_track_sweep(
+            tracker,
+            targets,
+            sensors == "position",
+            *scans,
+            *repeat,
+            *steps,
+        )?,
         BenchWhat::Fuse {
             fusion,
             targets,
@@ -408,6 +423,8 @@ struct TrackTiming {
     sensor_scans: f64,
     /// Best wall time of the tracking (s).
     best: f64,
+    /// The step times of the last run, when its step clocks were on.
+    steps: Option<trackfuse::local::StepTimes>,
 }
 
 impl TrackTiming {
@@ -427,7 +444,7 @@ fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32) -> Result<()> 
     let cfg = flags.apply(&config.tracker)?;
     let sc = config.scenario;
     let sim = trackfuse::sim::simulate(&sc, 0);
-    let t = time_tracking(&sim, &sc, &cfg, repeat)?;
+    let t = time_tracking(&sim, &sc, &cfg, repeat, false)?;
     let n = t.measurements;
     let per_sensor_scan = n as f64 / t.sensor_scans;
     say!("scenario                    {}", sc.name);
@@ -498,13 +515,15 @@ fn sweep_scenario(targets: usize, position: bool, scans: u32) -> Result<String> 
     Ok(text)
 }
 
-/// `bench track-sweep`: [`time_tracking`] on [`sweep_scenario`] at each size.
+/// `bench track-sweep`: [`time_tracking`] on [`sweep_scenario`] at each size; with
+/// `steps`, one more run per size with the step clocks on, printed as a second table.
 fn bench_track_sweep(
     flags: &TrackerFlags,
     targets: &[usize],
     position: bool,
     scans: u32,
     repeat: u32,
+    steps: bool,
 ) -> Result<()> {
     anyhow::ensure!(!targets.is_empty(), "--targets: give at least one count");
     anyhow::ensure!(
@@ -519,6 +538,7 @@ fn bench_track_sweep(
     say!("| targets | measurements per sensor-scan | tracks kept per measurement | us per measurement | us per track kept | per measurement / first |");
     say!("|---|---|---|---|---|---|");
     let mut first = None;
+    let mut step_rows = Vec::new();
     for &n in targets {
         let text = sweep_scenario(n, position, scans)?;
         let config = trackfuse::config::RunConfig::from_toml(&text, &format!("grid-bench x {n}"))?;
@@ -527,7 +547,7 @@ fn bench_track_sweep(
         // that runs in under 0.2 s is then repeated until about 0.5 s, at most 500
         // times: a few milliseconds' best is mostly the machine's noise
         let sim = trackfuse::sim::simulate(&config.scenario, 0);
-        let probe = time_tracking(&sim, &config.scenario, &cfg, 1)?;
+        let probe = time_tracking(&sim, &config.scenario, &cfg, 1, false)?;
         let runs = if probe.best < 0.2 {
             ((0.5 / probe.best.max(1e-6)).ceil() as u32)
                 .min(500)
@@ -535,7 +555,13 @@ fn bench_track_sweep(
         } else {
             repeat
         };
-        let t = time_tracking(&sim, &config.scenario, &cfg, runs)?;
+        let t = time_tracking(&sim, &config.scenario, &cfg, runs, false)?;
+        if steps {
+            let timed = time_tracking(&sim, &config.scenario, &cfg, 1, true)?;
+            if let Some(s) = timed.steps {
+                step_rows.push((n, s, timed.measurements));
+            }
+        }
         let us = t.us_per_measurement();
         let reference = *first.get_or_insert(us);
         say!(
@@ -544,6 +570,41 @@ fn bench_track_sweep(
             t.kept_per_measurement(),
             t.us_per_track_kept(),
             us / reference
+        );
+    }
+    if steps {
+        print_step_table(&step_rows)?;
+    }
+    Ok(())
+}
+
+/// The second table of `bench track-sweep --steps`: each step's time per measurement
+/// (ns), its total, and the total relative to the first size.
+fn print_step_table(rows: &[(usize, trackfuse::local::StepTimes, usize)]) -> Result<()> {
+    let Some((_, first, _)) = rows.first() else {
+        return Ok(());
+    };
+    say!("");
+    say!("where the time goes: ns per measurement of each step (one more run per size, step clocks on)");
+    let names: Vec<&str> = first.steps().iter().map(|&(name, _)| name).collect();
+    say!(
+        "| targets | {} | total | total / first |",
+        names.join(" | ")
+    );
+    say!("|---|{}---|---|", "---|".repeat(names.len()));
+    let per = |d: std::time::Duration, m: usize| d.as_secs_f64() * 1e9 / m.max(1) as f64;
+    let reference = per(first.total(), rows[0].2);
+    for (n, s, m) in rows {
+        let cells: Vec<String> = s
+            .steps()
+            .iter()
+            .map(|&(_, d)| format!("{:.1}", per(d, *m)))
+            .collect();
+        let total = per(s.total(), *m);
+        say!(
+            "| {n} | {} | {total:.1} | {:.2}x |",
+            cells.join(" | "),
+            total / reference
         );
     }
     Ok(())
@@ -556,6 +617,7 @@ fn time_tracking(
     sc: &trackfuse::scenario::Scenario,
     cfg: &trackfuse::local::TrackerConfig,
     repeat: u32,
+    steps: bool,
 ) -> Result<TrackTiming> {
     let known = known_targets(&sim.truth);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
@@ -576,6 +638,7 @@ fn time_tracking(
     // tracks (confirmed and tentative) kept after each scan, summed over the scans: the
     // work per scan grows with them, and they need not grow as the measurements do
     let mut track_scans = 0;
+    let mut step_times = None;
     for _ in 0..repeat.max(1) {
         let t0 = Instant::now();
         (rows, track_scans) = pool.install(|| {
@@ -588,12 +651,16 @@ fn time_tracking(
                 0,
             )?;
             tracker.set_clocks(&clocks);
+            tracker.set_step_timing(steps);
             let (mut rows, mut track_scans) = (0, 0);
             for ms in measurements.chunk_by(|a, b| a.scan == b.scan) {
                 local.clear();
                 tracker.process_scan(ms[0].scan, ms, &mut local)?;
                 rows += local.len();
                 track_scans += tracker.track_count();
+            }
+            if steps {
+                step_times = Some(tracker.step_times());
             }
             Ok::<_, trackfuse::local::TrackerError>((rows, track_scans))
         })?;
@@ -605,6 +672,7 @@ fn time_tracking(
         track_scans,
         sensor_scans: sc.scans as f64 * sim.sensors.len() as f64,
         best,
+        steps: step_times,
     })
 }
 

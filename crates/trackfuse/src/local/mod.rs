@@ -12,7 +12,7 @@ pub mod registry;
 pub mod tracker;
 
 pub use tracker::{
-    track_sensors, track_sensors_timed, KnownTarget, MultiSensorTracker, SensorTracker,
+    track_sensors, track_sensors_timed, KnownTarget, MultiSensorTracker, SensorTracker, StepTimes,
     TrackerError,
 };
 

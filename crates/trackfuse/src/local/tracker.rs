@@ -147,6 +147,89 @@ struct Seed {
     time: f64,
 }
 
+/// Wall time of each step of [`SensorTracker::process_scan`], summed over the scans
+/// since the step clocks were switched on ([`SensorTracker::set_step_timing`]): where a
+/// tracker's time goes, as `trackfuse bench track-sweep --steps` prints it per
+/// measurement (BENCHMARKS.md, issue 13 point 2). The steps are those of the module
+/// documentation; `predict` includes the start of known tracks.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StepTimes {
+    /// Step 1: every track predicted, with its predicted measurement.
+    pub predict: Duration,
+    /// Step 2: the measurements converted into the filter's space and indexed.
+    pub convert: Duration,
+    /// Step 2: the measurements in each predicted track's gate.
+    pub gate: Duration,
+    /// Step 3: the data associator's weights (what
+    /// [`SensorTracker::association_time`] times, and a check of their count).
+    pub associate: Duration,
+    /// Step 3: each predicted track updated with its weights, or coasting.
+    pub update: Duration,
+    /// Step 4: tentative tracks take the unused measurements, confirmed or not.
+    pub tentative: Duration,
+    /// Step 6: tracks deleted, the tracks to report listed.
+    pub delete: Duration,
+    /// Step 5: two-point initiation from the measurements still unused.
+    pub initiate: Duration,
+    /// The confirmed tracks written out in `track_id` order.
+    pub report: Duration,
+}
+
+impl StepTimes {
+    /// The steps as `(name, time)`, in the order a scan runs them.
+    pub fn steps(&self) -> [(&'static str, Duration); 9] {
+        [
+            ("predict", self.predict),
+            ("convert", self.convert),
+            ("gate", self.gate),
+            ("associate", self.associate),
+            ("update", self.update),
+            ("tentative", self.tentative),
+            ("delete", self.delete),
+            ("initiate", self.initiate),
+            ("report", self.report),
+        ]
+    }
+
+    /// The sum of the steps.
+    pub fn total(&self) -> Duration {
+        self.steps().iter().map(|&(_, d)| d).sum()
+    }
+}
+
+impl std::ops::AddAssign for StepTimes {
+    fn add_assign(&mut self, o: StepTimes) {
+        self.predict += o.predict;
+        self.convert += o.convert;
+        self.gate += o.gate;
+        self.associate += o.associate;
+        self.update += o.update;
+        self.tentative += o.tentative;
+        self.delete += o.delete;
+        self.initiate += o.initiate;
+        self.report += o.report;
+    }
+}
+
+/// The step clock of [`SensorTracker::process_scan`]: off, it reads no clock at all.
+struct Lap(Option<Instant>);
+
+impl Lap {
+    fn start(on: bool) -> Lap {
+        Lap(on.then(Instant::now))
+    }
+
+    /// Adds the time since the last mark to `step`.
+    #[inline]
+    fn mark(&mut self, step: &mut Duration) {
+        if let Some(t) = self.0 {
+            let now = Instant::now();
+            *step += now - t;
+            self.0 = Some(now);
+        }
+    }
+}
+
 /// One sensor's tracker; feed it one scan at a time with [`SensorTracker::process_scan`].
 ///
 /// Built by name from a [`TrackerConfig`] ([`SensorTracker::new`]), or from a filter and
@@ -198,6 +281,9 @@ pub struct SensorTracker {
     /// Wall time spent in the associator so far (step 3 alone; two clock reads per
     /// scan, so it costs nothing measurable).
     association_time: Duration,
+    /// Whether [`Self::process_scan`] reads the step clocks, and what they summed.
+    step_timing: bool,
+    step_times: StepTimes,
     tracks: Vec<Track>,
     seeds: Vec<Seed>,
     init_scratch: InitScratch,
@@ -373,6 +459,8 @@ impl SensorTracker {
             known: known.to_vec(),
             start_stream: (0, 0, 0),
             association_time: Duration::ZERO,
+            step_timing: false,
+            step_times: StepTimes::default(),
             cfg: cfg.clone(),
             tracks: Vec::new(),
             seeds: Vec::new(),
@@ -410,6 +498,20 @@ impl SensorTracker {
         self.association_time
     }
 
+    /// Switch the step clocks on or off ([`StepTimes`]). Off (the default), a scan
+    /// reads no clock but the associator's; on, two more per step, about 20 ns each
+    /// where the clock is read without a system call. Switching resets the sums.
+    pub fn set_step_timing(&mut self, on: bool) {
+        self.step_timing = on;
+        self.step_times = StepTimes::default();
+    }
+
+    /// The step times summed since the step clocks were switched on (all zero while
+    /// they are off).
+    pub fn step_times(&self) -> StepTimes {
+        self.step_times
+    }
+
     /// Tracks kept after the last scan, confirmed and tentative: the work a scan does
     /// per track (predict, gate, update or coast) is done for each of them.
     pub fn track_count(&self) -> usize {
@@ -434,21 +536,31 @@ impl SensorTracker {
         if !time.is_finite() {
             return Err(TrackerError::NonFiniteTime { scan, time });
         }
+        let mut lap = Lap::start(self.step_timing);
         self.start_known_tracks(scan, time);
         self.predict(scan, time)?;
+        lap.mark(&mut self.step_times.predict);
         self.convert_and_index(measurements);
+        lap.mark(&mut self.step_times.convert);
         self.gate();
+        lap.mark(&mut self.step_times.gate);
         self.associate()?;
+        lap.mark(&mut self.step_times.associate);
         self.update_confirmed();
+        lap.mark(&mut self.step_times.update);
         let automatic = self.cfg.initiation.method.is_automatic();
         if automatic {
             self.update_tentative();
         }
+        lap.mark(&mut self.step_times.tentative);
         self.delete_tracks();
+        lap.mark(&mut self.step_times.delete);
         if automatic {
             self.initiate(time);
         }
+        lap.mark(&mut self.step_times.initiate);
         self.report(scan, time, out);
+        lap.mark(&mut self.step_times.report);
         Ok(())
     }
 
@@ -1344,6 +1456,23 @@ impl MultiSensorTracker {
             .sum()
     }
 
+    /// Switch every sensor's step clocks on or off ([`SensorTracker::set_step_timing`]).
+    pub fn set_step_timing(&mut self, on: bool) {
+        for t in &mut self.trackers {
+            t.set_step_timing(on);
+        }
+    }
+
+    /// The step times summed over the sensors ([`SensorTracker::step_times`]): CPU
+    /// work, so with more than one thread their total exceeds the wall time.
+    pub fn step_times(&self) -> StepTimes {
+        let mut all = StepTimes::default();
+        for t in &self.trackers {
+            all += t.step_times();
+        }
+        all
+    }
+
     /// Tracks kept after the last scan, confirmed and tentative, summed over the sensors
     /// ([`SensorTracker::track_count`]).
     pub fn track_count(&self) -> usize {
@@ -1774,6 +1903,59 @@ pd = 0.95
             counts,
             vec![(0, 0), (1, 0), (2, 1), (2, 1), (2, 1), (1, 1)],
             "(track_count, reported) per scan"
+        );
+    }
+
+    #[test]
+    fn step_clocks_are_off_by_default_and_change_nothing() {
+        let sc = Scenario::from_toml(TWO_TARGETS, "t").expect("scenario");
+        let sim = simulate(&sc, 0);
+        let cfg = TrackerConfig::default();
+        let run = |timed: bool| {
+            let mut tracker =
+                MultiSensorTracker::new(&sim.sensors, &cfg, None, &[], 1, 0).expect("tracker");
+            tracker.set_step_timing(timed);
+            let mut out = Vec::new();
+            let mut wall = Duration::ZERO;
+            for ms in sim.measurements.chunk_by(|a, b| a.scan == b.scan) {
+                let t0 = Instant::now();
+                tracker
+                    .process_scan(ms[0].scan, ms, &mut out)
+                    .expect("scan");
+                wall += t0.elapsed();
+            }
+            (out, tracker.step_times(), wall)
+        };
+        let (plain, off, _) = run(false);
+        let (timed, on, wall) = run(true);
+        assert_eq!(off, StepTimes::default(), "no clock read while off");
+        assert_eq!(plain, timed, "the clocks change no output");
+        assert!(!plain.is_empty());
+        // one thread per sensor at most: the steps of a scan run one after another
+        // inside the calls timed here (the test's pool may run sensors side by side,
+        // so the sum is bounded by the wall time times the sensors)
+        let total = on.total();
+        assert!(total > Duration::ZERO, "{on:?}");
+        assert!(
+            total <= wall * sim.sensors.len() as u32,
+            "{total:?} > {wall:?}"
+        );
+        assert!(
+            on.predict > Duration::ZERO && on.initiate > Duration::ZERO,
+            "{on:?}"
+        );
+        let mut tracker =
+            MultiSensorTracker::new(&sim.sensors, &cfg, None, &[], 1, 0).expect("tracker");
+        tracker.set_step_timing(true);
+        tracker
+            .process_scan(0, &sim.measurements[..1], &mut Vec::new())
+            .expect("scan");
+        assert!(tracker.step_times().total() > Duration::ZERO);
+        tracker.set_step_timing(true);
+        assert_eq!(
+            tracker.step_times(),
+            StepTimes::default(),
+            "switching resets"
         );
     }
 
