@@ -2,9 +2,9 @@
 //! one-dimensional intervals, one uniform grid for fixed-radius discs in the plane.
 //!
 //! Both stages use them: the local tracker's validation gates (`local::gating`), the
-//! fusion center's associators (`ftta`, `fdtta`, `ht-t2gt`, `wfc`, `fta`, `fdbsc-ta`) and
-//! bias estimator, and the evaluation's gated assignment (`metrics::assignment`), so they
-//! sit below all three.
+//! fusion center's associators (`ftta`, `fdtta`, `ht-t2gt`, `wfc`, `fta`, `fdbsc-ta`),
+//! bias estimator and track management (the merge test), and the evaluation's gated
+//! assignment (`metrics::assignment`), so they sit below all three.
 //!
 //! # Which query each serves
 //! - [`SweepIndex`]: points sorted by one key (an x coordinate, a range, an angle); the
@@ -15,7 +15,7 @@
 //!   on every run. The caller tests the second coordinate (or the full statistic) on the
 //!   slice, so that coordinate may be an angle that wraps at `+-pi`.
 //! - [`EpsGrid`]: 2-D points for a radius fixed per rebuild (`fdbsc-ta`'s Eps, the bias
-//!   estimator's pairing radius, the evaluation's gate); the query is the disc `|p - q| <= radius` (inclusive),
+//!   estimator's pairing radius, the evaluation's gate, the center's merge test); the query is the disc `|p - q| <= radius` (inclusive),
 //!   and [`EpsGrid::for_each_close_pair`] visits every pair within the radius once (the
 //!   Eps graph). A sorted sweep would hold a whole column of a grid of targets on its
 //!   sweep line (`O(n^1.5)` work); cells of side just over the radius look at 3 x 3 cells

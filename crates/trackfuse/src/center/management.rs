@@ -27,9 +27,9 @@
 
 use super::{GlobalTrack, TrackGroup};
 use crate::params::ParamError;
-use crate::spatial::SweepIndex;
+use crate::spatial::EpsGrid;
 use crate::stats::chi2_quantile_4;
-use crate::types::{Association, Id, LocalTrack, StateCov, StateVec};
+use crate::types::{Association, Id, LocalTrack, StateCov, StateVec, Vec2};
 use serde::{Deserialize, Serialize};
 
 /// Which global tracks the center publishes in fused_tracks.csv.
@@ -187,8 +187,8 @@ pub(crate) struct Manager {
     next_pairs: Vec<(Id, Id, u32)>,
     /// The groups that continue a global track (merge candidates), in group order.
     order: Vec<u32>,
-    /// `order`'s groups by fused x, the merge test's sweep.
-    sweep: SweepIndex,
+    /// `order`'s groups at their fused positions, for the merge test's candidates.
+    grid: EpsGrid,
     /// Merges due this scan: (older's group, younger's group, older id, younger id).
     due: Vec<(usize, usize, Id, Id)>,
     /// Group a group was merged into this scan (`NONE`: not merged).
@@ -245,7 +245,7 @@ impl Manager {
             pairs: Vec::new(),
             next_pairs: Vec::new(),
             order: Vec::new(),
-            sweep: SweepIndex::default(),
+            grid: EpsGrid::default(),
             due: Vec::new(),
             absorbed: Vec::new(),
             merged: Vec::new(),
@@ -389,54 +389,81 @@ impl Manager {
     ) -> bool {
         self.dead.resize(globals.len(), false);
         self.order.clear();
-        let mut max_var = 0.0f64;
+        let (mut max_var_x, mut max_var_y) = (0.0f64, 0.0f64);
         for (k, g) in groups.iter().enumerate() {
             if g.global.is_some() {
                 self.order.push(k as u32);
-                max_var = max_var.max(fused[k].1[(0, 0)]);
+                max_var_x = max_var_x.max(fused[k].1[(0, 0)]);
+                max_var_y = max_var_y.max(fused[k].1[(2, 2)]);
             }
         }
-        self.sweep
-            .build(self.order.iter().map(|&k| fused[k as usize].0[0]));
         self.next_pairs.clear();
         self.due.clear();
         let gate = self.gate;
-        // every point, by x: each pair is tested once, from its left point
-        let by_x = self.sweep.range(f64::NEG_INFINITY, f64::INFINITY);
-        for (n, &ia) in by_x.iter().enumerate() {
-            let ka = self.order[ia as usize] as usize;
-            let (xa, pa) = &fused[ka];
-            // |dx| <= sqrt(gate * S_xx) for every pair within the 4-d gate
-            let reach = (gate * (pa[(0, 0)] + max_var)).sqrt();
-            for &ib in &by_x[n + 1..] {
-                let kb = self.order[ib as usize] as usize;
-                let (xb, pb) = &fused[kb];
-                if xb[0] - xa[0] > reach {
-                    break;
-                }
-                if share_sensor(tracks, &groups[ka].members, &groups[kb].members)
-                    || !gated(xa, xb, &(pa + pb), gate)
-                {
-                    continue;
-                }
-                let (ia, ib) = (globals[groups[ka].global.unwrap_or(0)].id, {
-                    globals[groups[kb].global.unwrap_or(0)].id
-                });
-                let (older, younger, ko, ky) = if ia < ib {
-                    (ia, ib, ka, kb)
-                } else {
-                    (ib, ia, kb, ka)
-                };
-                let count = match self
-                    .pairs
-                    .binary_search_by_key(&(older, younger), |p| (p.0, p.1))
-                {
-                    Ok(p) => self.pairs[p].2.saturating_add(1),
-                    Err(_) => 1,
-                };
-                self.next_pairs.push((older, younger, count));
-                if count >= self.cfg.merge_scans {
-                    self.due.push((ko, ky, older, younger));
+        // Every pair within the 4-d gate is within `radius` in the plane: the gate bounds
+        // the position part, d^T S_pos^-1 d <= gate, so |d|^2 <= gate tr(S_pos) <=
+        // gate 2 (max P_xx + max P_yy) (1 % added for the rounding). The Eps grid of that
+        // radius visits each such pair once (3 x 3 cells; the x sweep it replaced held a
+        // whole column of a grid of targets on its strip, `O(n^1.5)`). Each pair is then
+        // tested as the sweep tested it: from its left point by (x, index), skipped when
+        // its x distance exceeds that point's x reach, then the sensors and the gate, so
+        // the pairs are the sweep's, and they are sorted below, so the visiting order
+        // does not reach the output.
+        let radius = (gate * 2.0 * (max_var_x + max_var_y)).sqrt() * 1.01;
+        let (order, pairs, next_pairs, due, cfg) = (
+            &self.order,
+            &self.pairs,
+            &mut self.next_pairs,
+            &mut self.due,
+            &self.cfg,
+        );
+        let mut test = |ia: u32, ib: u32| {
+            let (ka, kb) = (order[ia as usize] as usize, order[ib as usize] as usize);
+            let a_left = fused[ka].0[0]
+                .total_cmp(&fused[kb].0[0])
+                .then(ia.cmp(&ib))
+                .is_lt();
+            let (kl, kr) = if a_left { (ka, kb) } else { (kb, ka) };
+            let ((xl, pl), (xr, pr)) = (&fused[kl], &fused[kr]);
+            let reach = (gate * (pl[(0, 0)] + max_var_x)).sqrt();
+            if xr[0] - xl[0] > reach
+                || share_sensor(tracks, &groups[kl].members, &groups[kr].members)
+                || !gated(xl, xr, &(pl + pr), gate)
+            {
+                return;
+            }
+            let (il, ir) = (globals[groups[kl].global.unwrap_or(0)].id, {
+                globals[groups[kr].global.unwrap_or(0)].id
+            });
+            let (older, younger, ko, ky) = if il < ir {
+                (il, ir, kl, kr)
+            } else {
+                (ir, il, kr, kl)
+            };
+            let count = match pairs.binary_search_by_key(&(older, younger), |p| (p.0, p.1)) {
+                Ok(p) => pairs[p].2.saturating_add(1),
+                Err(_) => 1,
+            };
+            next_pairs.push((older, younger, count));
+            if count >= cfg.merge_scans {
+                due.push((ko, ky, older, younger));
+            }
+        };
+        if radius > 0.0 && radius.is_finite() {
+            self.grid.rebuild(
+                radius,
+                order.iter().map(|&k| {
+                    let x = &fused[k as usize].0;
+                    Vec2::new(x[0], x[2])
+                }),
+            );
+            self.grid.for_each_close_pair(test);
+        } else {
+            // an infinite (or zero) variance: no radius bounds the pairs, test them all
+            let n = order.len() as u32;
+            for ia in 0..n {
+                for ib in ia + 1..n {
+                    test(ia, ib);
                 }
             }
         }
@@ -579,6 +606,92 @@ mod tests {
         let msg = e.to_string();
         assert!(msg.contains("fused_tracks.csv:2:"), "{msg}");
         assert!(msg.contains("'maybe' is not a status"), "{msg}");
+    }
+
+    proptest::proptest! {
+        /// The merge test's candidate pairs (an Eps grid) are every pair of groups the
+        /// test passes, found by comparing all pairs: groups on the columns of a grid of
+        /// targets (the layout that filled the former x sweep's strip), near duplicates,
+        /// variances that differ by orders of magnitude, and a non-finite estimate.
+        #[test]
+        fn merge_pairs_are_every_gated_pair(
+            spots in proptest::collection::vec(
+                (0u8..4, 0u8..6, -60.0f64..60.0, -60.0f64..60.0, -3.0f64..3.0, 0u8..4, 0u8..8),
+                0..60,
+            ),
+            nan in proptest::option::of(0usize..60),
+        ) {
+            let mut tracks = Vec::new();
+            let mut groups = Vec::new();
+            let mut fused = Vec::new();
+            let mut globals = Vec::new();
+            for (k, &(col, row, dx, dy, dv, sensor, log_var)) in spots.iter().enumerate() {
+                let mut x = StateVec::new(
+                    f64::from(col) * 200.0 + dx,
+                    dv,
+                    f64::from(row) * 150.0 + dy,
+                    -dv,
+                );
+                if nan == Some(k) {
+                    x[0] = f64::NAN;
+                }
+                let var = 10f64.powi(i32::from(log_var) - 1);
+                let p = StateCov::from_diagonal(&StateVec::new(var, 1.0, 2.0 * var, 1.0));
+                tracks.push(LocalTrack {
+                    scan: 0,
+                    time: 0.0,
+                    sensor_id: Id::from(sensor),
+                    track_id: k as Id,
+                    state: x,
+                    cov: p,
+                });
+                groups.push(TrackGroup {
+                    members: vec![k],
+                    weights: vec![1.0],
+                    // every third group starts a new global track: not a candidate
+                    global: (k % 3 != 2).then_some(globals.len()),
+                });
+                if k % 3 != 2 {
+                    globals.push(GlobalTrack {
+                        id: 1000 - k as Id,
+                        scan: 0,
+                        time: 0.0,
+                        state: x,
+                        cov: p,
+                        previous: None,
+                        sources: Vec::new(),
+                        updates: 1,
+                        misses: 0,
+                    });
+                }
+                fused.push((x, p));
+            }
+            let cfg = ManagementConfig {
+                merge_scans: u32::MAX,
+                ..ManagementConfig::default()
+            };
+            let mut m = Manager::new(&cfg);
+            let before = groups.clone();
+            proptest::prop_assert!(!m.merge_duplicates(&tracks, &mut groups, &fused, &globals));
+            proptest::prop_assert_eq!(&groups, &before);
+            let mut expected = Vec::new();
+            for a in 0..groups.len() {
+                for b in a + 1..groups.len() {
+                    let (Some(ga), Some(gb)) = (groups[a].global, groups[b].global) else {
+                        continue;
+                    };
+                    if share_sensor(&tracks, &groups[a].members, &groups[b].members)
+                        || !gated(&fused[a].0, &fused[b].0, &(fused[a].1 + fused[b].1), m.gate)
+                    {
+                        continue;
+                    }
+                    let (ia, ib) = (globals[ga].id, globals[gb].id);
+                    expected.push((ia.min(ib), ia.max(ib), 1));
+                }
+            }
+            expected.sort_unstable();
+            proptest::prop_assert_eq!(&m.pairs, &expected);
+        }
     }
 
     #[test]
