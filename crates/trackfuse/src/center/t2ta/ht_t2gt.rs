@@ -84,7 +84,7 @@ use crate::center::hough::{HoughPoint, HoughSpace};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::max_entropy::{DMin, MaxEntropy, MePair, Normalise};
 use crate::params::{in_range, positive, ParamError};
-use crate::spatial::SweepIndex;
+use crate::spatial::{BoxGrid, SweepIndex};
 use crate::types::{Id, LocalTrack, Vec2};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -252,7 +252,8 @@ pub struct HtT2gt {
     me_pairs: Vec<MePair>,
     u_buf: Vec<f64>,
     omega_buf: Vec<f64>,
-    theta_index: SweepIndex,
+    /// The centres at `(theta, rho)`, for the gates in Hough space.
+    centre_grid: BoxGrid,
     theta_of_index: Vec<u32>,
     position_index: SweepIndex,
     table: GroupTable,
@@ -278,7 +279,7 @@ impl HtT2gt {
             me_pairs: Vec::new(),
             u_buf: Vec::new(),
             omega_buf: Vec::new(),
-            theta_index: SweepIndex::default(),
+            centre_grid: BoxGrid::default(),
             theta_of_index: Vec::new(),
             position_index: SweepIndex::default(),
             table: GroupTable::default(),
@@ -340,22 +341,28 @@ impl HtT2gt {
             space,
             points,
             centres,
-            theta_index,
+            centre_grid,
             theta_of_index,
             links,
             link_start,
             ..
         } = self;
         let gate2 = params.gate * params.gate;
-        // index the centres by theta
+        // index the centres in the (theta, rho) plane
         theta_of_index.clear();
         theta_of_index.extend((0..centres.len() as u32).filter(|&l| centres[l as usize].is_some()));
-        theta_index.build(
-            theta_of_index
-                .iter()
-                .map(|&l| centres[l as usize].map_or(0.0, |c| c.theta)),
-        );
         let half = params.gate * params.theta_max;
+        let half_rho = params.gate * params.rho_max;
+        centre_grid.rebuild(
+            half / half_rho,
+            theta_of_index.iter().map(|&l| {
+                let c = centres[l as usize].unwrap_or(HoughPoint {
+                    rho: f64::NAN,
+                    theta: f64::NAN,
+                });
+                Vec2::new(c.theta, c.rho)
+            }),
+        );
         // a window of width >= pi covers every theta: scan all centres once
         let all = half >= FRAC_PI_2;
         let pos_gate2 = params.position_gate * params.position_gate;
@@ -365,34 +372,58 @@ impl HtT2gt {
             link_start.push(links.len() as u32);
             let Some(p) = p else { continue };
             let first = links.len();
-            let shifts: &[f64] = if all { &[0.0] } else { &[0.0, PI, -PI] };
-            for &shift in shifts {
-                let window = if all {
-                    theta_index.range(f64::NEG_INFINITY, f64::INFINITY)
-                } else {
-                    theta_index.range(p.theta + shift - half, p.theta + shift + half)
+            let mut visit = |k: u32| {
+                let l = theta_of_index[k as usize];
+                let Some(c) = centres[l as usize] else {
+                    return;
                 };
-                for &k in window {
-                    let l = theta_of_index[k as usize];
-                    let Some(c) = centres[l as usize] else {
-                        continue;
+                let d2 = space.distance2(p, &c);
+                if d2 > gate2 {
+                    return;
+                }
+                if params.position_gate_tracklets {
+                    let pred = &ctx.predicted[l as usize].0;
+                    let dp = track_position(&tracks[i]) - Vec2::new(pred[0], pred[2]);
+                    if dp.norm_squared() > pos_gate2 {
+                        return;
+                    }
+                }
+                links.push(Link {
+                    centre: l,
+                    d2,
+                    u: 0.0,
+                    omega: 0.0,
+                });
+            };
+            if all {
+                for (k, &l) in theta_of_index.iter().enumerate() {
+                    // every centre with a theta (a NaN theta is in no window)
+                    if centres[l as usize].is_some_and(|c| !c.theta.is_nan()) {
+                        visit(k as u32);
+                    }
+                }
+            } else {
+                // The windows `theta +- half` at the point's theta and its twin's (`theta
+                // +- pi`, rho negated when signed). A centre of a window passes the gate
+                // only by the distance of that representation (the other is more than
+                // `pi - half > pi / 2 > gate theta_max` away in theta), so its rho is
+                // within `gate rho_max` of the point's (the twin's): the grid's box
+                // (widened by 1 % in rho) holds every centre that can pass. A theta index
+                // alone held a fixed share of all centres per window, which made the
+                // gating quadratic in the scene. The links are sorted by centre below,
+                // so the visiting order does not reach the output.
+                for shift in [0.0, PI, -PI] {
+                    let (lo, hi) = (p.theta + shift - half, p.theta + shift + half);
+                    let rho = if shift != 0.0 && space.signed {
+                        -p.rho
+                    } else {
+                        p.rho
                     };
-                    let d2 = space.distance2(p, &c);
-                    if d2 > gate2 {
-                        continue;
-                    }
-                    if params.position_gate_tracklets {
-                        let pred = &ctx.predicted[l as usize].0;
-                        let dp = track_position(&tracks[i]) - Vec2::new(pred[0], pred[2]);
-                        if dp.norm_squared() > pos_gate2 {
-                            continue;
+                    let r = half_rho * 1.01;
+                    centre_grid.for_each_in_box([lo, rho - r], [hi, rho + r], |k, q| {
+                        if q[0] >= lo && q[0] <= hi {
+                            visit(k);
                         }
-                    }
-                    links.push(Link {
-                        centre: l,
-                        d2,
-                        u: 0.0,
-                        omega: 0.0,
                     });
                 }
             }
