@@ -353,18 +353,18 @@ impl HtT2gt {
         theta_of_index.extend((0..centres.len() as u32).filter(|&l| centres[l as usize].is_some()));
         let half = params.gate * params.theta_max;
         let half_rho = params.gate * params.rho_max;
-        centre_grid.rebuild(
-            half / half_rho,
-            theta_of_index.iter().map(|&l| {
-                let c = centres[l as usize].unwrap_or(HoughPoint {
-                    rho: f64::NAN,
-                    theta: f64::NAN,
-                });
-                Vec2::new(c.theta, c.rho)
-            }),
-        );
-        // a window of width >= pi covers every theta: scan all centres once
+        // a window of width >= pi covers every theta: scan all centres once (no grid)
         let all = half >= FRAC_PI_2;
+        if !all {
+            // `theta_of_index` holds only the centres that are `Some`
+            centre_grid.rebuild(
+                half / half_rho,
+                theta_of_index.iter().map(|&l| {
+                    centres[l as usize]
+                        .map_or(Vec2::new(f64::NAN, f64::NAN), |c| Vec2::new(c.theta, c.rho))
+                }),
+            );
+        }
         let pos_gate2 = params.position_gate * params.position_gate;
         link_start.clear();
         links.clear();
