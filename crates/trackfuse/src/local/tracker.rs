@@ -145,6 +145,10 @@ struct Seed {
     /// Position covariance of the converted measurement.
     cov: Mat2,
     time: f64,
+    /// The position's error allowance in the two-point distance test (the `spread` of
+    /// [`SensorTracker::initiate`]), computed once when the seed is made instead of for
+    /// every measurement that looks at it.
+    spread: f64,
 }
 
 /// Wall time of each step of [`SensorTracker::process_scan`], summed over the scans
@@ -966,7 +970,7 @@ impl SensorTracker {
             PairGate::Mahalanobis => (c[(0, 0)].max(0.0) + c[(1, 1)].max(0.0)).sqrt(),
         };
         let max_dt = seeds.iter().map(|s| time - s.time).fold(0.0, f64::max);
-        let max_seed_sigma = seeds.iter().map(|s| spread(&s.cov)).fold(0.0, f64::max);
+        let max_seed_sigma = seeds.iter().map(|s| s.spread).fold(0.0, f64::max);
         // The seeds in a two-dimensional grid: a measurement looks at the seeds in the
         // box of its largest reach instead of the whole x strip. The strip's own test
         // (x within `reach_max`, as the sweep over the seeds had it) is kept, and
@@ -992,8 +996,15 @@ impl SensorTracker {
                 if dt <= 0.0 {
                     return;
                 }
-                let reach = max_speed * dt + PAIR_SIGMAS * (sp + spread(&s.cov));
-                let d = (p - s.position).norm();
+                let reach = max_speed * dt + PAIR_SIGMAS * (sp + s.spread);
+                // most seeds in the box are out of reach: a squared test with a margin
+                // far above rounding rejects those without the square root, and leaves
+                // every seed it cannot prove out of reach to the exact test `d <= reach`
+                let dd = (p - s.position).norm_squared();
+                if dd > reach * reach * (1.0 + 1e-9) {
+                    return;
+                }
+                let d = dd.sqrt();
                 if d <= reach
                     && (gate == PairGate::MaxAxis
                         || pair_within(p - s.position, &(pc + s.cov), max_speed * dt, PAIR_SIGMAS))
@@ -1061,6 +1072,7 @@ impl SensorTracker {
                     position: p,
                     cov: pc,
                     time,
+                    spread: spread(&pc),
                 });
             }
         }
