@@ -664,8 +664,11 @@ impl Fdtta {
                 &mut self.entries,
                 &self.params,
             );
+            // the box's second axis wider than the test below, so that no rounding of
+            // its ends drops a column the test accepts
+            let r_y = radius * 1.01 + 1e-6;
             self.index
-                .for_each_in_box([lo, pos[1] - radius], [hi, pos[1] + radius], |k, q| {
+                .for_each_in_box([lo, pos[1] - r_y], [hi, pos[1] + r_y], |k, q| {
                     // the interval `[lo, hi]` in x (NaN outside it), then `|dy| <= radius`
                     if !(q[0] >= lo && q[0] <= hi) || (q[1] - pos[1]).abs() > radius {
                         return;

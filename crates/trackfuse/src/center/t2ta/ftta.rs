@@ -79,9 +79,12 @@
 
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::params::{in_range, positive, ParamError};
-use crate::spatial::SweepIndex;
+use crate::spatial::BoxGrid;
 use crate::stats::chi2_quantile_2;
-use crate::types::{position_cov_of, position_of, Id, LocalTrack, Mat2, Sensor, SensorKind, Vec2};
+use crate::types::{
+    position_cov_of, position_of, Id, LocalTrack, Mat2, Sensor, SensorKind, StateCov, StateVec,
+    Vec2,
+};
 use crate::union_find::UnionFind;
 use nalgebra::DMatrix;
 use serde::Deserialize;
@@ -382,7 +385,13 @@ pub struct Ftta {
     params: FttaParams,
     model: ResolutionModel,
     reports: Vec<Report>,
-    index: SweepIndex,
+    /// The reports' positions (pairing), then the predicted globals' (gating the group
+    /// centres): a two-dimensional grid, not a sweep along x, whose strip held a whole
+    /// column of a grid of targets (`O(n^1.5)`). The sweep's exact x interval is kept as
+    /// a test, and the second axis' box is wider than any pair that can pass, so the
+    /// pairs and edges are the sweep's; both are sorted before use, so the order they
+    /// are found in does not reach the output.
+    grid: BoxGrid,
     pairs: Vec<(f64, u32, u32)>,
     head: Vec<usize>,
     next: Vec<usize>,
@@ -399,7 +408,7 @@ impl Ftta {
             model: params.model(),
             params,
             reports: Vec::new(),
-            index: SweepIndex::default(),
+            grid: BoxGrid::default(),
             pairs: Vec::new(),
             head: Vec::new(),
             next: Vec::new(),
@@ -451,27 +460,31 @@ impl Ftta {
         self.next.resize(n, NONE);
         self.tail.clear();
         self.tail.extend(0..n);
-        // candidate pairs through a sorted index on x
-        self.index.build(self.reports.iter().map(|r| r.position[0]));
+        // candidate pairs: within `r_max` in x (the sweep's interval) and in the box that
+        // holds every pair `correlated` can accept (`|dy| <= |d| <= r_max`, widened so
+        // that no rounding of the box's ends drops one)
+        self.grid
+            .rebuild(1.0, self.reports.iter().map(|r| r.position));
         let r_max = self
             .reports
             .iter()
             .fold(MIN_LENGTH, |a, r| a.max(r.resolution));
+        let r_y = r_max * 1.01 + 1e-6;
         self.pairs.clear();
-        for i in 0..n {
-            let ri = self.reports[i];
-            for &j in self
-                .index
-                .range(ri.position[0] - r_max, ri.position[0] + r_max)
-            {
+        let (reports, pairs) = (&self.reports, &mut self.pairs);
+        for (i, ri) in reports.iter().enumerate() {
+            let (lo, hi) = (ri.position[0] - r_max, ri.position[0] + r_max);
+            let (y_lo, y_hi) = (ri.position[1] - r_y, ri.position[1] + r_y);
+            self.grid.for_each_in_box([lo, y_lo], [hi, y_hi], |j, q| {
                 let j = j as usize;
-                if j <= i || !correlated(&ri, &self.reports[j]) {
-                    continue;
+                // the interval `[lo, hi]` in x (NaN outside it)
+                if j <= i || !(q[0] >= lo && q[0] <= hi) || !correlated(ri, &reports[j]) {
+                    return;
                 }
-                let rj = &self.reports[j];
+                let rj = &reports[j];
                 let score = (ri.position - rj.position).norm() / ri.resolution.max(rj.resolution);
-                self.pairs.push((score, i as u32, j as u32));
-            }
+                pairs.push((score, i as u32, j as u32));
+            });
         }
         self.pairs
             .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
@@ -489,6 +502,47 @@ impl Ftta {
             }
             self.next[self.tail[keep]] = gone;
             self.tail[keep] = self.tail[gone];
+        }
+    }
+
+    /// The edges `(group, global, d^2)` of the group centres `(position, covariance)`
+    /// against the predicted globals' positions: every pair within the gate `gamma`
+    /// (`d^2 = d^T (P_g + P_n)^-1 d`), found among the globals within
+    /// `sqrt(gamma (tr P_g + max tr P_n))` in x and y, in no particular order.
+    fn gate_centres(
+        &mut self,
+        centres: &[(Vec2, Mat2)],
+        predicted: &[(StateVec, StateCov)],
+        gamma: f64,
+    ) {
+        self.grid
+            .rebuild(1.0, predicted.iter().map(|(x, _)| position_of(x)));
+        let max_tr = predicted
+            .iter()
+            .fold(0.0f64, |a, (_, c)| a.max(position_cov_of(c).trace()));
+        self.edges.clear();
+        let edges = &mut self.edges;
+        for (g, (centre, cov)) in centres.iter().enumerate() {
+            let radius = (gamma * (cov.trace() + max_tr)).max(0.0).sqrt();
+            let (lo, hi) = (centre[0] - radius, centre[0] + radius);
+            let r_y = radius * 1.01 + 1e-6;
+            let (y_lo, y_hi) = (centre[1] - r_y, centre[1] + r_y);
+            self.grid.for_each_in_box([lo, y_lo], [hi, y_hi], |n, q| {
+                // the interval `[lo, hi]` in x (NaN outside it), then `|dy| <= radius`
+                if !(q[0] >= lo && q[0] <= hi) {
+                    return;
+                }
+                let n = n as usize;
+                let (xs, cs) = &predicted[n];
+                let d = centre - position_of(xs);
+                if d[1].abs() > radius {
+                    return;
+                }
+                let d2 = mahalanobis2(&d, &(cov + position_cov_of(cs)));
+                if d2 <= gamma {
+                    edges.push((g, n, d2));
+                }
+            });
         }
     }
 }
@@ -643,28 +697,7 @@ impl TrackAssociator for Ftta {
         // group centres -> predicted globals
         if !globals.is_empty() && !groups.is_empty() {
             let gamma = chi2_quantile_2(self.params.global_gate);
-            self.index
-                .build(ctx.predicted.iter().map(|(x, _)| position_of(x)[0]));
-            let max_tr = ctx
-                .predicted
-                .iter()
-                .fold(0.0f64, |a, (_, c)| a.max(position_cov_of(c).trace()));
-            self.edges.clear();
-            for (g, (centre, cov)) in centres.iter().enumerate() {
-                let radius = (gamma * (cov.trace() + max_tr)).max(0.0).sqrt();
-                for &n in self.index.range(centre[0] - radius, centre[0] + radius) {
-                    let n = n as usize;
-                    let (xs, cs) = &ctx.predicted[n];
-                    let d = centre - position_of(xs);
-                    if d[1].abs() > radius {
-                        continue;
-                    }
-                    let d2 = mahalanobis2(&d, &(cov + position_cov_of(cs)));
-                    if d2 <= gamma {
-                        self.edges.push((g, n, d2));
-                    }
-                }
-            }
+            self.gate_centres(&centres, ctx.predicted, gamma);
             let gate = gamma * (1.0 + 1e-9) + 1e-12;
             let assigned = assign_gated(groups.len(), globals.len(), &self.edges, gate);
             for (g, a) in groups.iter_mut().zip(assigned) {
@@ -1116,6 +1149,134 @@ mod tests {
                     prop_assert!(g.weights.iter().all(|w| w.is_finite() && *w > 0.0));
                 }
             }
+        }
+    }
+
+    /// A position on the columns of a grid of targets (the layout that filled the former
+    /// x sweep's strip), NaN on `axis` when `nan` names this point.
+    fn grid_position(
+        k: usize,
+        col: u8,
+        row: u8,
+        dx: f64,
+        dy: f64,
+        nan: Option<(usize, u8)>,
+    ) -> Vec2 {
+        let mut p = Vec2::new(f64::from(col) * 200.0 + dx, f64::from(row) * 150.0 + dy);
+        if let Some((i, axis)) = nan {
+            if i == k {
+                p[usize::from(axis)] = f64::NAN;
+            }
+        }
+        p
+    }
+
+    proptest::proptest! {
+        /// The pairs `agglomerate` finds in its grid are the former x sweep's: every pair
+        /// `i < j` with `x_j` within `r_max` of `x_i` that `correlated` accepts, found by
+        /// comparing all pairs; with duplicates, resolutions four orders of magnitude
+        /// apart and a NaN coordinate.
+        #[test]
+        fn pairs_are_the_sweeps(
+            spots in proptest::collection::vec(
+                (0u8..4, 0u8..6, -60.0f64..60.0, -60.0f64..60.0, 0u8..4, 0u8..5),
+                0..60,
+            ),
+            nan in proptest::option::of((0usize..60, 0u8..2)),
+        ) {
+            let mut f = Ftta::new(FttaParams::default()).expect("default parameters");
+            f.reports = spots
+                .iter()
+                .enumerate()
+                .map(|(k, &(col, row, dx, dy, sensor, log_res))| Report {
+                    sensor_id: Id::from(sensor),
+                    position: grid_position(k, col, row, dx, dy, nan),
+                    resolution: 10f64.powi(i32::from(log_res) - 1),
+                })
+                .collect();
+            f.agglomerate();
+            let r = &f.reports;
+            let r_max = r.iter().fold(MIN_LENGTH, |a, x| a.max(x.resolution));
+            let mut expected = Vec::new();
+            for i in 0..r.len() {
+                let (lo, hi) = (r[i].position[0] - r_max, r[i].position[0] + r_max);
+                for j in i + 1..r.len() {
+                    let x = r[j].position[0];
+                    if x >= lo && x <= hi && correlated(&r[i], &r[j]) {
+                        let d = (r[i].position - r[j].position).norm();
+                        let score = d / r[i].resolution.max(r[j].resolution);
+                        expected.push((score.to_bits(), i as u32, j as u32));
+                    }
+                }
+            }
+            expected.sort_unstable_by(|a, b| {
+                f64::from_bits(a.0).total_cmp(&f64::from_bits(b.0)).then((a.1, a.2).cmp(&(b.1, b.2)))
+            });
+            let got: Vec<(u64, u32, u32)> =
+                f.pairs.iter().map(|&(s, i, j)| (s.to_bits(), i, j)).collect();
+            proptest::prop_assert_eq!(got, expected);
+        }
+
+        /// The edges of the group centres against the predicted globals are every pair
+        /// within the gate (and within the x interval the former sweep took), found by
+        /// comparing all pairs; variances six orders of magnitude apart, a NaN coordinate.
+        #[test]
+        fn centre_edges_are_every_gated_pair(
+            centres in proptest::collection::vec(
+                (0u8..4, 0u8..6, -60.0f64..60.0, -60.0f64..60.0, 0u8..7),
+                0..30,
+            ),
+            globals in proptest::collection::vec(
+                (0u8..4, 0u8..6, -60.0f64..60.0, -60.0f64..60.0, 0u8..7),
+                0..40,
+            ),
+            nan in proptest::option::of((0usize..40, 0u8..2)),
+        ) {
+            let var = |v: u8| 10f64.powi(i32::from(v) - 2);
+            let centres: Vec<(Vec2, Mat2)> = centres
+                .iter()
+                .enumerate()
+                .map(|(k, &(col, row, dx, dy, v))| {
+                    let p = grid_position(k, col, row, dx, dy, None);
+                    (p, Mat2::new(var(v), 0.3 * var(v), 0.3 * var(v), 2.0 * var(v)))
+                })
+                .collect();
+            let predicted: Vec<(StateVec, StateCov)> = globals
+                .iter()
+                .enumerate()
+                .map(|(k, &(col, row, dx, dy, v))| {
+                    let p = grid_position(k, col, row, dx, dy, nan);
+                    let c = StateCov::from_diagonal(&StateVec::new(var(v), 1.0, 3.0 * var(v), 1.0));
+                    (StateVec::new(p[0], 1.0, p[1], -1.0), c)
+                })
+                .collect();
+            let gamma = chi2_quantile_2(0.9999);
+            let mut f = Ftta::new(FttaParams::default()).expect("default parameters");
+            f.gate_centres(&centres, &predicted, gamma);
+            let mut got: Vec<(usize, usize, u64)> =
+                f.edges.iter().map(|&(g, n, d2)| (g, n, d2.to_bits())).collect();
+            got.sort_unstable();
+            let max_tr = predicted
+                .iter()
+                .fold(0.0f64, |a, (_, c)| a.max(position_cov_of(c).trace()));
+            let mut expected = Vec::new();
+            for (g, (centre, cov)) in centres.iter().enumerate() {
+                let radius = (gamma * (cov.trace() + max_tr)).max(0.0).sqrt();
+                for (n, (xs, cs)) in predicted.iter().enumerate() {
+                    let q = position_of(xs);
+                    let d = centre - q;
+                    if !(q[0] >= centre[0] - radius && q[0] <= centre[0] + radius)
+                        || d[1].abs() > radius
+                    {
+                        continue;
+                    }
+                    let d2 = mahalanobis2(&d, &(cov + position_cov_of(cs)));
+                    if d2 <= gamma {
+                        expected.push((g, n, d2.to_bits()));
+                    }
+                }
+            }
+            proptest::prop_assert_eq!(got, expected);
         }
     }
 }
