@@ -445,6 +445,24 @@ impl BoxGrid {
             f(i, &self.scratch[i as usize]);
         }
     }
+
+    /// `(x, index)` of the points whose first coordinate lies in `[lo[0], hi[0]]`
+    /// (inclusive; a NaN coordinate or bound in neither) among those the box `[lo, hi]`
+    /// visits ([`BoxGrid::for_each_in_box`]), into `out` (cleared first), in the order a
+    /// [`SweepIndex`] over the first coordinate gives them: by [`f64::total_cmp`], ties by
+    /// index. For callers whose results depend on the order their former sweep along x
+    /// found the points in (a greedy pass over candidates whose comparison is not a
+    /// total order when a score is NaN): with the second axis' test they applied to the
+    /// sweep's slice, they see the same points in the same order.
+    pub fn sweep_order_in_box(&self, lo: [f64; 2], hi: [f64; 2], out: &mut Vec<(f64, u32)>) {
+        out.clear();
+        self.for_each_in_box(lo, hi, |i, q| {
+            if q[0] >= lo[0] && q[0] <= hi[0] {
+                out.push((q[0], i));
+            }
+        });
+        out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    }
 }
 
 /// Stable counting sort of `from` into `to` by `bucket` (each below `buckets`), with
@@ -756,6 +774,46 @@ mod tests {
                     let inside = p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1];
                     if inside || !p[1].is_finite() {
                         prop_assert_eq!(seen[i], 1, "point {} missed", i);
+                    }
+                }
+            }
+        }
+
+        /// The box grid's sweep order is a part of the sweep's slice (x in `[lo, hi]`, in
+        /// x order, ties by index) that holds every point of the slice in the box and
+        /// every one whose y is not finite.
+        #[test]
+        fn box_grid_sweep_order_is_the_sweeps(
+            raw in proptest::collection::vec((-40i32..40, -40i32..40), 0..100),
+            queries in proptest::collection::vec((-50i32..50, -50i32..50, 0i32..20, 0i32..20), 1..10),
+            nan in proptest::option::of((0usize..100, 0u8..2)),
+        ) {
+            // lattice points, so that ties and points on the box's edges occur
+            let mut points: Vec<Vec2> = raw.iter().map(|&(x, y)| Vec2::new(x as f64 * 0.7, y as f64 * 1.3)).collect();
+            if let Some((k, axis)) = nan {
+                if let Some(p) = points.get_mut(k) {
+                    p[usize::from(axis)] = f64::NAN;
+                }
+            }
+            let mut grid = BoxGrid::default();
+            grid.rebuild(1.0, points.iter().copied());
+            let mut idx = SweepIndex::default();
+            idx.build(points.iter().map(|p| p[0]));
+            let mut out = Vec::new();
+            for &(cx, cy, hx, hy) in &queries {
+                let (cx, cy, hx, hy) = (cx as f64 * 0.7, cy as f64 * 1.3, hx as f64 * 0.7, hy as f64 * 1.3);
+                let (lo, hi) = ([cx - hx, cy - hy], [cx + hx, cy + hy]);
+                grid.sweep_order_in_box(lo, hi, &mut out);
+                let got: Vec<u32> = out.iter().map(|e| e.1).collect();
+                let slice = idx.range(lo[0], hi[0]);
+                // a part of the sweep's slice, in its order
+                let in_slice: Vec<u32> = slice.iter().copied().filter(|i| got.contains(i)).collect();
+                prop_assert_eq!(&got, &in_slice);
+                // holding every point of the slice the box holds, and the non-finite y
+                for &i in slice {
+                    let y = points[i as usize][1];
+                    if !y.is_finite() || (y >= lo[1] && y <= hi[1]) {
+                        prop_assert!(got.contains(&i), "point {} missed", i);
                     }
                 }
             }

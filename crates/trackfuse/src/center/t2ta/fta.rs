@@ -52,7 +52,7 @@ use super::grouping::{sensor_blocks, track_position, Candidate, GroupTable};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::models::wrap_angle;
 use crate::params::{in_range, positive, ParamError};
-use crate::spatial::SweepIndex;
+use crate::spatial::BoxGrid;
 use crate::types::{Id, LocalTrack, StateCov, StateVec, Vec2};
 use serde::{Deserialize, Serialize};
 
@@ -195,7 +195,13 @@ pub struct Fta {
     /// `((sensor, track), global index, global scan)` from the globals' sources, sorted.
     sources: Vec<((Id, Id), usize, u32)>,
     previous_global: Vec<Option<usize>>,
-    position_index: SweepIndex,
+    /// The predicted globals' positions: a two-dimensional grid, not a sweep along x,
+    /// whose strip held a whole column of a grid of targets; queried in the sweep's
+    /// order ([`BoxGrid::sweep_order_in_box`]), which the greedy pass over the
+    /// candidates sees.
+    position_index: BoxGrid,
+    /// `(x, global)` of one query.
+    near: Vec<(f64, u32)>,
     table: GroupTable,
     candidates: Vec<Candidate>,
 }
@@ -210,7 +216,8 @@ impl Fta {
             next_quality: Vec::new(),
             sources: Vec::new(),
             previous_global: Vec::new(),
-            position_index: SweepIndex::default(),
+            position_index: BoxGrid::default(),
+            near: Vec::new(),
             table: GroupTable::default(),
             candidates: Vec::new(),
         })
@@ -258,8 +265,10 @@ impl TrackAssociator for Fta {
     ) -> Result<Vec<TrackGroup>, CenterError> {
         ctx.check_predictions(NAME, globals)?;
         self.find_previous_globals(tracks, globals);
-        self.position_index
-            .build(ctx.predicted.iter().map(|(x, _)| x[0]));
+        self.position_index.rebuild(
+            1.0,
+            ctx.predicted.iter().map(|(x, _)| Vec2::new(x[0], x[2])),
+        );
         self.table.reset(tracks.len(), globals.len());
         let eps = self.params.threshold;
         let gate = self.params.position_gate;
@@ -296,7 +305,15 @@ impl TrackAssociator for Fta {
                 }
                 let t = &tracks[i];
                 let pos = track_position(t);
-                for &g in self.position_index.range(pos[0] - gate, pos[0] + gate) {
+                // the box is wider than `gate` in y, so that no rounding of its ends drops
+                // a global the test `|dy| <= gate` below accepts
+                let r_y = gate * 1.01 + 1e-6;
+                self.position_index.sweep_order_in_box(
+                    [pos[0] - gate, pos[1] - r_y],
+                    [pos[0] + gate, pos[1] + r_y],
+                    &mut self.near,
+                );
+                for &(_, g) in &self.near {
                     let (x, p) = &ctx.predicted[g as usize];
                     if (x[2] - pos[1]).abs() > gate {
                         continue;

@@ -4,7 +4,7 @@
 //! group, at most one track per sensor per group, at most one group per global track).
 
 use crate::center::TrackGroup;
-use crate::spatial::SweepIndex;
+use crate::spatial::BoxGrid;
 use crate::types::{Id, LocalTrack, Vec2};
 use std::cmp::Ordering;
 
@@ -78,8 +78,11 @@ pub(crate) struct GroupTable {
     new_seed: Vec<usize>,
     /// Group index of each new group.
     group_of_new: Vec<usize>,
-    /// Index over the seeds' x positions (rebuilt per sensor in `group_leftovers`).
-    seed_index: SweepIndex,
+    /// The seeds' positions (rebuilt per sensor in `group_leftovers`): a two-dimensional
+    /// grid, not a sweep along x, whose strip held a whole column of a grid of targets.
+    seed_index: BoxGrid,
+    /// `(x, new group)` of a query, in the order the former sweep found them.
+    near: Vec<(f64, u32)>,
 }
 
 impl GroupTable {
@@ -200,32 +203,39 @@ impl GroupTable {
     pub fn index_new_groups(&mut self, tracks: &[LocalTrack]) {
         let seeds = &self.new_seed;
         self.seed_index
-            .build(seeds.iter().map(|&s| tracks[s].state[0]));
+            .rebuild(1.0, seeds.iter().map(|&s| track_position(&tracks[s])));
     }
 
     /// `(target, seed track)` of the indexed new groups whose seed lies within `radius`
-    /// of `position` in both x and y.
+    /// of `position` in both x and y, in the order of the seeds' x (ties by group): the
+    /// order the sweep along x that this grid replaced gave, which the callers' greedy
+    /// passes see (their comparison is not a total order when a score is NaN). The box
+    /// is wider than `radius` in y, so that no rounding of its ends drops a seed the
+    /// test `|dy| <= radius` accepts.
     pub fn new_groups_near<'a>(
-        &'a self,
+        &'a mut self,
         tracks: &'a [LocalTrack],
         position: &Vec2,
         radius: f64,
     ) -> impl Iterator<Item = (usize, usize)> + 'a {
         let (x, y) = (position[0], position[1]);
-        self.seed_index
-            .range(x - radius, x + radius)
-            .iter()
-            .filter_map(move |&j| {
-                let seed = *self.new_seed.get(j as usize)?;
-                ((tracks[seed].state[2] - y).abs() <= radius)
-                    .then_some((self.n_globals + j as usize, seed))
-            })
+        let r_y = radius * 1.01 + 1e-6;
+        self.seed_index.sweep_order_in_box(
+            [x - radius, y - r_y],
+            [x + radius, y + r_y],
+            &mut self.near,
+        );
+        let (near, new_seed, n_globals) = (&self.near, &self.new_seed, self.n_globals);
+        near.iter().filter_map(move |&(_, j)| {
+            let seed = *new_seed.get(j as usize)?;
+            ((tracks[seed].state[2] - y).abs() <= radius).then_some((n_globals + j as usize, seed))
+        })
     }
 
     /// Group the still unassigned tracks of `block` (one sensor's tracks) with the new
     /// groups formed so far (by earlier sensors), greedily by `distance(track, seed)`
     /// at most `gate`, nearest first; the rest start new groups. Only seeds whose position
-    /// is within `radius` of the track's in both x and y are compared (a sorted sweep, no
+    /// is within `radius` of the track's in both x and y are compared (a grid, no
     /// all-pairs); `distance` returns `None` when the two cannot be compared.
     pub fn group_leftovers(
         &mut self,

@@ -47,8 +47,8 @@
 use super::grouping::{sensor_blocks, Candidate, GroupTable};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::params::{in_range, positive, ParamError};
-use crate::spatial::SweepIndex;
-use crate::types::{Id, LocalTrack, StateVec};
+use crate::spatial::BoxGrid;
+use crate::types::{Id, LocalTrack, StateVec, Vec2};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, VecDeque};
 
@@ -182,7 +182,10 @@ pub struct Wfc {
     link_start: Vec<u32>,
     links: Vec<Link>,
     u_old: Vec<f64>,
-    position_index: SweepIndex,
+    /// The predicted globals' positions: a two-dimensional grid, not a sweep along x,
+    /// whose strip held a whole column of a grid of targets (a track's links are sorted
+    /// by centre afterwards, so the order the grid finds them in does not matter).
+    position_index: BoxGrid,
     table: GroupTable,
     candidates: Vec<Candidate>,
 }
@@ -206,7 +209,7 @@ impl Wfc {
             link_start: Vec::new(),
             links: Vec::new(),
             u_old: Vec::new(),
-            position_index: SweepIndex::default(),
+            position_index: BoxGrid::default(),
             table: GroupTable::default(),
             candidates: Vec::new(),
         })
@@ -330,31 +333,40 @@ impl Wfc {
         let gate = self.params.gate;
         // RMS <= gate implies |p_i(t_0) - p_l(t_0)| <= gate sqrt(W)
         let radius = gate * (self.scans.len().max(1) as f64).sqrt();
-        self.position_index
-            .build(ctx.predicted.iter().map(|(x, _)| x[0]));
+        self.position_index.rebuild(
+            1.0,
+            ctx.predicted.iter().map(|(x, _)| Vec2::new(x[0], x[2])),
+        );
         self.link_start.clear();
         self.links.clear();
         for (i, t) in tracks.iter().enumerate() {
             self.link_start.push(self.links.len() as u32);
             let first = self.links.len();
             let (x, y) = (t.state[0], t.state[2]);
-            for &l in self.position_index.range(x - radius, x + radius) {
-                if (ctx.predicted[l as usize].0[2] - y).abs() > radius {
-                    continue;
-                }
-                let l = l as usize;
-                let d = Self::rms(
-                    &self.z[i * nf..(i + 1) * nf],
-                    &self.v0[l * nf..(l + 1) * nf],
-                );
-                if d <= gate {
-                    self.links.push(Link {
-                        centre: l as u32,
-                        d: 0.0,
-                        u: 0.0,
-                    });
-                }
-            }
+            let (lo, hi) = (x - radius, x + radius);
+            // wider than `radius` in y, so that no rounding of the box's ends drops a
+            // centre the test `|dy| <= radius` accepts
+            let r_y = radius * 1.01 + 1e-6;
+            let (z, v0, links) = (&self.z, &self.v0, &mut self.links);
+            self.position_index
+                .for_each_in_box([lo, y - r_y], [hi, y + r_y], |l, q| {
+                    // the sweep's interval `[lo, hi]` in x (NaN outside it)
+                    if !(q[0] >= lo && q[0] <= hi) {
+                        return;
+                    }
+                    if (ctx.predicted[l as usize].0[2] - y).abs() > radius {
+                        return;
+                    }
+                    let l = l as usize;
+                    let d = Self::rms(&z[i * nf..(i + 1) * nf], &v0[l * nf..(l + 1) * nf]);
+                    if d <= gate {
+                        links.push(Link {
+                            centre: l as u32,
+                            d: 0.0,
+                            u: 0.0,
+                        });
+                    }
+                });
             self.links[first..].sort_unstable_by_key(|k| k.centre);
         }
         self.link_start.push(self.links.len() as u32);
