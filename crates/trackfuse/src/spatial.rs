@@ -1,31 +1,45 @@
-//! Neighbourhood queries without comparing all pairs: one sorted-sweep index for
-//! one-dimensional intervals, one uniform grid for fixed-radius discs in the plane.
+//! Neighbourhood queries without comparing all pairs: a sorted sweep for
+//! one-dimensional intervals, a grid for boxes of per-query size in the plane, and a grid
+//! for fixed-radius discs in the plane.
 //!
-//! Both stages use them: the local tracker's validation gates (`local::gating`), the
-//! fusion center's associators (`ftta`, `fdtta`, `ht-t2gt`, `wfc`, `fta`, `fdbsc-ta`),
-//! bias estimator and track management (the merge test), and the evaluation's gated
-//! assignment (`metrics::assignment`), so they sit below all three.
+//! Both stages use them: the local tracker's validation gates and two-point initiation
+//! (`local::gating`, `local::tracker`), the fusion center's associators (`ftta`,
+//! `fdtta`, `ht-t2gt`, `wfc`, `fta`, `fdbsc-ta`), bias estimator and track management
+//! (the merge test), and the evaluation's gated assignment (`metrics::assignment`), so
+//! they sit below all three.
 //!
 //! # Which query each serves
+//! - [`BoxGrid`]: 2-D points for axis-aligned boxes whose size differs per query (a
+//!   track's gate, an initiation reach, a resolution, a chi-square radius). The local
+//!   gates (over the scan's measurements, in the measurement space), the tentative
+//!   tracks' gates and the two-point initiator's seeds; in the center, the candidates of
+//!   `fdtta`, `ftta`, `fta` and `wfc`, the new groups of [`crate::center`]'s grouping
+//!   table and `ht-t2gt`'s gate in Hough space. Every one of them replaced a sweep along
+//!   x, whose strip holds a whole column of a grid of targets (`O(n^1.5)` work); each
+//!   keeps the sweep's exact tests, so its results are the sweep's, and
+//!   [`BoxGrid::sweep_order_in_box`] gives the sweep's order where a caller's output can
+//!   depend on it.
 //! - [`SweepIndex`]: points sorted by one key (an x coordinate, a range, an angle); the
-//!   query is "every point whose key lies in `[lo, hi]`", with `lo`, `hi` chosen per query
-//!   (a track's gate half-width `sqrt(gamma S_00)`, a resolution, a chi-square radius).
+//!   query is "every point whose key lies in `[lo, hi]`", with `lo`, `hi` chosen per query.
 //!   Two binary searches answer it exactly and return a slice of the index, in key order
 //!   (ties by point index): no allocation, and the caller's iteration order is the same
 //!   on every run. The caller tests the second coordinate (or the full statistic) on the
-//!   slice, so that coordinate may be an angle that wraps at `+-pi`.
+//!   slice, so that coordinate may be an angle that wraps at `+-pi`. Kept where a box
+//!   cannot be trusted (a local gate whose bound in the second axis is not, the
+//!   associators' interface [`crate::local::association::AssociationProblem`]) and for
+//!   `ht-t2gt`'s first-scan position candidates.
 //! - [`EpsGrid`]: 2-D points for a radius fixed per rebuild (`fdbsc-ta`'s Eps, the bias
-//!   estimator's pairing radius, the evaluation's gate, the center's merge test); the query is the disc `|p - q| <= radius` (inclusive),
-//!   and [`EpsGrid::for_each_close_pair`] visits every pair within the radius once (the
-//!   Eps graph). A sorted sweep would hold a whole column of a grid of targets on its
-//!   sweep line (`O(n^1.5)` work); cells of side just over the radius look at 3 x 3 cells
-//!   instead, `O(n log n)` for any bounded target density.
+//!   estimator's pairing radius, the evaluation's gate, the center's merge test); the
+//!   query is the disc `|p - q| <= radius` (inclusive), and
+//!   [`EpsGrid::for_each_close_pair`] visits every pair within the radius once (the Eps
+//!   graph); cells of side just over the radius look at 3 x 3 cells, `O(n log n)` for
+//!   any bounded target density.
 //!
-//! The sweep cannot serve the disc query at the grid's cost, nor the grid a per-query
-//! width (its cell is the radius), so both exist. The `chi2-gnn` associator runs a third
-//! shape, kept in its file: an overlap join of two sets of intervals that each have
-//! their own width (`|dx| <= h_i + h_j`), in horizontal strips; a point index would have
-//! to widen every query by the largest width of the other set.
+//! The sweep cannot serve the disc query at the grid's cost, nor the Eps grid a
+//! per-query size (its cell is the radius), so all three exist. The `chi2-gnn`
+//! associator runs a fourth shape, kept in its file: an overlap join of two sets of
+//! intervals that each have their own width (`|dx| <= h_i + h_j`), in horizontal strips;
+//! a point index would have to widen every query by the largest width of the other set.
 //!
 //! # Why hand-written
 //! A k-d tree (`kiddo`) answers Euclidean boxes and balls over all coordinates: it
@@ -448,20 +462,29 @@ impl BoxGrid {
 
     /// `(x, index)` of the points whose first coordinate lies in `[lo[0], hi[0]]`
     /// (inclusive; a NaN coordinate or bound in neither) among those the box `[lo, hi]`
-    /// visits ([`BoxGrid::for_each_in_box`]), into `out` (cleared first), in the order a
-    /// [`SweepIndex`] over the first coordinate gives them: by [`f64::total_cmp`], ties by
-    /// index. For callers whose results depend on the order their former sweep along x
-    /// found the points in (a greedy pass over candidates whose comparison is not a
-    /// total order when a score is NaN): with the second axis' test they applied to the
-    /// sweep's slice, they see the same points in the same order.
-    pub fn sweep_order_in_box(&self, lo: [f64; 2], hi: [f64; 2], out: &mut Vec<(f64, u32)>) {
+    /// visits ([`BoxGrid::for_each_in_box`]), into `out` (cleared first). With
+    /// `sweep_order`, in the order a [`SweepIndex`] over the first coordinate gives them
+    /// (by [`f64::total_cmp`], ties by index); else in the grid's order. For callers that
+    /// replaced a sweep along x and whose results can depend on the order it found the
+    /// points in (a greedy pass whose comparison is not a total order when a value is
+    /// NaN): with the second axis' test they applied to the sweep's slice, and
+    /// `sweep_order` where that order can matter, they see what the sweep gave.
+    pub fn sweep_order_in_box(
+        &self,
+        lo: [f64; 2],
+        hi: [f64; 2],
+        sweep_order: bool,
+        out: &mut Vec<(f64, u32)>,
+    ) {
         out.clear();
         self.for_each_in_box(lo, hi, |i, q| {
             if q[0] >= lo[0] && q[0] <= hi[0] {
                 out.push((q[0], i));
             }
         });
-        out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        if sweep_order {
+            out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        }
     }
 }
 
@@ -803,8 +826,15 @@ mod tests {
             for &(cx, cy, hx, hy) in &queries {
                 let (cx, cy, hx, hy) = (cx as f64 * 0.7, cy as f64 * 1.3, hx as f64 * 0.7, hy as f64 * 1.3);
                 let (lo, hi) = ([cx - hx, cy - hy], [cx + hx, cy + hy]);
-                grid.sweep_order_in_box(lo, hi, &mut out);
+                grid.sweep_order_in_box(lo, hi, false, &mut out);
+                let mut unsorted: Vec<u32> = out.iter().map(|e| e.1).collect();
+                grid.sweep_order_in_box(lo, hi, true, &mut out);
                 let got: Vec<u32> = out.iter().map(|e| e.1).collect();
+                // the same points either way
+                unsorted.sort_unstable();
+                let mut sorted = got.clone();
+                sorted.sort_unstable();
+                prop_assert_eq!(unsorted, sorted);
                 let slice = idx.range(lo[0], hi[0]);
                 // a part of the sweep's slice, in its order
                 let in_slice: Vec<u32> = slice.iter().copied().filter(|i| got.contains(i)).collect();

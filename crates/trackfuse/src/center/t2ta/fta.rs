@@ -196,9 +196,11 @@ pub struct Fta {
     sources: Vec<((Id, Id), usize, u32)>,
     previous_global: Vec<Option<usize>>,
     /// The predicted globals' positions: a two-dimensional grid, not a sweep along x,
-    /// whose strip held a whole column of a grid of targets; queried in the sweep's
-    /// order ([`BoxGrid::sweep_order_in_box`]), which the greedy pass over the
-    /// candidates sees.
+    /// whose strip held a whole column of a grid of targets. The greedy pass over the
+    /// candidates sorts them best first by (similarity, distance, track, target), a
+    /// total order unless a distance is NaN, which only a NaN y of a track or global
+    /// makes; in such a scan the grid is queried in the sweep's order
+    /// ([`BoxGrid::sweep_order_in_box`]), so that the result is the sweep's there too.
     position_index: BoxGrid,
     /// `(x, global)` of one query.
     near: Vec<(f64, u32)>,
@@ -270,6 +272,8 @@ impl TrackAssociator for Fta {
             ctx.predicted.iter().map(|(x, _)| Vec2::new(x[0], x[2])),
         );
         self.table.reset(tracks.len(), globals.len());
+        let nan_y = tracks.iter().any(|t| t.state[2].is_nan())
+            || ctx.predicted.iter().any(|(x, _)| x[2].is_nan());
         let eps = self.params.threshold;
         let gate = self.params.position_gate;
         let mut candidates = std::mem::take(&mut self.candidates);
@@ -311,6 +315,7 @@ impl TrackAssociator for Fta {
                 self.position_index.sweep_order_in_box(
                     [pos[0] - gate, pos[1] - r_y],
                     [pos[0] + gate, pos[1] + r_y],
+                    nan_y,
                     &mut self.near,
                 );
                 for &(_, g) in &self.near {
@@ -329,7 +334,7 @@ impl TrackAssociator for Fta {
                         });
                     }
                 }
-                for (target, seed) in self.table.new_groups_near(tracks, &pos, gate) {
+                for (target, seed) in self.table.new_groups_near(tracks, &pos, gate, nan_y) {
                     let s = &tracks[seed];
                     if s.sensor_id == t.sensor_id {
                         continue;

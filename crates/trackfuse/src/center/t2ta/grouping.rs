@@ -207,22 +207,24 @@ impl GroupTable {
     }
 
     /// `(target, seed track)` of the indexed new groups whose seed lies within `radius`
-    /// of `position` in both x and y, in the order of the seeds' x (ties by group): the
-    /// order the sweep along x that this grid replaced gave, which the callers' greedy
-    /// passes see (their comparison is not a total order when a score is NaN). The box
-    /// is wider than `radius` in y, so that no rounding of its ends drops a seed the
-    /// test `|dy| <= radius` accepts.
+    /// of `position` in both x and y. With `sweep_order`, in the order of the seeds' x
+    /// (ties by group): the order the sweep along x that this grid replaced gave, for a
+    /// caller whose greedy pass can see it (its comparison is not a total order when a
+    /// value is NaN); else in the grid's order. The box is wider than `radius` in y, so
+    /// that no rounding of its ends drops a seed the test `|dy| <= radius` accepts.
     pub fn new_groups_near<'a>(
         &'a mut self,
         tracks: &'a [LocalTrack],
         position: &Vec2,
         radius: f64,
+        sweep_order: bool,
     ) -> impl Iterator<Item = (usize, usize)> + 'a {
         let (x, y) = (position[0], position[1]);
         let r_y = radius * 1.01 + 1e-6;
         self.seed_index.sweep_order_in_box(
             [x - radius, y - r_y],
             [x + radius, y + r_y],
+            sweep_order,
             &mut self.near,
         );
         let (near, new_seed, n_globals) = (&self.near, &self.new_seed, self.n_globals);
@@ -253,7 +255,9 @@ impl GroupTable {
                 continue;
             }
             let position = track_position(&tracks[i]);
-            for (target, seed) in self.new_groups_near(tracks, &position, radius) {
+            // the candidates' scores are finite (`-d`) and their tiebreaks 0, so their
+            // order is total and the order they are found in does not matter
+            for (target, seed) in self.new_groups_near(tracks, &position, radius, false) {
                 if tracks[seed].sensor_id == tracks[i].sensor_id {
                     continue;
                 }
