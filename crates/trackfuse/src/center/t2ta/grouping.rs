@@ -81,7 +81,7 @@ pub(crate) struct GroupTable {
     /// The seeds' positions (rebuilt per sensor in `group_leftovers`): a two-dimensional
     /// grid, not a sweep along x, whose strip held a whole column of a grid of targets.
     seed_index: BoxGrid,
-    /// `(x, new group)` of a query, in the order the former sweep found them.
+    /// `(x, new group)` of one query ([`GroupTable::new_groups_near`]).
     near: Vec<(f64, u32)>,
 }
 
