@@ -14,9 +14,10 @@
 //!   gates (over the scan's measurements, in the measurement space), the tentative
 //!   tracks' gates and the two-point initiator's seeds; in the center, the candidates of
 //!   `fdtta`, `ftta`, `fta` and `wfc`, the new groups of [`crate::center`]'s grouping
-//!   table and `ht-t2gt`'s gate in Hough space. Every one of them replaced a sweep along
-//!   x, whose strip holds a whole column of a grid of targets (`O(n^1.5)` work); each
-//!   keeps the sweep's exact tests, so its results are the sweep's, and
+//!   table, and `ht-t2gt`'s gate in Hough space and its first-scan tracks' candidates.
+//!   Every one of them replaced a sweep along x, whose strip holds a whole column of a
+//!   grid of targets (`O(n^1.5)` work); each keeps the sweep's exact tests, so its
+//!   results are the sweep's, and
 //!   [`BoxGrid::sweep_order_in_box`] gives the sweep's order where a caller's output can
 //!   depend on it.
 //! - [`SweepIndex`]: points sorted by one key (an x coordinate, a range, an angle); the
@@ -25,9 +26,8 @@
 //!   (ties by point index): no allocation, and the caller's iteration order is the same
 //!   on every run. The caller tests the second coordinate (or the full statistic) on the
 //!   slice, so that coordinate may be an angle that wraps at `+-pi`. Kept where a box
-//!   cannot be trusted (a local gate whose bound in the second axis is not, the
-//!   associators' interface [`crate::local::association::AssociationProblem`]) and for
-//!   `ht-t2gt`'s first-scan position candidates.
+//!   cannot be trusted (a local gate whose bound in the second axis is not) and in the
+//!   local associators' interface ([`crate::local::association::AssociationProblem`]).
 //! - [`EpsGrid`]: 2-D points for a radius fixed per rebuild (`fdbsc-ta`'s Eps, the bias
 //!   estimator's pairing radius, the evaluation's gate, the center's merge test); the
 //!   query is the disc `|p - q| <= radius` (inclusive), and

@@ -84,7 +84,7 @@ use crate::center::hough::{HoughPoint, HoughSpace};
 use crate::center::{AssociationContext, CenterError, GlobalTrack, TrackAssociator, TrackGroup};
 use crate::max_entropy::{DMin, MaxEntropy, MePair, Normalise};
 use crate::params::{in_range, positive, ParamError};
-use crate::spatial::{BoxGrid, SweepIndex};
+use crate::spatial::BoxGrid;
 use crate::types::{Id, LocalTrack, Vec2};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -255,7 +255,12 @@ pub struct HtT2gt {
     /// The centres at `(theta, rho)`, for the gates in Hough space.
     centre_grid: BoxGrid,
     theta_of_index: Vec<u32>,
-    position_index: SweepIndex,
+    /// The predicted globals' positions, for the first-scan tracks' candidates: a
+    /// two-dimensional grid, not a sweep along x (whose strip held a whole column of a
+    /// grid of targets), queried in the sweep's order, which the memberships' sums see.
+    position_index: BoxGrid,
+    /// `(x, global)` of one query.
+    near: Vec<(f64, u32)>,
     table: GroupTable,
     candidates: Vec<Candidate>,
 }
@@ -281,7 +286,8 @@ impl HtT2gt {
             omega_buf: Vec::new(),
             centre_grid: BoxGrid::default(),
             theta_of_index: Vec::new(),
-            position_index: SweepIndex::default(),
+            position_index: BoxGrid::default(),
+            near: Vec::new(),
             table: GroupTable::default(),
             candidates: Vec::new(),
         })
@@ -541,7 +547,17 @@ impl HtT2gt {
                 continue;
             }
             let pos = track_position(track);
-            for &l in self.position_index.range(pos[0] - gate, pos[0] + gate) {
+            // the sweep's slice in the sweep's order, less the globals whose finite y is
+            // beyond the disc below (the box is wider than it, so that no rounding of the
+            // box's ends drops one the test accepts)
+            let r_y = gate * 1.01 + 1e-6;
+            self.position_index.sweep_order_in_box(
+                [pos[0] - gate, pos[1] - r_y],
+                [pos[0] + gate, pos[1] + r_y],
+                true,
+                &mut self.near,
+            );
+            for &(_, l) in &self.near {
                 let pred = &ctx.predicted[l as usize].0;
                 let d2 = (pos - Vec2::new(pred[0], pred[2])).norm_squared();
                 let compatible = match (self.lines[i], self.centres[l as usize]) {
@@ -640,8 +656,10 @@ impl TrackAssociator for HtT2gt {
         self.gate_tracklets(ctx, tracks);
         self.memberships();
         self.iterate();
-        self.position_index
-            .build(ctx.predicted.iter().map(|(x, _)| x[0]));
+        self.position_index.rebuild(
+            1.0,
+            ctx.predicted.iter().map(|(x, _)| Vec2::new(x[0], x[2])),
+        );
 
         self.table.reset(tracks.len(), globals.len());
         let pos_gate = self.params.position_gate;
