@@ -18,8 +18,9 @@
 //!   Every one of them replaced a sweep along x, whose strip holds a whole column of a
 //!   grid of targets (`O(n^1.5)` work); each keeps the sweep's exact tests, so its
 //!   results are the sweep's, and
-//!   [`BoxGrid::sweep_order_in_box`] gives the sweep's order where a caller's output can
-//!   depend on it.
+//!   [`BoxGrid::for_each_in_strip`] is their query, and
+//!   [`BoxGrid::strip_in_sweep_order`] gives the sweep's order where a caller's output
+//!   can depend on it.
 //! - [`SweepIndex`]: points sorted by one key (an x coordinate, a range, an angle); the
 //!   query is "every point whose key lies in `[lo, hi]`", with `lo`, `hi` chosen per query.
 //!   Two binary searches answer it exactly and return a slice of the index, in key order
@@ -460,28 +461,37 @@ impl BoxGrid {
         }
     }
 
-    /// `(x, index)` of the points whose first coordinate lies in `[lo[0], hi[0]]`
-    /// (inclusive; a NaN coordinate or bound in neither) among those the box `[lo, hi]`
-    /// visits ([`BoxGrid::for_each_in_box`]), into `out` (cleared first). With
-    /// `sweep_order`, in the order a [`SweepIndex`] over the first coordinate gives them
-    /// (by [`f64::total_cmp`], ties by index); else in the grid's order. For callers that
-    /// replaced a sweep along x and whose results can depend on the order it found the
-    /// points in (a greedy pass whose comparison is not a total order when a value is
-    /// NaN): with the second axis' test they applied to the sweep's slice, and
-    /// `sweep_order` where that order can matter, they see what the sweep gave.
-    pub fn sweep_order_in_box(
+    /// The query of a caller that replaced a sweep along x: `f(index, point)` for every
+    /// point whose x lies in `[c[0] - half, c[0] + half]` (inclusive; a NaN coordinate or
+    /// bound in neither, as the sweep's slice) and whose y may lie within `half` of
+    /// `c[1]`, in the grid's order. The box in y is widened by 1 % and 1e-6, so that no
+    /// rounding of its ends drops a point the caller's own test `|y - c[1]| <= half` (or
+    /// a stricter one) accepts; points with a non-finite y are always visited. With that
+    /// test applied, the caller sees the sweep's points.
+    pub fn for_each_in_strip(&self, c: Vec2, half: f64, mut f: impl FnMut(u32, &Vec2)) {
+        let (lo, hi) = (c[0] - half, c[0] + half);
+        let r_y = half * 1.01 + 1e-6;
+        self.for_each_in_box([lo, c[1] - r_y], [hi, c[1] + r_y], |i, q| {
+            if q[0] >= lo && q[0] <= hi {
+                f(i, q);
+            }
+        });
+    }
+
+    /// `(x, index)` of the points [`BoxGrid::for_each_in_strip`] visits, into `out`
+    /// (cleared first). With `sweep_order`, in the order a [`SweepIndex`] over x gives
+    /// them (by [`f64::total_cmp`], ties by index); else in the grid's order. For callers
+    /// whose results can depend on the order the sweep found the points in (a greedy pass
+    /// whose comparison is not a total order when a value is NaN, a sum in that order).
+    pub fn strip_in_sweep_order(
         &self,
-        lo: [f64; 2],
-        hi: [f64; 2],
+        c: Vec2,
+        half: f64,
         sweep_order: bool,
         out: &mut Vec<(f64, u32)>,
     ) {
         out.clear();
-        self.for_each_in_box(lo, hi, |i, q| {
-            if q[0] >= lo[0] && q[0] <= hi[0] {
-                out.push((q[0], i));
-            }
-        });
+        self.for_each_in_strip(c, half, |i, q| out.push((q[0], i)));
         if sweep_order {
             out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         }
@@ -802,17 +812,17 @@ mod tests {
             }
         }
 
-        /// The box grid's sweep order is a part of the sweep's slice (x in `[lo, hi]`, in
-        /// x order, ties by index) that holds every point of the slice in the box and
-        /// every one whose y is not finite.
+        /// The strip is a part of the sweep's slice (x in `[c_0 - h, c_0 + h]`), in x
+        /// order (ties by index) when asked, that holds every point of the slice whose y
+        /// is within `h` of `c_1` and every one whose y is not finite.
         #[test]
-        fn box_grid_sweep_order_is_the_sweeps(
+        fn box_grid_strip_is_the_sweeps(
             raw in proptest::collection::vec((-40i32..40, -40i32..40), 0..100),
-            queries in proptest::collection::vec((-50i32..50, -50i32..50, 0i32..20, 0i32..20), 1..10),
+            queries in proptest::collection::vec((-50i32..50, -50i32..50, 0i32..20), 1..10),
             nan in proptest::option::of((0usize..100, 0u8..2)),
         ) {
-            // lattice points, so that ties and points on the box's edges occur
-            let mut points: Vec<Vec2> = raw.iter().map(|&(x, y)| Vec2::new(x as f64 * 0.7, y as f64 * 1.3)).collect();
+            // lattice points, so that ties and points on the strip's edges occur
+            let mut points: Vec<Vec2> = raw.iter().map(|&(x, y)| Vec2::new(x as f64 * 0.7, y as f64 * 0.7)).collect();
             if let Some((k, axis)) = nan {
                 if let Some(p) = points.get_mut(k) {
                     p[usize::from(axis)] = f64::NAN;
@@ -823,26 +833,25 @@ mod tests {
             let mut idx = SweepIndex::default();
             idx.build(points.iter().map(|p| p[0]));
             let mut out = Vec::new();
-            for &(cx, cy, hx, hy) in &queries {
-                let (cx, cy, hx, hy) = (cx as f64 * 0.7, cy as f64 * 1.3, hx as f64 * 0.7, hy as f64 * 1.3);
-                let (lo, hi) = ([cx - hx, cy - hy], [cx + hx, cy + hy]);
-                grid.sweep_order_in_box(lo, hi, false, &mut out);
+            for &(cx, cy, h) in &queries {
+                let (c, h) = (Vec2::new(cx as f64 * 0.7, cy as f64 * 0.7), h as f64 * 0.7);
+                grid.strip_in_sweep_order(c, h, false, &mut out);
                 let mut unsorted: Vec<u32> = out.iter().map(|e| e.1).collect();
-                grid.sweep_order_in_box(lo, hi, true, &mut out);
+                grid.strip_in_sweep_order(c, h, true, &mut out);
                 let got: Vec<u32> = out.iter().map(|e| e.1).collect();
                 // the same points either way
                 unsorted.sort_unstable();
                 let mut sorted = got.clone();
                 sorted.sort_unstable();
                 prop_assert_eq!(unsorted, sorted);
-                let slice = idx.range(lo[0], hi[0]);
+                let slice = idx.range(c[0] - h, c[0] + h);
                 // a part of the sweep's slice, in its order
                 let in_slice: Vec<u32> = slice.iter().copied().filter(|i| got.contains(i)).collect();
                 prop_assert_eq!(&got, &in_slice);
-                // holding every point of the slice the box holds, and the non-finite y
+                // holding every point of the slice within `h` in y, and the non-finite y
                 for &i in slice {
                     let y = points[i as usize][1];
-                    if !y.is_finite() || (y >= lo[1] && y <= hi[1]) {
+                    if !y.is_finite() || (y - c[1]).abs() <= h {
                         prop_assert!(got.contains(&i), "point {} missed", i);
                     }
                 }

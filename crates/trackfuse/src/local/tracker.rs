@@ -1044,7 +1044,7 @@ impl SensorTracker {
             let score = if scored {
                 let area = match gate {
                     PairGate::MaxAxis => {
-                        let reach = max_speed * dt + PAIR_SIGMAS * (spread(&pc) + spread(&s.cov));
+                        let reach = max_speed * dt + PAIR_SIGMAS * (spread(&pc) + s.spread);
                         std::f64::consts::PI * reach * reach
                     }
                     PairGate::Mahalanobis => {

@@ -657,33 +657,27 @@ impl Fdtta {
             } else {
                 f64::INFINITY
             };
-            let (lo, hi) = (pos[0] - radius, pos[0] + radius);
             let (col_ids, candidates, entries, params) = (
                 &self.col_ids,
                 &self.candidates,
                 &mut self.entries,
                 &self.params,
             );
-            // the box's second axis wider than the test below, so that no rounding of
-            // its ends drops a column the test accepts
-            let r_y = radius * 1.01 + 1e-6;
-            self.index
-                .for_each_in_box([lo, pos[1] - r_y], [hi, pos[1] + r_y], |k, q| {
-                    // the interval `[lo, hi]` in x (NaN outside it), then `|dy| <= radius`
-                    if !(q[0] >= lo && q[0] <= hi) || (q[1] - pos[1]).abs() > radius {
-                        return;
-                    }
-                    let c = col_ids[k as usize];
-                    let cand = &candidates[c as usize];
-                    let f = similarity(params, (&t.state, &t.cov), (&cand.state, &cand.cov));
-                    if f > floor {
-                        entries.push(Entry {
-                            f,
-                            row: r as u32,
-                            col: c,
-                        });
-                    }
-                });
+            self.index.for_each_in_strip(pos, radius, |k, q| {
+                if (q[1] - pos[1]).abs() > radius {
+                    return;
+                }
+                let c = col_ids[k as usize];
+                let cand = &candidates[c as usize];
+                let f = similarity(params, (&t.state, &t.cov), (&cand.state, &cand.cov));
+                if f > floor {
+                    entries.push(Entry {
+                        f,
+                        row: r as u32,
+                        col: c,
+                    });
+                }
+            });
         }
         sort_entries(&mut self.entries);
         // (c) maximum-similarity assignment with threshold

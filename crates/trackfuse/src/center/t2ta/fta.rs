@@ -200,7 +200,7 @@ pub struct Fta {
     /// candidates sorts them best first by (similarity, distance, track, target), a
     /// total order unless a distance is NaN, which only a NaN y of a track or global
     /// makes; in such a scan the grid is queried in the sweep's order
-    /// ([`BoxGrid::sweep_order_in_box`]), so that the result is the sweep's there too.
+    /// ([`BoxGrid::strip_in_sweep_order`]), so that the result is the sweep's there too.
     position_index: BoxGrid,
     /// `(x, global)` of one query.
     near: Vec<(f64, u32)>,
@@ -309,15 +309,8 @@ impl TrackAssociator for Fta {
                 }
                 let t = &tracks[i];
                 let pos = track_position(t);
-                // the box is wider than `gate` in y, so that no rounding of its ends drops
-                // a global the test `|dy| <= gate` below accepts
-                let r_y = gate * 1.01 + 1e-6;
-                self.position_index.sweep_order_in_box(
-                    [pos[0] - gate, pos[1] - r_y],
-                    [pos[0] + gate, pos[1] + r_y],
-                    nan_y,
-                    &mut self.near,
-                );
+                self.position_index
+                    .strip_in_sweep_order(pos, gate, nan_y, &mut self.near);
                 for &(_, g) in &self.near {
                     let (x, p) = &ctx.predicted[g as usize];
                     if (x[2] - pos[1]).abs() > gate {

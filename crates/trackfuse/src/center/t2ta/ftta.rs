@@ -460,25 +460,20 @@ impl Ftta {
         self.next.resize(n, NONE);
         self.tail.clear();
         self.tail.extend(0..n);
-        // candidate pairs: within `r_max` in x (the sweep's interval) and in the box that
-        // holds every pair `correlated` can accept (`|dy| <= |d| <= r_max`, widened so
-        // that no rounding of the box's ends drops one)
+        // candidate pairs: the strip of `r_max` (the sweep's interval in x; every pair
+        // `correlated` can accept has `|dy| <= |d| <= r_max`)
         self.grid
             .rebuild(1.0, self.reports.iter().map(|r| r.position));
         let r_max = self
             .reports
             .iter()
             .fold(MIN_LENGTH, |a, r| a.max(r.resolution));
-        let r_y = r_max * 1.01 + 1e-6;
         self.pairs.clear();
         let (reports, pairs) = (&self.reports, &mut self.pairs);
         for (i, ri) in reports.iter().enumerate() {
-            let (lo, hi) = (ri.position[0] - r_max, ri.position[0] + r_max);
-            let (y_lo, y_hi) = (ri.position[1] - r_y, ri.position[1] + r_y);
-            self.grid.for_each_in_box([lo, y_lo], [hi, y_hi], |j, q| {
+            self.grid.for_each_in_strip(ri.position, r_max, |j, _| {
                 let j = j as usize;
-                // the interval `[lo, hi]` in x (NaN outside it)
-                if j <= i || !(q[0] >= lo && q[0] <= hi) || !correlated(ri, &reports[j]) {
+                if j <= i || !correlated(ri, &reports[j]) {
                     return;
                 }
                 let rj = &reports[j];
@@ -524,14 +519,7 @@ impl Ftta {
         let edges = &mut self.edges;
         for (g, (centre, cov)) in centres.iter().enumerate() {
             let radius = (gamma * (cov.trace() + max_tr)).max(0.0).sqrt();
-            let (lo, hi) = (centre[0] - radius, centre[0] + radius);
-            let r_y = radius * 1.01 + 1e-6;
-            let (y_lo, y_hi) = (centre[1] - r_y, centre[1] + r_y);
-            self.grid.for_each_in_box([lo, y_lo], [hi, y_hi], |n, q| {
-                // the interval `[lo, hi]` in x (NaN outside it), then `|dy| <= radius`
-                if !(q[0] >= lo && q[0] <= hi) {
-                    return;
-                }
+            self.grid.for_each_in_strip(*centre, radius, |n, _| {
                 let n = n as usize;
                 let (xs, cs) = &predicted[n];
                 let d = centre - position_of(xs);

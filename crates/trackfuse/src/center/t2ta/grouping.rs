@@ -210,8 +210,7 @@ impl GroupTable {
     /// of `position` in both x and y. With `sweep_order`, in the order of the seeds' x
     /// (ties by group): the order the sweep along x that this grid replaced gave, for a
     /// caller whose greedy pass can see it (its comparison is not a total order when a
-    /// value is NaN); else in the grid's order. The box is wider than `radius` in y, so
-    /// that no rounding of its ends drops a seed the test `|dy| <= radius` accepts.
+    /// value is NaN); else in the grid's order ([`BoxGrid::strip_in_sweep_order`]).
     pub fn new_groups_near<'a>(
         &'a mut self,
         tracks: &'a [LocalTrack],
@@ -219,14 +218,9 @@ impl GroupTable {
         radius: f64,
         sweep_order: bool,
     ) -> impl Iterator<Item = (usize, usize)> + 'a {
-        let (x, y) = (position[0], position[1]);
-        let r_y = radius * 1.01 + 1e-6;
-        self.seed_index.sweep_order_in_box(
-            [x - radius, y - r_y],
-            [x + radius, y + r_y],
-            sweep_order,
-            &mut self.near,
-        );
+        let y = position[1];
+        self.seed_index
+            .strip_in_sweep_order(*position, radius, sweep_order, &mut self.near);
         let (near, new_seed, n_globals) = (&self.near, &self.new_seed, self.n_globals);
         near.iter().filter_map(move |&(_, j)| {
             let seed = *new_seed.get(j as usize)?;

@@ -547,16 +547,9 @@ impl HtT2gt {
                 continue;
             }
             let pos = track_position(track);
-            // the sweep's slice in the sweep's order, less the globals whose finite y is
-            // beyond the disc below (the box is wider than it, so that no rounding of the
-            // box's ends drops one the test accepts)
-            let r_y = gate * 1.01 + 1e-6;
-            self.position_index.sweep_order_in_box(
-                [pos[0] - gate, pos[1] - r_y],
-                [pos[0] + gate, pos[1] + r_y],
-                true,
-                &mut self.near,
-            );
+            // the sweep's slice in the sweep's order, less globals beyond the disc below
+            self.position_index
+                .strip_in_sweep_order(pos, gate, true, &mut self.near);
             for &(_, l) in &self.near {
                 let pred = &ctx.predicted[l as usize].0;
                 let d2 = (pos - Vec2::new(pred[0], pred[2])).norm_squared();

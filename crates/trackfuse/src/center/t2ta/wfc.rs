@@ -343,17 +343,9 @@ impl Wfc {
             self.link_start.push(self.links.len() as u32);
             let first = self.links.len();
             let (x, y) = (t.state[0], t.state[2]);
-            let (lo, hi) = (x - radius, x + radius);
-            // wider than `radius` in y, so that no rounding of the box's ends drops a
-            // centre the test `|dy| <= radius` accepts
-            let r_y = radius * 1.01 + 1e-6;
             let (z, v0, links) = (&self.z, &self.v0, &mut self.links);
             self.position_index
-                .for_each_in_box([lo, y - r_y], [hi, y + r_y], |l, q| {
-                    // the sweep's interval `[lo, hi]` in x (NaN outside it)
-                    if !(q[0] >= lo && q[0] <= hi) {
-                        return;
-                    }
+                .for_each_in_strip(Vec2::new(x, y), radius, |l, _| {
                     if (ctx.predicted[l as usize].0[2] - y).abs() > radius {
                         return;
                     }
