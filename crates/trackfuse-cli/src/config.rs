@@ -195,7 +195,7 @@ pub struct FusionFlags {
     /// Chi-square gate probability of the merge and hysteresis tests (default 0.99).
     #[arg(long, value_name = "P")]
     pub management_gate: Option<f64>,
-    /// The center's update period in seconds (`fuse` on files; [fusion] period). Default:
+    /// The center's update period in seconds (`fuse` on files; `[fusion] period`). Default:
     /// the shortest of the sensors' median report intervals in local_tracks.csv, so the
     /// center updates as often as its fastest sensor reports (synchronous sensors: their
     /// common scan interval, fused scan by scan).

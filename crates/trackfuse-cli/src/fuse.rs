@@ -59,7 +59,7 @@ pub struct FuseArgs {
     /// Gate (m) for labelling local tracks with the target they follow (with --truth).
     #[arg(long, default_value_t = 2000.0)]
     pub label_gate: f64,
-    /// Scenario whose [fusion] section is the base config.
+    /// Scenario whose `[fusion]` section is the base config.
     #[arg(long)]
     pub scenario: Option<String>,
     #[command(flatten)]

@@ -40,7 +40,7 @@ pub struct TrackArgs {
     /// measurements.csv (default: DATA/measurements.csv).
     #[arg(long)]
     pub measurements: Option<PathBuf>,
-    /// Scenario whose [tracker] section is the base config and whose targets are the
+    /// Scenario whose `[tracker]` section is the base config and whose targets are the
     /// known initial states of --init known.
     #[arg(long)]
     pub scenario: Option<String>,

@@ -59,7 +59,7 @@ fn mark_closed(e: std::io::Error) -> std::io::Error {
 #[derive(Args, Debug)]
 pub struct ServeArgs {
     /// The service configuration (center.toml: addresses, expected sensors, latency
-    /// budget, limits, [fusion]).
+    /// budget, limits, `[fusion]`).
     #[arg(long)]
     pub config: PathBuf,
     /// Journal every accepted message (and every budget release) to FILE before it is

@@ -152,7 +152,7 @@ async fn last_published(output: &stream::Stream, subject: &str) -> Result<Option
 }
 
 /// The size an output part is cut at: the first line end at or after it ends a part
-/// (parts are split further, by [`parts`], only where a single line is so long that
+/// (parts are split further, by `parts`, only where a single line is so long that
 /// this would pass half the server's `max_payload`).
 pub const PART: usize = 32 * 1024;
 

@@ -5,14 +5,14 @@
 //!   `limits.max_line_bytes`), parses and checks them, applies the per-sensor rate limit
 //!   and sends valid reports to the center over one bounded queue (a full queue makes
 //!   the connections wait: TCP backpressure, nothing dropped), in batches of at most
-//!   [`BATCH`]; a report later than every earlier one on the connection is sent at
+//!   `BATCH`; a report later than every earlier one on the connection is sent at
 //!   once, since it may complete an instant. A bad line is counted and
 //!   logged there, so a peer sending garbage costs only its own task. A connection that
 //!   does not complete a line within `limits.read_timeout` is closed (`timeout`).
 //! - The center task takes the reports in arrival order and runs the engine and its
 //!   latency-budget timer; each fused instant goes to the publisher task (a queue of
-//!   [`PUBLISH_QUEUE`] instants; a full one makes the center wait), which encodes its
-//!   lines in chunks of [`CHUNK`] bytes and hands each chunk to the subscribers as soon
+//!   `PUBLISH_QUEUE` instants; a full one makes the center wait), which encodes its
+//!   lines in chunks of `CHUNK` bytes and hands each chunk to the subscribers as soon
 //!   as it is encoded, so the first lines leave while the rest are encoded and the
 //!   center is already taking the next reports (on the other core).
 //! - Each subscriber has its own queue of `limits.subscriber_buffer` instants, filled
@@ -30,7 +30,7 @@
 //! - Shutdown (SIGTERM / SIGINT for `serve`, [`Service::shutdown`] for a library user):
 //!   the listeners stop, the queue is drained, every batch held is fused, the journal and
 //!   the output file are flushed, the subscribers get the last lines and EOF (shutdown
-//!   waits for their writers, at most [`SUBSCRIBER_FLUSH`]).
+//!   waits for their writers, at most `SUBSCRIBER_FLUSH`).
 
 use crate::config::ServiceConfig;
 use crate::engine::{Engine, EngineStats, InstantOutput, Verdict};

@@ -1,7 +1,7 @@
 //! Maximum-entropy fuzzy memberships with the discriminating factor
 //! `alpha = -ln(epsilon) / d_min` (Li, Ji, Gao 2006, "Maximum entropy fuzzy clustering
 //! with application to real-time target tracking", Signal Processing 86(11), cited as
-//! [35] by 000, [22] by 001, [13]/[14] by 002), the one implementation used by
+//! \[35\] by 000, \[22\] by 001, \[13\]/\[14\] by 002), the one implementation used by
 //! `fdbsc-ta` (000 eq. 6-8), `fdb-daf` and `mef-jpda` (001 eq. 12-13) and `ht-t2gt`
 //! (002 eq. 13, 15).
 //!

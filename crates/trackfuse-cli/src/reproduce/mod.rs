@@ -36,7 +36,7 @@ pub struct ReproduceArgs {
     /// Monte Carlo runs (default: each paper's own count).
     #[arg(long)]
     pub runs: Option<u32>,
-    /// Output file (default: docs/reproduction/<paper>.md).
+    /// Output file (default: `docs/reproduction/<paper>.md`).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// List the reproductions.

@@ -39,7 +39,7 @@ pub struct GatedAssigner {
     edges: Vec<(u32, f64)>,
     /// Where each row's candidates start in `edges` (one more entry than rows).
     edge_start: Vec<u32>,
-    /// The augmentation's state ([`Self::augment`]): each column's row and each row's
+    /// The augmentation's state (`Self::augment`): each column's row and each row's
     /// column ([`NONE`]: free), the duals, the search's distances, predecessors, the
     /// columns it reached, the rows it visited and the columns it touched.
     col_row: Vec<u32>,
@@ -77,7 +77,7 @@ impl GatedAssigner {
     /// nearest is the unique optimum (the cost is `n gate^2` minus the sum of the
     /// assigned pairs' `gate^2 - d^2`, each at its largest), the answer any exact solver
     /// gives, so it is taken at once. Otherwise that matching, less the rows in conflict,
-    /// is the start of the exact solution ([`Self::augment`]).
+    /// is the start of the exact solution (`Self::augment`).
     pub fn solve(&mut self, rows: &[Vec2], cols: &[Vec2], gate: f64) -> &[Option<usize>] {
         self.out.clear();
         self.out.resize(rows.len(), None);

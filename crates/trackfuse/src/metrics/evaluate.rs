@@ -7,7 +7,7 @@
 //!
 //! - Position RMSE per target: `sqrt(mean of |p_est - p_true|^2)` over every scan and run
 //!   where the target has an assigned estimate (000 eq. 11); per scan over runs (001 eq. 17).
-//! - GOSPA / OSPA per scan, averaged over scans and runs ([`super::gospa`]).
+//! - GOSPA / OSPA per scan, averaged over scans and runs ([`mod@super::gospa`]).
 //! - NEES `e^T P^-1 e` of the 4-dim state error of assigned estimates, averaged. An
 //!   estimate whose covariance has no inverse (singular: not positive definite) has no
 //!   NEES; it is left out of the mean and counted (`nees_fused_skipped`,
@@ -741,7 +741,7 @@ pub struct LocalRmse {
     pub samples: u64,
 }
 
-/// GOSPA means (parts in p-th power form, see [`super::gospa`]).
+/// GOSPA means (parts in p-th power form, see [`mod@super::gospa`]).
 #[derive(Debug, Clone, Serialize)]
 pub struct GospaSummary {
     pub c: f64,

@@ -1,6 +1,6 @@
 //! `eq15-mean-residual`: 000's eq. 15 as printed, a [`BiasEstimator`].
 //!
-//! 000 (Nazari et al., IEEE Access 7, 2019, Sec. V-B, after Guo et al. [37]) corrects
+//! 000 (Nazari et al., IEEE Access 7, 2019, Sec. V-B, after Guo et al. \[37\]) corrects
 //! the sensor biases at the fusion center "after estimating the target's state":
 //!
 //! ```text

@@ -7,7 +7,7 @@
 //! P = P_1 - (P_1 - P_12)(P_1 + P_2 - P_12 - P_21)^-1 (P_1 - P_21)
 //! ```
 //! `n` tracks: the generalised (block) BLUE with every pairwise cross-covariance
-//! ([`super::blue`], which reduces to the formula above for two). Chang, Saha &
+//! (`super::blue`, which reduces to the formula above for two). Chang, Saha &
 //! Bar-Shalom (1997) show this fuser is optimal in the maximum-likelihood sense.
 //!
 //! # The cross-covariance model (the center has no local gains)
@@ -49,7 +49,7 @@
 //! - A member whose covariance is not positive definite gets zero cross-covariance (its
 //!   gain cannot be recovered); the difference-form BLUE handles the singular covariance.
 //! - A singular difference covariance `D` (e.g. coincident, fully correlated tracks) is
-//!   handled exactly by the pseudo-inverse (see [`super::blue`]).
+//!   handled exactly by the pseudo-inverse (see `super::blue`).
 //! - If the model's cross-covariances cannot be formed (a singular Stein system for a
 //!   pair: that pair gets zero cross-covariance; a failed coherence computation: the group
 //!   gets zero cross-covariances), or the BLUE still finds the joint covariance
@@ -64,7 +64,7 @@
 //!   the information form with member eigenvalues floored at `1e-9` of their largest
 //!   (see [`super::convex_combination`]): `bc` fuses every valid covariance. A fused
 //!   covariance that is not valid only by rounding is replaced by the nearest positive
-//!   semidefinite matrix ([`super::blue::finish_fused`]).
+//!   semidefinite matrix (`super::blue::finish_fused`).
 //!
 //! # Other choices
 //! - The group's member weights are not used (a hard rule).
@@ -386,7 +386,7 @@ fn solve_stein_nalgebra(b_i: &StateCov, b_j: &StateCov, c: &StateCov) -> Option<
 /// The check runs in the buffer `test` (column-major); when every coherence decouples the
 /// x and y axes (as block-diagonal covariances give), so does `I + W / max`, and it is
 /// checked as its two halves (the `[x, vx]` and the `[y, vy]` components of every member,
-/// each in the full matrix's order: the same pivots bit for bit, as in [`super::blue`];
+/// each in the full matrix's order: the same pivots bit for bit, as in `super::blue`;
 /// once when the halves are the same numbers). Only when the check fails is a `DMatrix`
 /// allocated, for the eigenvalues of the full `W`.
 fn joint_scale(

@@ -1,7 +1,7 @@
 //! `cc`: convex combination, covariance-weighted fusion that ignores cross-covariances.
 //!
 //! `P = (sum_i P_i^-1)^-1`, `x = P sum_i P_i^-1 x_i` — the classical "convex combination"
-//! track fusion (the CC baseline of 003 Sec. 6, Table 5, its reference [33]; Bar-Shalom &
+//! track fusion (the CC baseline of 003 Sec. 6, Table 5, its reference \[33\]; Bar-Shalom &
 //! Campo 1986 with `P_12 = 0`). It is the BLUE when the members' errors are independent,
 //! and optimistic (too small `P`) when they share common process noise.
 //!
@@ -10,7 +10,7 @@
 //!   not used; every member counts with its covariance.
 //! - **Singular covariances.** The information form needs every `P_i^-1`. When a member's
 //!   covariance is not positive definite (e.g. `P = 0`, a perfect track), the rule uses the
-//!   same estimator in the difference form of [`super::blue`] with zero cross-covariances,
+//!   same estimator in the difference form of `super::blue` with zero cross-covariances,
 //!   which needs no `P_i^-1` and is the limit of the information form (a perfect track
 //!   dominates; the fused covariance is singular in its certain directions). Not an error,
 //!   and the same numbers as the information form whenever both exist.
@@ -21,11 +21,11 @@
 //!   small fused covariance to cancellation), the rule is the same equation on members
 //!   whose eigenvalues are floored at `1e-9` of each member's largest — the contract's
 //!   own tolerance, below which a covariance is not resolved — and inverted by
-//!   eigen-decomposition ([`super::blue::floored_information_fusion`]). Deterministic,
+//!   eigen-decomposition (`super::blue::floored_information_fusion`). Deterministic,
 //!   and only where the exact computation fails, so ordinary inputs keep their numbers.
 //! - Every member must be a valid covariance ([`crate::covariance::check_covariance`]);
 //!   a fused covariance that is not valid only by rounding is replaced by the nearest
-//!   positive semidefinite matrix ([`super::blue::finish_fused`]).
+//!   positive semidefinite matrix (`super::blue::finish_fused`).
 //! - The prior global state is not used.
 //!
 //! # Equation numbers

@@ -52,7 +52,7 @@
 //!   eigenvalues are floored at `1e-9` of each member's largest — the file contract's
 //!   tolerance, below which a covariance is not resolved: the weights are optimised over
 //!   those information matrices and the fused covariance is their weighted sum inverted
-//!   by eigen-decomposition ([`super::blue::floored_information_fusion`]). Counted as a
+//!   by eigen-decomposition (`super::blue::floored_information_fusion`). Counted as a
 //!   fallback; deterministic, and only where the exact computation fails, so ordinary
 //!   inputs keep their numbers.
 //! - The prior global state is not used.

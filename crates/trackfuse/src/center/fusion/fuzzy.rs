@@ -23,7 +23,7 @@
 //!   the equations as printed. A fused covariance that leaves the file contract's
 //!   tolerance only by rounding (a weighted sum of members with eigenvalues a little below
 //!   zero) is replaced by the nearest positive semidefinite matrix (negative eigenvalues
-//!   set to zero, [`super::blue::finish_fused`]); a non-finite result (overflow) is an
+//!   set to zero, `super::blue::finish_fused`); a non-finite result (overflow) is an
 //!   error naming the scan and the members.
 //!
 //! # Agreement with 003 eq. 5.4
@@ -75,7 +75,7 @@ impl FuzzyFusion {
 // singular one is fine: the rule needs no inverse); a fused covariance that leaves the
 // tolerance only by rounding (a weighted sum of members with eigenvalues a little below
 // zero) is replaced by the nearest positive semidefinite matrix
-// ([`super::blue::finish_fused`]), so it reads back from a file.
+// (`super::blue::finish_fused`), so it reads back from a file.
 impl FusionRule for FuzzyFusion {
     fn fork(&self) -> Option<Box<dyn FusionRule>> {
         Some(Box::new(*self))

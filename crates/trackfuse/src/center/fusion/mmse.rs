@@ -1,12 +1,12 @@
 //! `mmse`: the Bayesian MMSE reference of 000 (Sec. V, Tables 2, 4, 6; its references
-//! [38], [39]: Chang, Saha, Bar-Shalom 1996, 1997) — optimal track fusion given the TRUE
+//! \[38\], \[39\]: Chang, Saha, Bar-Shalom 1996, 1997) — optimal track fusion given the TRUE
 //! association.
 //!
 //! 000 uses it as the best achievable result, the bound its fuzzy methods are compared
 //! with. The fusion itself is the linear-Gaussian optimum for a known association: the
 //! BLUE of the members' common state with the cross-covariances of their errors (the
 //! generalised Bar-Shalom–Campo fuser), computed by the very same code as `bc`
-//! ([`super::bar_shalom_campo`], [`super::blue`]), with the same cross-covariance models
+//! ([`super::bar_shalom_campo`], `super::blue`), with the same cross-covariance models
 //! and parameters, read from `[fusion.params.mmse]`.
 //!
 //! # `mmse` = the `truth` associator + this BLUE rule

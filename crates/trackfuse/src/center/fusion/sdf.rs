@@ -33,7 +33,7 @@
 //!   and velocities only and the covariance is a weighted sum, so every valid member
 //!   ([`crate::covariance::check_covariance`]) is fused as defined; a covariance outside
 //!   the file contract's tolerance only by rounding is replaced by the nearest positive
-//!   semidefinite matrix ([`super::blue::finish_fused`]), a non-finite one (overflow) is
+//!   semidefinite matrix (`super::blue::finish_fused`), a non-finite one (overflow) is
 //!   an error naming the scan and the members.
 //! - The associator's weights (memberships) are not used: eq. 21 defines the weights.
 //!
@@ -216,7 +216,7 @@ impl FusionRule for Sdf {
 /// singular one is fine: the rule needs no inverse); a fused covariance that leaves the
 /// tolerance only by rounding (a weighted sum of members with eigenvalues a little below
 /// zero) is replaced by the nearest positive semidefinite matrix
-/// ([`super::blue::finish_fused`]), so it reads back from a file.
+/// (`super::blue::finish_fused`), so it reads back from a file.
 impl Sdf {
     /// The support-degree fusion itself (eq. 17-22), before the members' and the
     /// result's checks.

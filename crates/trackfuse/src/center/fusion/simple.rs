@@ -1,6 +1,6 @@
 //! `sf`: simple fusion, the equal-weight mean of the members' states.
 //!
-//! The baseline "Simple Fusion" of 003 (Sec. 6, Table 5, reference [34] there): the fused
+//! The baseline "Simple Fusion" of 003 (Sec. 6, Table 5, reference \[34\] there): the fused
 //! state is `x = (1/n) sum_i x_i`. 003 Table 5 reports SF equal to the fuzzy fusion of
 //! eq. 5.4 for similar sensors, which is what eq. 5.4 gives when all memberships are equal.
 //!
@@ -19,7 +19,7 @@
 //!   sums of the members', no inverse, so every valid member
 //!   ([`crate::covariance::check_covariance`]) is fused as defined; a result outside the
 //!   file contract's tolerance only by rounding is replaced by the nearest positive
-//!   semidefinite matrix ([`super::blue::finish_fused`]), a non-finite one (overflow) is
+//!   semidefinite matrix (`super::blue::finish_fused`), a non-finite one (overflow) is
 //!   an error naming the scan and the members.
 //! - The prior global state is not used.
 //!
