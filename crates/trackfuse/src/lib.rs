@@ -7,6 +7,23 @@
 //! Every stage reads and writes the files of `docs/formats.md` ([`io`]) and is one library call,
 //! so the CLI, the Monte Carlo engine ([`montecarlo`]) and a service share one code path.
 //! The library holds no global state and prints nothing.
+//!
+//! ## Where to start
+//!
+//! - One whole run in memory (simulate, track, fuse, evaluate) from a scenario:
+//!   [`pipeline::run_once`] with a [`RunConfig`] ([`RunConfig::builtin`] for the
+//!   repository's scenarios).
+//! - One sensor's tracker, scan by scan: [`local::SensorTracker`], configured by
+//!   [`local::TrackerConfig`]; several sensors at once: [`local::MultiSensorTracker`].
+//! - The fusion center, scan by scan: [`center::FusionCenter`], configured by
+//!   [`center::FusionConfig`] (association method, fusion rule, bias estimation, global
+//!   track management), each method selected by its name in `ALGORITHMS.md`.
+//! - Methods of your own, registered by name: [`center::registry::CenterRegistry`] and
+//!   [`local::registry::LocalRegistry`] (runnable examples in `examples/`).
+//! - The files of the contract, streamed: [`io`]; scores (GOSPA, OSPA, RMSE, NEES, the
+//!   correct-association rate): [`metrics`].
+//!
+//! `FusionCenter`, `SensorTracker` and `pipeline::run_once` carry runnable examples.
 
 // the library reports through its return values; printing is the CLI's
 #![deny(clippy::print_stdout, clippy::print_stderr, clippy::dbg_macro)]
