@@ -17,7 +17,7 @@
 //!   [`local::TrackerConfig`]; several sensors at once: [`local::MultiSensorTracker`].
 //! - The fusion center, scan by scan: [`center::FusionCenter`], configured by
 //!   [`center::FusionConfig`] (association method, fusion rule, bias estimation, global
-//!   track management), each method selected by its name in `ALGORITHMS.md`.
+//!   track management), each method selected by name (`trackfuse methods` lists them).
 //! - Methods of your own, registered by name: [`center::registry::CenterRegistry`] and
 //!   [`local::registry::LocalRegistry`] (runnable examples in `examples/`).
 //! - The files of the contract, streamed: [`io`]; scores (GOSPA, OSPA, RMSE, NEES, the
