@@ -53,8 +53,8 @@ pub enum BenchWhat {
     /// 10 km beyond the grid's corners; per size the tracks kept per measurement, the
     /// time per measurement and per track kept (one thread, after an untimed run, best
     /// of --repeat runs, or of as many as fill about 0.5 s for a size that takes under
-    /// 0.2 s), and the cost per measurement relative to the first size; with --steps, a
-    /// second table of where that time goes.
+    /// 0.2 s), and the cost per measurement relative to the first size; with --steps,
+    /// tables of where that time goes and of what the steps worked on.
     TrackSweep {
         #[command(flatten)]
         tracker: TrackerFlags,
@@ -75,7 +75,9 @@ pub enum BenchWhat {
         /// Also time each step of the trackers' scans (predict, convert, gate,
         /// associate, update, tentative, delete, initiate, report) in as many more runs
         /// per size, with the step clocks on (not the timed runs), and print those of the
-        /// fastest in ns per measurement after the table.
+        /// fastest in ns per measurement after the table, then what the steps worked on
+        /// in that run, per measurement (gated pairs, tentative tracks and their gated
+        /// pairs, measurements left for initiation, accepted pairs, tracks started).
         #[arg(long)]
         steps: bool,
     },
@@ -516,7 +518,8 @@ fn sweep_scenario(targets: usize, position: bool, scans: u32) -> Result<String> 
 }
 
 /// `bench track-sweep`: [`time_tracking`] on [`sweep_scenario`] at each size; with
-/// `steps`, one more run per size with the step clocks on, printed as a second table.
+/// `steps`, one more run per size with the step clocks on, printed as a second table
+/// (times) and a third (work counts).
 fn bench_track_sweep(
     flags: &TrackerFlags,
     targets: &[usize],
@@ -579,7 +582,8 @@ fn bench_track_sweep(
 }
 
 /// The second table of `bench track-sweep --steps`: each step's time per measurement
-/// (ns), its total, and the total relative to the first size.
+/// (ns), its total, and the total relative to the first size; the third: what the steps
+/// worked on, per measurement ([`trackfuse::local::WorkCounts`]).
 fn print_step_table(rows: &[(usize, trackfuse::local::StepTimes, usize)]) -> Result<()> {
     let Some((_, first, _)) = rows.first() else {
         return Ok(());
@@ -605,6 +609,25 @@ fn print_step_table(rows: &[(usize, trackfuse::local::StepTimes, usize)]) -> Res
             "| {n} | {} | {total:.1} | {:.2}x |",
             cells.join(" | "),
             total / reference
+        );
+    }
+    // the counts the tracker's definition fixes: a time that grows with them is work
+    // that grows, not an index or a cache that got slower
+    say!("");
+    say!("what the steps worked on, per measurement (the same runs): (track, measurement) pairs in the gates, tentative tracks, (tentative track, measurement) pairs in their gates, measurements left for initiation, pairs the two-point gate accepts, tentative tracks started");
+    say!("| targets | gated | tentative | tentative gated | unused | pairs | started |");
+    say!("|---|---|---|---|---|---|---|");
+    for (n, s, _) in rows {
+        let w = &s.work;
+        let per = |c: u64| c as f64 / w.measurements.max(1) as f64;
+        say!(
+            "| {n} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
+            per(w.gated),
+            per(w.tentative),
+            per(w.tentative_gated),
+            per(w.unused),
+            per(w.pairs),
+            per(w.started)
         );
     }
     Ok(())

@@ -65,3 +65,46 @@ fn bench_track_sweep_prints_a_row_per_size() {
         assert!(kept > 0.0 && kept < 5.0, "{stdout}");
     }
 }
+
+/// `bench track-sweep --steps` adds where the time goes and what the steps worked on,
+/// a row per size in each table; the work is counted per measurement, and a tentative
+/// track started is a pair the two-point gate accepted.
+#[test]
+fn bench_track_sweep_steps_prints_the_work() {
+    let stdout = trackfuse(&[
+        "bench",
+        "track-sweep",
+        "--targets",
+        "16,64",
+        "--scans",
+        "8",
+        "--repeat",
+        "1",
+        "--steps",
+    ]);
+    let tables: Vec<Vec<Vec<String>>> = stdout
+        .split("\n\n")
+        .map(|block| {
+            block
+                .lines()
+                .filter(|l| l.starts_with("| ") && !l.starts_with("| targets"))
+                .map(|l| {
+                    l.trim_matches('|')
+                        .split('|')
+                        .map(|c| c.trim().to_string())
+                        .collect()
+                })
+                .collect()
+        })
+        .filter(|t: &Vec<Vec<String>>| !t.is_empty())
+        .collect();
+    assert_eq!(tables.len(), 3, "{stdout}");
+    let work = &tables[2];
+    assert_eq!(work.len(), 2, "{stdout}");
+    for r in work {
+        let v: Vec<f64> = r[1..].iter().map(|c| c.parse().expect("a count")).collect();
+        let (gated, unused, pairs, started) = (v[0], v[3], v[4], v[5]);
+        assert!(gated > 0.0 && unused > 0.0 && unused < 1.0, "{stdout}");
+        assert!(started > 0.0 && started <= pairs, "{stdout}");
+    }
+}

@@ -204,6 +204,16 @@ impl Gates {
     pub fn tracks(&self) -> usize {
         self.start.len()
     }
+
+    /// Number of (track, measurement) pairs in the gates.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Whether no measurement is in any gate.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
 }
 
 /// The chi-square (2 degrees of freedom) gate threshold for gate probability `pg`:

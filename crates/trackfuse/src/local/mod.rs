@@ -13,7 +13,7 @@ pub mod tracker;
 
 pub use tracker::{
     track_sensors, track_sensors_timed, KnownTarget, MultiSensorTracker, SensorTracker, StepTimes,
-    TrackerError,
+    TrackerError, WorkCounts,
 };
 
 use crate::params::{ParamError, ParamTables};

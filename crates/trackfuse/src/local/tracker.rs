@@ -155,7 +155,8 @@ struct Seed {
 /// since the step clocks were switched on ([`SensorTracker::set_step_timing`]): where a
 /// tracker's time goes, as `trackfuse bench track-sweep --steps` prints it per
 /// measurement (BENCHMARKS.md, issue 13 point 2). The steps are those of the module
-/// documentation; `predict` includes the start of known tracks.
+/// documentation; `predict` includes the start of known tracks. `work` counts what the
+/// steps worked on over the same scans.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct StepTimes {
     /// Step 1: every track predicted, with its predicted measurement.
@@ -177,6 +178,46 @@ pub struct StepTimes {
     pub initiate: Duration,
     /// The confirmed tracks written out in `track_id` order.
     pub report: Duration,
+    /// What the steps worked on.
+    pub work: WorkCounts,
+}
+
+/// What [`SensorTracker::process_scan`]'s steps worked on, summed over the scans since
+/// the step clocks were switched on: counts that the tracker's definition and its data
+/// fix (any exact implementation of the same tracker handles as many), beside
+/// [`StepTimes`]' times, so that a time per measurement that grows can be told apart
+/// from work per measurement that grows (`trackfuse bench track-sweep --steps`,
+/// BENCHMARKS.md). Counted once per scan from the steps' outputs, never inside their
+/// loops.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct WorkCounts {
+    /// Measurements processed.
+    pub measurements: u64,
+    /// Step 2: (track, measurement) pairs inside a predicted track's gate.
+    pub gated: u64,
+    /// Step 4: tentative tracks, each scan's.
+    pub tentative: u64,
+    /// Step 4: (tentative track, unused measurement) pairs inside the tentative track's
+    /// gate.
+    pub tentative_gated: u64,
+    /// Step 5: measurements left for two-point initiation.
+    pub unused: u64,
+    /// Step 5: (measurement, previous scan's point) pairs the two-point gate accepts.
+    pub pairs: u64,
+    /// Step 5: tentative tracks started.
+    pub started: u64,
+}
+
+impl std::ops::AddAssign for WorkCounts {
+    fn add_assign(&mut self, o: WorkCounts) {
+        self.measurements += o.measurements;
+        self.gated += o.gated;
+        self.tentative += o.tentative;
+        self.tentative_gated += o.tentative_gated;
+        self.unused += o.unused;
+        self.pairs += o.pairs;
+        self.started += o.started;
+    }
 }
 
 impl StepTimes {
@@ -212,6 +253,7 @@ impl std::ops::AddAssign for StepTimes {
         self.delete += o.delete;
         self.initiate += o.initiate;
         self.report += o.report;
+        self.work += o.work;
     }
 }
 
@@ -548,6 +590,12 @@ impl SensorTracker {
         lap.mark(&mut self.step_times.convert);
         self.gate();
         lap.mark(&mut self.step_times.gate);
+        let counting = self.step_timing;
+        if counting {
+            let w = &mut self.step_times.work;
+            w.measurements += measurements.len() as u64;
+            w.gated += self.gates.len() as u64;
+        }
         self.associate()?;
         lap.mark(&mut self.step_times.associate);
         self.update_confirmed();
@@ -555,12 +603,27 @@ impl SensorTracker {
         let automatic = self.cfg.initiation.method.is_automatic();
         if automatic {
             self.update_tentative();
+            if counting {
+                let w = &mut self.step_times.work;
+                w.tentative += self.tentative.len() as u64;
+                w.tentative_gated += self.candidates.len() as u64;
+            }
         }
         lap.mark(&mut self.step_times.tentative);
         self.delete_tracks();
         lap.mark(&mut self.step_times.delete);
         if automatic {
+            let before = self.tracks.len();
+            if counting {
+                let unused = self.used.iter().filter(|&&u| !u).count();
+                self.step_times.work.unused += unused as u64;
+            }
             self.initiate(time);
+            if counting {
+                let w = &mut self.step_times.work;
+                w.pairs += self.init_scratch.pairs.len() as u64;
+                w.started += self.tracks.len().saturating_sub(before) as u64;
+            }
         }
         lap.mark(&mut self.step_times.initiate);
         self.report(scan, time, out);
@@ -1892,6 +1955,7 @@ pd = 0.95
             ..Default::default()
         };
         let mut tracker = SensorTracker::new(&sensor, &cfg, None, &[], 1, 0, 0).expect("tracker");
+        tracker.set_step_timing(true);
         let mut out = Vec::new();
         let mut counts = Vec::new();
         for scan in 0..6u32 {
@@ -1915,6 +1979,23 @@ pd = 0.95
             counts,
             vec![(0, 0), (1, 0), (2, 1), (2, 1), (2, 1), (1, 1)],
             "(track_count, reported) per scan"
+        );
+        // what the steps worked on: 8 measurements; the confirmed target's gate holds
+        // its measurement at scans 3-5; one tentative track at scan 2 (the target's,
+        // which takes its measurement) and one at scans 3-5 (the still point's, which
+        // finds none); left for initiation: scan 0's point, scan 1's two, scan 2's
+        // still point; two pairs, each starting a tentative track (scans 1 and 2)
+        assert_eq!(
+            tracker.step_times().work,
+            WorkCounts {
+                measurements: 8,
+                gated: 3,
+                tentative: 4,
+                tentative_gated: 1,
+                unused: 4,
+                pairs: 2,
+                started: 2,
+            }
         );
     }
 
@@ -1940,7 +2021,11 @@ pd = 0.95
         };
         let (plain, off, _) = run(false);
         let (timed, on, wall) = run(true);
-        assert_eq!(off, StepTimes::default(), "no clock read while off");
+        assert_eq!(
+            off,
+            StepTimes::default(),
+            "no clock read nor work counted while off"
+        );
         assert_eq!(plain, timed, "the clocks change no output");
         assert!(!plain.is_empty());
         // one thread per sensor at most: the steps of a scan run one after another
@@ -1956,6 +2041,10 @@ pd = 0.95
             on.predict > Duration::ZERO && on.initiate > Duration::ZERO,
             "{on:?}"
         );
+        let w = on.work;
+        assert_eq!(w.measurements, sim.measurements.len() as u64, "{w:?}");
+        assert!(w.started <= w.pairs && w.unused <= w.measurements, "{w:?}");
+        assert!(w.gated > 0 && w.started > 0, "{w:?}");
         let mut tracker =
             MultiSensorTracker::new(&sim.sensors, &cfg, None, &[], 1, 0).expect("tracker");
         tracker.set_step_timing(true);
