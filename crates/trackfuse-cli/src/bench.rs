@@ -45,6 +45,12 @@ pub enum BenchWhat {
         /// Repetitions (the best is reported).
         #[arg(long, default_value_t = 3)]
         repeat: u32,
+        /// Also time each step of the trackers' scans in as many more runs, with the
+        /// step clocks on (not the timed runs), and print those of the fastest in ns per
+        /// measurement, then what the steps worked on in that run, per measurement (as
+        /// `track-sweep --steps` does).
+        #[arg(long)]
+        steps: bool,
     },
     /// Local tracking's cost per measurement against the number of targets at a fixed
     /// clutter density (BENCHMARKS.md, issue 13 point 2): the built-in grid-bench with
@@ -179,7 +185,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             scenario,
             tracker,
             repeat,
-        } => bench_track(scenario, tracker, *repeat)?,
+            steps,
+        } => bench_track(scenario, tracker, *repeat, *steps)?,
         BenchWhat::TrackSweep {
             tracker,
             targets,
@@ -441,7 +448,7 @@ impl TrackTiming {
     }
 }
 
-fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32) -> Result<()> {
+fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32, steps: bool) -> Result<()> {
     let (config, _) = load_scenario(Some(scenario))?;
     let cfg = flags.apply(&config.tracker)?;
     let sc = config.scenario;
@@ -477,6 +484,12 @@ fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32) -> Result<()> 
         t.us_per_track_kept()
     );
     say!("measurements/s per core     {:.0}", n as f64 / t.best);
+    if steps {
+        let timed = time_tracking(&sim, &sc, &cfg, repeat, true)?;
+        if let Some(s) = timed.steps {
+            print_step_table("scenario", &[(sc.name.clone(), s, timed.measurements)])?;
+        }
+    }
     Ok(())
 }
 
@@ -562,7 +575,7 @@ fn bench_track_sweep(
         if steps {
             let timed = time_tracking(&sim, &config.scenario, &cfg, runs, true)?;
             if let Some(s) = timed.steps {
-                step_rows.push((n, s, timed.measurements));
+                step_rows.push((n.to_string(), s, timed.measurements));
             }
         }
         let us = t.us_per_measurement();
@@ -576,7 +589,7 @@ fn bench_track_sweep(
         );
     }
     if steps {
-        print_step_table(&step_rows)?;
+        print_step_table("targets", &step_rows)?;
     }
     Ok(())
 }
@@ -584,15 +597,18 @@ fn bench_track_sweep(
 /// The second table of `bench track-sweep --steps`: each step's time per measurement
 /// (ns), its total, and the total relative to the first size; the third: what the steps
 /// worked on, per measurement ([`trackfuse::local::WorkCounts`]).
-fn print_step_table(rows: &[(usize, trackfuse::local::StepTimes, usize)]) -> Result<()> {
+fn print_step_table(
+    label: &str,
+    rows: &[(String, trackfuse::local::StepTimes, usize)],
+) -> Result<()> {
     let Some((_, first, _)) = rows.first() else {
         return Ok(());
     };
     say!("");
-    say!("where the time goes: ns per measurement of each step (as many more runs per size with the step clocks on, the fastest)");
+    say!("where the time goes: ns per measurement of each step (as many more runs with the step clocks on, the fastest)");
     let names: Vec<&str> = first.steps().iter().map(|&(name, _)| name).collect();
     say!(
-        "| targets | {} | total | total / first |",
+        "| {label} | {} | total | total / first |",
         names.join(" | ")
     );
     say!("|---|{}---|---|", "---|".repeat(names.len()));
@@ -615,7 +631,7 @@ fn print_step_table(rows: &[(usize, trackfuse::local::StepTimes, usize)]) -> Res
     // that grows, not an index or a cache that got slower
     say!("");
     say!("what the steps worked on, per measurement (the same runs): (track, measurement) pairs in the gates, tentative tracks, (tentative track, measurement) pairs in their gates, measurements left for initiation, pairs the two-point gate accepts, tentative tracks started");
-    say!("| targets | gated | tentative | tentative gated | unused | pairs | started |");
+    say!("| {label} | gated | tentative | tentative gated | unused | pairs | started |");
     say!("|---|---|---|---|---|---|---|");
     for (n, s, _) in rows {
         let w = &s.work;

@@ -66,9 +66,39 @@ fn bench_track_sweep_prints_a_row_per_size() {
     }
 }
 
+/// The markdown tables of a command's output, each as its body rows (the header and the
+/// separator left out), each row as its trimmed cells.
+fn tables(stdout: &str) -> Vec<Vec<Vec<String>>> {
+    stdout
+        .split("\n\n")
+        .map(|block| {
+            block
+                .lines()
+                .filter(|l| l.starts_with("| ") && !l.starts_with("|---"))
+                .skip(1)
+                .map(|l| {
+                    l.trim_matches('|')
+                        .split('|')
+                        .map(|c| c.trim().to_string())
+                        .collect()
+                })
+                .collect()
+        })
+        .filter(|t: &Vec<Vec<String>>| !t.is_empty())
+        .collect()
+}
+
+/// A work table's row: the counts are per measurement, a tentative track started is a
+/// pair the two-point gate accepted, and some measurements are left for initiation.
+fn check_work_row(r: &[String], stdout: &str) {
+    let v: Vec<f64> = r[1..].iter().map(|c| c.parse().expect("a count")).collect();
+    let (gated, unused, pairs, started) = (v[0], v[3], v[4], v[5]);
+    assert!(gated > 0.0 && unused > 0.0 && unused < 1.0, "{stdout}");
+    assert!(started > 0.0 && started <= pairs, "{stdout}");
+}
+
 /// `bench track-sweep --steps` adds where the time goes and what the steps worked on,
-/// a row per size in each table; the work is counted per measurement, and a tentative
-/// track started is a pair the two-point gate accepted.
+/// a row per size in each table.
 #[test]
 fn bench_track_sweep_steps_prints_the_work() {
     let stdout = trackfuse(&[
@@ -82,29 +112,34 @@ fn bench_track_sweep_steps_prints_the_work() {
         "1",
         "--steps",
     ]);
-    let tables: Vec<Vec<Vec<String>>> = stdout
-        .split("\n\n")
-        .map(|block| {
-            block
-                .lines()
-                .filter(|l| l.starts_with("| ") && !l.starts_with("| targets"))
-                .map(|l| {
-                    l.trim_matches('|')
-                        .split('|')
-                        .map(|c| c.trim().to_string())
-                        .collect()
-                })
-                .collect()
-        })
-        .filter(|t: &Vec<Vec<String>>| !t.is_empty())
-        .collect();
+    let tables = tables(&stdout);
     assert_eq!(tables.len(), 3, "{stdout}");
     let work = &tables[2];
     assert_eq!(work.len(), 2, "{stdout}");
+    assert_eq!((work[0][0].as_str(), work[1][0].as_str()), ("16", "64"));
     for r in work {
-        let v: Vec<f64> = r[1..].iter().map(|c| c.parse().expect("a count")).collect();
-        let (gated, unused, pairs, started) = (v[0], v[3], v[4], v[5]);
-        assert!(gated > 0.0 && unused > 0.0 && unused < 1.0, "{stdout}");
-        assert!(started > 0.0 && started <= pairs, "{stdout}");
+        check_work_row(r, &stdout);
     }
+}
+
+/// `bench track --steps` prints the same two tables for its scenario, one row each.
+#[test]
+fn bench_track_steps_prints_the_work_of_the_scenario() {
+    let stdout = trackfuse(&[
+        "bench",
+        "track",
+        "--repeat",
+        "1",
+        "--steps",
+        "bias-radars-nobias",
+    ]);
+    let tables = tables(&stdout);
+    assert_eq!(tables.len(), 2, "{stdout}");
+    for t in &tables {
+        assert_eq!(t.len(), 1, "{stdout}");
+        assert_eq!(t[0][0], "bias-radars-nobias", "{stdout}");
+    }
+    let total: f64 = tables[0][0][10].parse().expect("total ns per measurement");
+    assert!(total > 0.0, "{stdout}");
+    check_work_row(&tables[1][0], &stdout);
 }
