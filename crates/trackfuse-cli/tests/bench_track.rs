@@ -35,11 +35,9 @@ fn bench_track_counts_the_rows_track_writes() {
     assert_eq!(counted, written, "{stdout}");
 }
 
-/// `bench track-sweep` prints one row per size, the first the reference, with the
-/// tracks kept per measurement it counted.
-#[test]
-fn bench_track_sweep_prints_a_row_per_size() {
-    let stdout = trackfuse(&[
+/// `bench track-sweep` at 16 and 64 targets, 8 scans, one run each, with `extra`.
+fn small_sweep(extra: &[&str]) -> String {
+    let mut args = vec![
         "bench",
         "track-sweep",
         "--targets",
@@ -48,9 +46,16 @@ fn bench_track_sweep_prints_a_row_per_size() {
         "8",
         "--repeat",
         "1",
-        "--sensors",
-        "position",
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    trackfuse(&args)
+}
+
+/// `bench track-sweep` prints one row per size, the first the reference, with the
+/// tracks kept per measurement it counted.
+#[test]
+fn bench_track_sweep_prints_a_row_per_size() {
+    let stdout = small_sweep(&["--sensors", "position"]);
     let rows: Vec<Vec<&str>> = stdout
         .lines()
         .filter(|l| l.starts_with("| ") && !l.starts_with("| targets"))
@@ -101,17 +106,7 @@ fn check_work_row(r: &[String], stdout: &str) {
 /// a row per size in each table.
 #[test]
 fn bench_track_sweep_steps_prints_the_work() {
-    let stdout = trackfuse(&[
-        "bench",
-        "track-sweep",
-        "--targets",
-        "16,64",
-        "--scans",
-        "8",
-        "--repeat",
-        "1",
-        "--steps",
-    ]);
+    let stdout = small_sweep(&["--steps"]);
     let tables = tables(&stdout);
     assert_eq!(tables.len(), 3, "{stdout}");
     let work = &tables[2];
