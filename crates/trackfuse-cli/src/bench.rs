@@ -487,7 +487,7 @@ fn bench_track(scenario: &str, flags: &TrackerFlags, repeat: u32, steps: bool) -
     if steps {
         let timed = time_tracking(&sim, &sc, &cfg, repeat, true)?;
         if let Some(s) = timed.steps {
-            print_step_table("scenario", &[(sc.name.clone(), s, timed.measurements)])?;
+            print_step_table("scenario", &[(sc.name.clone(), s)])?;
         }
     }
     Ok(())
@@ -575,7 +575,7 @@ fn bench_track_sweep(
         if steps {
             let timed = time_tracking(&sim, &config.scenario, &cfg, runs, true)?;
             if let Some(s) = timed.steps {
-                step_rows.push((n.to_string(), s, timed.measurements));
+                step_rows.push((n.to_string(), s));
             }
         }
         let us = t.us_per_measurement();
@@ -597,11 +597,8 @@ fn bench_track_sweep(
 /// The second table of `bench track-sweep --steps`: each step's time per measurement
 /// (ns), its total, and the total relative to the first size; the third: what the steps
 /// worked on, per measurement ([`trackfuse::local::WorkCounts`]).
-fn print_step_table(
-    label: &str,
-    rows: &[(String, trackfuse::local::StepTimes, usize)],
-) -> Result<()> {
-    let Some((_, first, _)) = rows.first() else {
+fn print_step_table(label: &str, rows: &[(String, trackfuse::local::StepTimes)]) -> Result<()> {
+    let Some((_, first)) = rows.first() else {
         return Ok(());
     };
     say!("");
@@ -612,15 +609,18 @@ fn print_step_table(
         names.join(" | ")
     );
     say!("|---|{}---|---|", "---|".repeat(names.len()));
-    let per = |d: std::time::Duration, m: usize| d.as_secs_f64() * 1e9 / m.max(1) as f64;
-    let reference = per(first.total(), rows[0].2);
-    for (n, s, m) in rows {
+    // per measurement the trackers processed in that run (counted with the work)
+    let per = |d: std::time::Duration, s: &trackfuse::local::StepTimes| {
+        d.as_secs_f64() * 1e9 / s.work.measurements.max(1) as f64
+    };
+    let reference = per(first.total(), first);
+    for (n, s) in rows {
         let cells: Vec<String> = s
             .steps()
             .iter()
-            .map(|&(_, d)| format!("{:.1}", per(d, *m)))
+            .map(|&(_, d)| format!("{:.1}", per(d, s)))
             .collect();
-        let total = per(s.total(), *m);
+        let total = per(s.total(), s);
         say!(
             "| {n} | {} | {total:.1} | {:.2}x |",
             cells.join(" | "),
@@ -633,7 +633,7 @@ fn print_step_table(
     say!("what the steps worked on, per measurement (the same runs): (track, measurement) pairs in the gates, tentative tracks, (tentative track, measurement) pairs in their gates, measurements left for initiation, pairs the two-point gate accepts, tentative tracks started");
     say!("| {label} | gated | tentative | tentative gated | unused | pairs | started |");
     say!("|---|---|---|---|---|---|---|");
-    for (n, s, _) in rows {
+    for (n, s) in rows {
         let w = &s.work;
         let per = |c: u64| c as f64 / w.measurements.max(1) as f64;
         say!(
