@@ -1,0 +1,137 @@
+//! The fusion center on any input the readers accept: every registered association
+//! method, fusion rule and bias estimator (or none), with and without global track
+//! management, fed scans of local tracks that pass the file contract's checks (every
+//! number finite, each covariance symmetric positive semi-definite, times increasing,
+//! one row per local track and scan) but are otherwise anything: states and covariances
+//! from ordinary to 1e300, a track that jumps, a sensor that reports nothing. No panic;
+//! `process_scan` returns its result or an error. (`truth` and `mmse`, which need the
+//! truth labels, refuse to be built without them, and are skipped.)
+#![no_main]
+
+use libfuzzer_sys::arbitrary::{Result, Unstructured};
+use libfuzzer_sys::fuzz_target;
+use std::collections::BTreeSet;
+use trackfuse::center::registry::CenterRegistry;
+use trackfuse::center::{FusionCenter, FusionConfig};
+use trackfuse::covariance::is_valid;
+use trackfuse::types::{LocalTrack, Sensor, SensorKind, StateCov, StateVec};
+
+/// A finite number: mostly of a tracking problem's size (metres, metres per second),
+/// sometimes any finite f64.
+fn value(u: &mut Unstructured) -> Result<f64> {
+    Ok(match u.int_in_range(0u8..=7)? {
+        0 => {
+            let v: f64 = u.arbitrary()?;
+            if v.is_finite() {
+                v
+            } else {
+                0.0
+            }
+        }
+        1 => 0.0,
+        _ => f64::from(u.arbitrary::<i16>()?) * 10f64.powi(u.int_in_range(-3..=3)?),
+    })
+}
+
+/// A covariance the readers accept: `L L^T` of a lower-triangular `L`, or any symmetric
+/// matrix that happens to pass the check; `None` when it does not.
+fn covariance(u: &mut Unstructured) -> Result<Option<StateCov>> {
+    let cov = if u.arbitrary()? {
+        let mut l = StateCov::zeros();
+        for r in 0..4 {
+            for c in 0..=r {
+                l[(r, c)] = value(u)?;
+            }
+        }
+        let p = l * l.transpose();
+        0.5 * (p + p.transpose())
+    } else {
+        let mut p = StateCov::zeros();
+        for r in 0..4 {
+            for c in 0..=r {
+                let v = value(u)?;
+                p[(r, c)] = v;
+                p[(c, r)] = v;
+            }
+        }
+        p
+    };
+    Ok(is_valid(&cov).then_some(cov))
+}
+
+fn run(u: &mut Unstructured) -> Result<()> {
+    let registry = CenterRegistry::builtin();
+    let mut cfg = FusionConfig {
+        method: u.choose(registry.methods())?.name.clone(),
+        rule: u.choose(registry.rules())?.name.clone(),
+        bias: if u.arbitrary()? {
+            Some(u.choose(registry.bias_estimators())?.name.clone())
+        } else {
+            None
+        },
+        ..FusionConfig::default()
+    };
+    cfg.management.enabled = u.arbitrary()?;
+    let sensors: Vec<Sensor> = [
+        (0.0, 0.0),
+        (30_000.0, 0.0),
+        (0.0, 30_000.0),
+        (30_000.0, 30_000.0),
+    ]
+    .iter()
+    .enumerate()
+    .map(|(i, &(x, y))| Sensor {
+        id: i as i64,
+        kind: SensorKind::RangeBearing,
+        x,
+        y,
+        sigma_a: 20.0,
+        sigma_b: 0.002,
+        pd: 0.9,
+        bias_r: 0.0,
+        bias_theta: 0.0,
+        max_range: 0.0,
+        clutter_density: None,
+    })
+    .collect();
+    let Ok(mut center) = FusionCenter::new(&cfg, Some(&sensors)) else {
+        return Ok(());
+    };
+    let mut time = 0.0;
+    for scan in 0..u.int_in_range(1u32..=10)? {
+        time += match u.int_in_range(0u8..=3)? {
+            0 => 5.0,
+            1 => 1.0,
+            2 => 1e-3,
+            _ => value(u)?.abs().max(1e-6),
+        };
+        if !time.is_finite() {
+            break;
+        }
+        let mut seen = BTreeSet::new();
+        let mut tracks = Vec::new();
+        for _ in 0..u.int_in_range(0u8..=12)? {
+            let (sensor_id, track_id) = (u.int_in_range(0i64..=3)?, u.int_in_range(0i64..=5)?);
+            let state = StateVec::new(value(u)?, value(u)?, value(u)?, value(u)?);
+            let Some(cov) = covariance(u)? else {
+                continue;
+            };
+            if seen.insert((sensor_id, track_id)) {
+                tracks.push(LocalTrack {
+                    scan,
+                    time,
+                    sensor_id,
+                    track_id,
+                    state,
+                    cov,
+                });
+            }
+        }
+        let _ = center.process_scan(&tracks);
+    }
+    Ok(())
+}
+
+fuzz_target!(|data: &[u8]| {
+    let _ = run(&mut Unstructured::new(data));
+});
