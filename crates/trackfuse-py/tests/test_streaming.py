@@ -62,3 +62,35 @@ def test_time_going_back_is_an_error(cli_run):
         assert "scan" in str(e) or "time" in str(e)
     else:
         raise AssertionError("an earlier scan after a later one was accepted")
+
+
+def test_a_non_finite_time_is_an_error(cli_run):
+    """The center refuses a scan with a NaN or infinite time, naming the local track,
+    and an instant (`process_at`) that is not finite, and goes on as if neither had been
+    given (the CSV reader refuses such a row; a dict
+    from NumPy is checked by the center itself)."""
+    local = tf.read_local_tracks(str(cli_run / "track" / "local_tracks.csv"))
+    scans = np.unique(local["scan"])
+    scan = {k: v[local["scan"] == scans[3]] for k, v in local.items()}
+    c = tf.FusionCenter(bias="none")
+    for bad in (np.nan, np.inf):
+        broken = {k: v.copy() for k, v in scan.items()}
+        broken["time"][1] = bad
+        sensor, track = broken["sensor_id"][1], broken["track_id"][1]
+        try:
+            c.process(broken)
+        except ValueError as e:
+            assert f"local track {sensor}:{track} of scan {scans[3]}" in str(e), str(e)
+            assert "not finite" in str(e), str(e)
+        else:
+            raise AssertionError(f"time {bad} accepted")
+    for bad in (np.nan, np.inf):
+        try:
+            c.process_at(int(scans[3]), bad, scan)
+        except ValueError as e:
+            assert "the instant's time" in str(e) and "not finite" in str(e), str(e)
+        else:
+            raise AssertionError(f"instant {bad} accepted")
+    out = c.process(scan)
+    fresh = tf.FusionCenter(bias="none").process(scan)
+    assert_same(out["fused"], fresh["fused"], "after the refusals")

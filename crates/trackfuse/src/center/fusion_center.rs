@@ -355,7 +355,8 @@ impl FusionCenter {
     /// point of [`super::instants::InstantBatcher`]): each track reported before `time`
     /// is first predicted to it (CV, the center's process noise), then they are fused as
     /// [`FusionCenter::process_scan_into`] fuses a scan. Tracks at `time` are untouched,
-    /// so a synchronous scan fuses exactly as through `process_scan_into`.
+    /// so a synchronous scan fuses exactly as through `process_scan_into`. A `time` that
+    /// is not finite is an error ([`CenterError::NonFiniteInstant`]).
     pub fn process_at_into(
         &mut self,
         scan: u32,
@@ -363,6 +364,12 @@ impl FusionCenter {
         tracks: &mut [LocalTrack],
         out: &mut ScanOutput,
     ) -> Result<(), CenterError> {
+        if !time.is_finite() {
+            // a NaN would otherwise leave every track where it was (no lag is > 0)
+            out.fused.clear();
+            out.associations.clear();
+            return Err(CenterError::NonFiniteInstant { scan, time });
+        }
         let q = self.cfg.process_noise;
         for t in tracks.iter_mut() {
             t.scan = scan;
@@ -487,19 +494,29 @@ impl FusionCenter {
     }
 
     /// The scan index and time of one scan's tracks (the latest time among them) and the
-    /// seconds since the previous scan: one scan at a time, forward in time.
+    /// seconds since the previous scan: one scan at a time, forward in time, every time
+    /// finite (a NaN would otherwise vanish from the maximum, and an infinite time
+    /// would carry every global track to infinity).
     fn scan_time(&self, tracks: &[LocalTrack]) -> Result<(u32, f64, f64), CenterError> {
         let scan = tracks[0].scan;
-        if let Some(t) = tracks.iter().find(|t| t.scan != scan) {
-            return Err(CenterError::MixedScan {
-                scan,
-                other: t.scan,
-            });
+        let mut time = f64::NEG_INFINITY;
+        for t in tracks {
+            if t.scan != scan {
+                return Err(CenterError::MixedScan {
+                    scan,
+                    other: t.scan,
+                });
+            }
+            if !t.time.is_finite() {
+                return Err(CenterError::NonFiniteTime {
+                    scan,
+                    sensor_id: t.sensor_id,
+                    track_id: t.track_id,
+                    time: t.time,
+                });
+            }
+            time = time.max(t.time);
         }
-        let time = tracks
-            .iter()
-            .map(|t| t.time)
-            .fold(f64::NEG_INFINITY, f64::max);
         let dt = match self.last {
             Some((last_scan, last_time)) => {
                 if scan <= last_scan || time < last_time {
@@ -1379,6 +1396,37 @@ mod tests {
             ),
             "two scans at once"
         );
+        // a non-finite time, named by its track, leaves the center as it was: a NaN used
+        // to drop out of the scan's maximum time, an infinity to carry the globals there
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let mut scan = two_targets(4);
+            scan[2].time = bad;
+            let (sensor_id, track_id) = (scan[2].sensor_id, scan[2].track_id);
+            let e = c.process_scan(&scan).expect_err("a non-finite time");
+            assert!(
+                matches!(e, CenterError::NonFiniteTime { scan: 4, sensor_id: s, track_id: t, time }
+                    if s == sensor_id && t == track_id && time.to_bits() == bad.to_bits()),
+                "{e}"
+            );
+            assert!(e.to_string().contains("not finite"), "{e}");
+        }
+        let mut out = ScanOutput::default();
+        for bad in [f64::NAN, f64::INFINITY] {
+            let e = c
+                .process_at_into(4, bad, &mut two_targets(4), &mut out)
+                .expect_err("a non-finite instant");
+            assert!(
+                matches!(e, CenterError::NonFiniteInstant { scan: 4, time } if time.to_bits() == bad.to_bits()),
+                "{e}"
+            );
+            assert!(out.fused.is_empty() && out.associations.is_empty());
+        }
+        let after = c
+            .process_scan(&two_targets(4))
+            .expect("scan 4 after the refusals");
+        let mut fresh = center(false);
+        fresh.process_scan(&two_targets(3)).expect("scan 3");
+        assert_eq!(after, fresh.process_scan(&two_targets(4)).expect("scan 4"));
     }
 
     #[test]

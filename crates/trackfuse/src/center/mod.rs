@@ -253,6 +253,22 @@ pub enum CenterError {
     /// The local tracks given as one scan carry two scan numbers.
     #[error("one scan at a time: scan {scan} and scan {other} given together")]
     MixedScan { scan: u32, other: u32 },
+    /// A local track whose time is NaN or infinite (the file contract's readers refuse
+    /// such a row; a library or Python caller may still pass one); `scan`, `sensor_id`
+    /// and `track_id` locate it.
+    #[error(
+        "local track {sensor_id}:{track_id} of scan {scan} has time {time}, which is not finite"
+    )]
+    NonFiniteTime {
+        scan: u32,
+        sensor_id: Id,
+        track_id: Id,
+        time: f64,
+    },
+    /// [`FusionCenter::process_at_into`] asked to fuse at a time that is NaN or
+    /// infinite.
+    #[error("scan {scan}: the instant's time {time} is not finite")]
+    NonFiniteInstant { scan: u32, time: f64 },
     /// A scan whose number is not above the previous scan's, or whose time is earlier.
     #[error(
         "scan {scan} at time {time} does not come after scan {previous_scan} at time {previous_time}"
