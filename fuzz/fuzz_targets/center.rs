@@ -1,11 +1,15 @@
-//! The fusion center on any input the readers accept: every registered association
-//! method, fusion rule and bias estimator (or none), with and without global track
-//! management, fed scans of local tracks that pass the file contract's checks (every
-//! number finite, each covariance symmetric positive semi-definite, times increasing,
-//! one row per local track and scan) but are otherwise anything: states and covariances
-//! from ordinary to 1e300, a track that jumps, a sensor that reports nothing. No panic;
-//! `process_scan` returns its result or an error. (`truth` and `mmse`, which need the
-//! truth labels, refuse to be built without them, and are skipped.)
+//! The fusion center on any input: every registered association method, fusion rule
+//! and bias estimator (or none), with and without global track management, fed scans of
+//! local tracks that pass the file contract's checks (every number finite, each
+//! covariance symmetric positive semi-definite, times increasing, one row per local
+//! track and scan) but are otherwise anything: states and covariances from ordinary to
+//! 1e300, a track that jumps, a sensor that reports nothing. No panic; `process_scan`
+//! returns its result or an error. Some scans also carry a row the readers would refuse
+//! (a NaN or infinite time, state or covariance cell, an asymmetric or indefinite
+//! covariance), which a library or Python caller can still pass: the center must refuse
+//! such a scan with an error (`FusionCenter`'s contract; the Python `FusionCenter`
+//! relies on it). (`truth` and `mmse`, which need the truth labels, refuse to be built
+//! without them, and are skipped.)
 #![no_main]
 
 use libfuzzer_sys::arbitrary::{Result, Unstructured};
@@ -127,7 +131,36 @@ fn run(u: &mut Unstructured) -> Result<()> {
                 });
             }
         }
-        let _ = center.process_scan(&tracks);
+        let broken = !tracks.is_empty() && u.ratio(1u8, 8)?;
+        let mut row = None;
+        if broken {
+            let i = u.choose_index(tracks.len())?;
+            let bad = *u.choose(&[f64::NAN, f64::INFINITY, f64::NEG_INFINITY])?;
+            let t = &mut tracks[i];
+            // a change as large as the matrix itself (the covariance check is relative)
+            let size = t.cov.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+            match u.int_in_range(0u8..=4)? {
+                0 => t.time = bad,
+                1 => t.state[u.choose_index(4)?] = bad,
+                2 => t.cov[(u.choose_index(4)?, u.choose_index(4)?)] = bad,
+                3 => t.cov[(0, 1)] += size,
+                _ => t.cov[(2, 2)] = -size,
+            }
+            assert!(
+                !(t.time.is_finite() && is_valid(&t.cov) && t.state.iter().all(|v| v.is_finite())),
+                "the broken row is valid: {t:?}"
+            );
+            row = Some(*t);
+        }
+        let result = center.process_scan(&tracks);
+        assert!(
+            !(broken && result.is_ok()),
+            "{} + {} (bias {:?}, management {}): a scan with an invalid row was fused: {row:?}",
+            cfg.method,
+            cfg.rule,
+            cfg.bias,
+            cfg.management.enabled
+        );
     }
     Ok(())
 }

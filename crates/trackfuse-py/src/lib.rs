@@ -264,9 +264,9 @@ fn local_from(d: &Bound<'_, PyDict>) -> PyResult<Vec<LocalTrack>> {
     Ok(out)
 }
 
-/// The local tracks of `d` for the fusion center, which refuses a non-finite time, state
-/// or covariance or an invalid covariance itself when it fuses (naming the scan, sensor
-/// and track), so
+/// The local tracks of `d` for the fusion center, which checks every row of a scan
+/// itself before anything reads it (time, state and covariance finite, the covariance
+/// valid; errors name the scan, sensor and track), so
 /// only the rest of the readers' rules is checked here
 /// ([`trackfuse::io::check_local_track_keys`]): the per-row covariance check again cost
 /// the streaming class a third of its time (BENCHMARKS.md, Python bindings).

@@ -64,6 +64,39 @@ pub fn scale(p: &StateCov) -> f64 {
 /// above `-1e-15` of its scale (the factorisation is backward stable), so the answer is
 /// the same.
 pub fn check_covariance(p: &StateCov) -> Result<(), CovarianceError> {
+    let scale = check_symmetric(p)?;
+    // judged scaled by the power of two at or below its largest cell, so that nothing
+    // overflows: cells near f64::MAX made `P + P^T` infinite, and the factorisation
+    // accepted it, or the eigenvalues NaN, which `f64::min` skips; an indefinite matrix
+    // passed either way. The scaling is exact, so every other matrix is judged as
+    // before, with the same eigenvalues bit for bit.
+    let pow2 = 2f64.powi(scale.log2().floor() as i32);
+    let sym = symmetrize(&(p / pow2));
+    if cholesky4(&sym).is_some() {
+        return Ok(());
+    }
+    let eig = nalgebra::SymmetricEigen::new(sym);
+    let min = eig.eigenvalues.iter().fold(f64::INFINITY, |m, &v| {
+        if m.is_nan() || v.is_nan() {
+            f64::NAN
+        } else {
+            m.min(v)
+        }
+    }) * pow2;
+    if min < -TOLERANCE * scale || min.is_nan() {
+        return Err(CovarianceError::NotPositiveSemidefinite {
+            min_eigenvalue: min,
+        });
+    }
+    Ok(())
+}
+
+/// The first two parts of [`check_covariance`]: every cell finite, the matrix symmetric
+/// within `1e-9` relative; returns the matrix's [`scale`]. For a caller whose
+/// covariances reach [`check_covariance`] later only after a congruence `J P J^T`, which
+/// keeps the signs of the eigenvalues but makes any matrix symmetric (the fusion
+/// center, before a bias correction).
+pub fn check_symmetric(p: &StateCov) -> Result<f64, CovarianceError> {
     // a NaN passes every comparison below unseen: checked first (row-major order)
     for r in 0..4 {
         for c in 0..4 {
@@ -89,18 +122,7 @@ pub fn check_covariance(p: &StateCov) -> Result<(), CovarianceError> {
             }
         }
     }
-    let sym = symmetrize(p);
-    if cholesky4(&sym).is_some() {
-        return Ok(());
-    }
-    let eig = nalgebra::SymmetricEigen::new(sym);
-    let min = eig.eigenvalues.iter().fold(f64::INFINITY, |m, v| m.min(*v));
-    if min < -TOLERANCE * scale || min.is_nan() {
-        return Err(CovarianceError::NotPositiveSemidefinite {
-            min_eigenvalue: min,
-        });
-    }
-    Ok(())
+    Ok(scale)
 }
 
 /// Whether `p` is finite and valid ([`check_covariance`]).
@@ -203,6 +225,38 @@ mod tests {
         assert_eq!(q[(2, 2)], 0.0);
         assert_eq!(q[(0, 0)], 4.0);
         assert!(is_valid(&q));
+    }
+
+    /// Matrices with cells near `f64::MAX` (the first found by the `center` fuzz
+    /// target): their eigen-decomposition overflowed to NaN eigenvalues, which the
+    /// minimum skipped, or `P + P^T` to infinity, which the factorisation accepted, and
+    /// indefinite matrices passed. Now refused; the first scaled down, and a valid
+    /// matrix as large, are judged as they should be.
+    #[test]
+    fn cells_near_the_largest_float_are_judged() {
+        let (h, m) = (-4.634680647717983e158, -9.481950064273782e307);
+        let p = StateCov::from_row_slice(&[
+            h, h, m, 0.0, //
+            h, h, -1.0, -0.001, //
+            m, -1.0, m, 0.0, //
+            0.0, -0.001, 0.0, -7.937,
+        ]);
+        assert!(matches!(
+            check_covariance(&p),
+            Err(CovarianceError::NotPositiveSemidefinite { .. })
+        ));
+        assert!(check_covariance(&(p * 1e-300)).is_err());
+        let big = StateCov::from_diagonal(&crate::types::StateVec::new(1e308, 1e300, 1.0, 1e-300));
+        assert_eq!(check_covariance(&big), Ok(()));
+        let mut off = big;
+        off[(0, 1)] = 1e305;
+        off[(1, 0)] = 1e305;
+        // [[1e308, 1e305], [1e305, 1e300]]: determinant 1e608 - 1e610 < 0
+        let r = check_covariance(&off);
+        assert!(
+            matches!(r, Err(CovarianceError::NotPositiveSemidefinite { .. })),
+            "{r:?}"
+        );
     }
 
     /// The check as it was before the Cholesky fast path: the symmetry test, then the
