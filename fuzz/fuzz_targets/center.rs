@@ -19,23 +19,7 @@ use trackfuse::center::registry::CenterRegistry;
 use trackfuse::center::{FusionCenter, FusionConfig};
 use trackfuse::covariance::is_valid;
 use trackfuse::types::{LocalTrack, Sensor, SensorKind, StateCov, StateVec};
-
-/// A finite number: mostly of a tracking problem's size (metres, metres per second),
-/// sometimes any finite f64.
-fn value(u: &mut Unstructured) -> Result<f64> {
-    Ok(match u.int_in_range(0u8..=7)? {
-        0 => {
-            let v: f64 = u.arbitrary()?;
-            if v.is_finite() {
-                v
-            } else {
-                0.0
-            }
-        }
-        1 => 0.0,
-        _ => f64::from(u.arbitrary::<i16>()?) * 10f64.powi(u.int_in_range(-3..=3)?),
-    })
-}
+use trackfuse_fuzz::{finite_value, scan_step};
 
 /// A covariance the readers accept: `L L^T` of a lower-triangular `L`, or any symmetric
 /// matrix that happens to pass the check; `None` when it does not.
@@ -44,7 +28,7 @@ fn covariance(u: &mut Unstructured) -> Result<Option<StateCov>> {
         let mut l = StateCov::zeros();
         for r in 0..4 {
             for c in 0..=r {
-                l[(r, c)] = value(u)?;
+                l[(r, c)] = finite_value(u)?;
             }
         }
         let p = l * l.transpose();
@@ -53,7 +37,7 @@ fn covariance(u: &mut Unstructured) -> Result<Option<StateCov>> {
         let mut p = StateCov::zeros();
         for r in 0..4 {
             for c in 0..=r {
-                let v = value(u)?;
+                let v = finite_value(u)?;
                 p[(r, c)] = v;
                 p[(c, r)] = v;
             }
@@ -103,12 +87,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
     };
     let mut time = 0.0;
     for scan in 0..u.int_in_range(1u32..=10)? {
-        time += match u.int_in_range(0u8..=3)? {
-            0 => 5.0,
-            1 => 1.0,
-            2 => 1e-3,
-            _ => value(u)?.abs().max(1e-6),
-        };
+        time += scan_step(u)?;
         if !time.is_finite() {
             break;
         }
@@ -116,7 +95,12 @@ fn run(u: &mut Unstructured) -> Result<()> {
         let mut tracks = Vec::new();
         for _ in 0..u.int_in_range(0u8..=12)? {
             let (sensor_id, track_id) = (u.int_in_range(0i64..=3)?, u.int_in_range(0i64..=5)?);
-            let state = StateVec::new(value(u)?, value(u)?, value(u)?, value(u)?);
+            let state = StateVec::new(
+                finite_value(u)?,
+                finite_value(u)?,
+                finite_value(u)?,
+                finite_value(u)?,
+            );
             let Some(cov) = covariance(u)? else {
                 continue;
             };

@@ -14,22 +14,7 @@ use trackfuse::io::{check_measurements, check_sensors};
 use trackfuse::local::registry::LocalRegistry;
 use trackfuse::local::{InitiationMethod, SensorTracker, TrackerConfig};
 use trackfuse::types::{Measurement, Sensor, SensorKind, Vec2};
-
-/// A finite number: mostly of a tracking problem's size, sometimes any finite f64.
-fn value(u: &mut Unstructured) -> Result<f64> {
-    Ok(match u.int_in_range(0u8..=7)? {
-        0 => {
-            let v: f64 = u.arbitrary()?;
-            if v.is_finite() {
-                v
-            } else {
-                0.0
-            }
-        }
-        1 => 0.0,
-        _ => f64::from(u.arbitrary::<i16>()?) * 10f64.powi(u.int_in_range(-3..=3)?),
-    })
-}
+use trackfuse_fuzz::{finite_value, scan_step};
 
 /// A positive standard deviation: ordinary, or from 1e-6 to 1e300.
 fn spread(u: &mut Unstructured, ordinary: f64) -> Result<f64> {
@@ -52,7 +37,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
         InitiationMethod::MOfN
     };
     if u.arbitrary()? {
-        cfg.clutter_density = Some(value(u)?.abs());
+        cfg.clutter_density = Some(finite_value(u)?.abs());
     }
     let kind = if u.arbitrary()? {
         SensorKind::RangeBearing
@@ -62,8 +47,8 @@ fn run(u: &mut Unstructured) -> Result<()> {
     let sensor = Sensor {
         id: 0,
         kind,
-        x: value(u)?,
-        y: value(u)?,
+        x: finite_value(u)?,
+        y: finite_value(u)?,
         sigma_a: spread(
             u,
             if kind == SensorKind::Position {
@@ -83,9 +68,13 @@ fn run(u: &mut Unstructured) -> Result<()> {
         pd: f64::from(u.int_in_range(0u8..=100)?) / 100.0,
         bias_r: 0.0,
         bias_theta: 0.0,
-        max_range: if u.arbitrary()? { value(u)?.abs() } else { 0.0 },
+        max_range: if u.arbitrary()? {
+            finite_value(u)?.abs()
+        } else {
+            0.0
+        },
         clutter_density: if u.arbitrary()? {
-            Some(value(u)?.abs())
+            Some(finite_value(u)?.abs())
         } else {
             None
         },
@@ -99,18 +88,13 @@ fn run(u: &mut Unstructured) -> Result<()> {
     let mut time = 0.0;
     let mut out = Vec::new();
     for scan in 0..u.int_in_range(1u32..=12)? {
-        time += match u.int_in_range(0u8..=3)? {
-            0 => 5.0,
-            1 => 1.0,
-            2 => 1e-3,
-            _ => value(u)?.abs().max(1e-6),
-        };
+        time += scan_step(u)?;
         if !time.is_finite() {
             break;
         }
         let mut rows: Vec<Measurement> = Vec::new();
         for _ in 0..u.int_in_range(0u8..=16)? {
-            let mut v = Vec2::new(value(u)?, value(u)?);
+            let mut v = Vec2::new(finite_value(u)?, finite_value(u)?);
             if kind == SensorKind::RangeBearing {
                 v[0] = v[0].abs();
             }

@@ -1,5 +1,6 @@
 //! Checks shared by the fuzz targets.
 
+use libfuzzer_sys::arbitrary::{self, Unstructured};
 use trackfuse::io::InputError;
 
 /// The input with every LF turned into CRLF, when it has no CR of its own (a CR already
@@ -41,4 +42,34 @@ pub fn assert_named<T>(r: &Result<T, InputError>, name: &str) {
         assert_eq!(e.file.to_str(), Some(name), "{e}");
         assert!(!e.reason.is_empty(), "{e:?}");
     }
+}
+
+/// A finite number for the structured targets (`tracker`, `center`): mostly of a
+/// tracking problem's size (an `i16` times a power of ten from 1e-3 to 1e3), sometimes
+/// 0, sometimes any finite f64.
+pub fn finite_value(u: &mut Unstructured) -> arbitrary::Result<f64> {
+    Ok(match u.int_in_range(0u8..=7)? {
+        0 => {
+            let v: f64 = u.arbitrary()?;
+            if v.is_finite() {
+                v
+            } else {
+                0.0
+            }
+        }
+        1 => 0.0,
+        _ => f64::from(u.arbitrary::<i16>()?) * 10f64.powi(u.int_in_range(-3..=3)?),
+    })
+}
+
+/// The time from one scan to the next for the structured targets: 5 s, 1 s, 1 ms or
+/// any positive finite step (at least 1 µs); may make the time infinite, which the
+/// targets stop at.
+pub fn scan_step(u: &mut Unstructured) -> arbitrary::Result<f64> {
+    Ok(match u.int_in_range(0u8..=3)? {
+        0 => 5.0,
+        1 => 1.0,
+        2 => 1e-3,
+        _ => finite_value(u)?.abs().max(1e-6),
+    })
 }
