@@ -252,6 +252,49 @@ mod tests {
         assert!(BiasOff::NoSensors.to_string().contains("sensors.csv"));
     }
 
+    /// Under a bias estimator every rule sees the corrected tracks, whose covariances
+    /// the correction rebuilds: an invalid covariance of a caller's row (the readers
+    /// refuse it in a file) was turned into one the rule accepted, and fused. The center
+    /// now refuses it before the correction, naming the track.
+    #[test]
+    fn an_invalid_covariance_is_refused_before_the_correction() {
+        let radars = [
+            sensor(0, SensorKind::RangeBearing),
+            sensor(1, SensorKind::RangeBearing),
+        ];
+        let track = |sensor_id: Id, cov: StateCov| LocalTrack {
+            scan: 2,
+            time: 10.0,
+            sensor_id,
+            track_id: 7,
+            state: StateVec::new(5000.0, 50.0, 8000.0, 0.0),
+            cov,
+        };
+        let good = StateCov::identity() * 100.0;
+        let mut asymmetric = good;
+        asymmetric[(0, 1)] = 30.0;
+        let indefinite = StateCov::from_diagonal(&StateVec::new(100.0, 1.0, -100.0, 1.0));
+        for (bad, what) in [(asymmetric, "not symmetric"), (indefinite, "semi-definite")] {
+            for rule in ["cc", "ci", "sf", "fuzzy"] {
+                let cfg = FusionConfig {
+                    rule: rule.into(),
+                    ..FusionConfig::default()
+                };
+                let mut center = FusionCenter::new(&cfg, Some(&radars)).expect("center");
+                assert!(center.has_bias_estimator());
+                let e = center
+                    .process_scan(&[track(0, good), track(1, bad)])
+                    .expect_err("an invalid covariance");
+                let text = e.to_string();
+                assert!(
+                    text.starts_with("fusion center: local track 1:7 of scan 2")
+                        && text.contains(what),
+                    "{rule}: {text}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn explicit_none_turns_it_off_and_a_name_is_kept() {
         let radars = [
