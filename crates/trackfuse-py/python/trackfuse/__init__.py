@@ -162,13 +162,20 @@ class FusionCenter:
 
     def process(self, tracks):
         """Fuse one scan of local tracks (a local-tracks dict, any row order); returns
-        ``{"fused": ..., "associations": ...}`` for that scan."""
+        ``{"fused": ..., "associations": ...}`` for that scan.
+
+        Raises ``ValueError`` naming the scan, sensor and track for a row the file
+        readers would refuse (a time, state or covariance cell that is NaN or infinite,
+        a covariance that is not symmetric positive semi-definite), a duplicated track,
+        or a scan that does not come after the previous one; the center then goes on as
+        if the scan had not been given."""
         return self._c.process(_columns(tracks, "tracks"))
 
     def process_at(self, scan, time, tracks):
         """Fuse local tracks at the center's own instant ``time`` as scan ``scan``,
         each track reported earlier first predicted to it (CV, the center's process
-        noise)."""
+        noise). A ``time`` that is NaN or infinite raises ``ValueError``, as do the rows
+        :meth:`process` refuses."""
         return self._c.process_at(scan, time, _columns(tracks, "tracks"))
 
     def bias_estimates(self):
