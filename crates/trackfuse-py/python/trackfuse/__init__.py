@@ -167,8 +167,7 @@ class FusionCenter:
         Raises ``ValueError`` naming the scan, sensor and track for a row the file
         readers would refuse (a time, state or covariance cell that is NaN or infinite,
         a covariance that is not symmetric positive semi-definite), a duplicated track,
-        or a scan that does not come after the previous one; the center then goes on as
-        if the scan had not been given."""
+        or a scan that does not come after the previous one."""
         return self._c.process(_columns(tracks, "tracks"))
 
     def process_at(self, scan, time, tracks):
