@@ -70,8 +70,18 @@ pub fn check_covariance(p: &StateCov) -> Result<(), CovarianceError> {
     // accepted it, or the eigenvalues NaN, which `f64::min` skips; an indefinite matrix
     // passed either way. The scaling is exact, so every other matrix is judged as
     // before, with the same eigenvalues bit for bit.
-    let pow2 = 2f64.powi(scale.log2().floor() as i32);
-    let sym = symmetrize(&(p / pow2));
+    // (only far from 1: the readers check every row, and a logarithm and a division per
+    // row are wasted on a matrix whose squared cells cannot overflow)
+    let pow2 = if (1e-100..=1e100).contains(&scale) {
+        1.0
+    } else {
+        2f64.powi(scale.log2().floor() as i32)
+    };
+    let sym = if pow2 == 1.0 {
+        symmetrize(p)
+    } else {
+        symmetrize(&(p / pow2))
+    };
     if cholesky4(&sym).is_some() {
         return Ok(());
     }
