@@ -66,9 +66,20 @@ pub fn predict_linear(mean: &mut StateVec, cov: &mut StateCov, f: &StateCov, q: 
 
 /// Nearly-constant-velocity prediction (000 eq. 13; `Q = G diag(q_x^2, q_y^2) G^T`,
 /// ALGORITHMS.md section 1). No-op unless `dt > 0`.
+///
+/// Computed by [`predict_cv_structured`] (the products with the transition's zeros and
+/// ones left out), which gives the bits of [`predict_linear`] with `F` =
+/// [`cv_transition`] and `Q` = [`process_noise`] whenever it returns a result; in the
+/// cases it cannot vouch for (a zero or non-finite entry) the dense products are
+/// computed, so the result is the same either way.
 #[inline]
 pub fn predict_cv(mean: &mut StateVec, cov: &mut StateCov, dt: f64, q: [f64; 2]) {
     if !valid_dt(dt) {
+        return;
+    }
+    if let Some((m, p)) = predict_cv_structured(mean, cov, dt, q) {
+        *mean = m;
+        *cov = p;
         return;
     }
     predict_linear(
@@ -77,6 +88,68 @@ pub fn predict_cv(mean: &mut StateVec, cov: &mut StateCov, dt: f64, q: [f64; 2])
         &cv_transition(dt),
         &process_noise(dt, q[0], q[1]),
     );
+}
+
+/// [`predict_linear`] for the nearly-constant-velocity model, without the products by
+/// the structural zeros and ones of `F` and `G`: about 30 multiplications instead of
+/// some 300, the same bits, or `None` where that cannot be vouched for.
+///
+/// Why the bits are the same. nalgebra forms each entry of a product of small fixed-size
+/// matrices as `((a_0 b_0 + a_1 b_1) + a_2 b_2) + a_3 b_3`, left to right (`gemv` by
+/// `axpy`; a factor 1 multiplies exactly). A product by a structural 0 of `F` is a signed
+/// zero when the other factor is finite, and adding a signed zero to a non-zero partial
+/// sum leaves it unchanged; so, by induction over the terms, each dense sum and the
+/// sum of its non-zero-coefficient terms alone (in the same order) are equal or both
+/// zero (perhaps of different signs). Hence every entry that is finite and not zero here
+/// is the dense product's entry, bit for bit. The check: every input finite (implied by
+/// finite results, since every input entry reaches some result through a coefficient 1
+/// or `dt > 0`) and no result zero; `Q` is computed term by term as `G D G^T` is
+/// (its structural zeros are `+0`, as the dense product's are for `q_x^2, q_y^2 >= 0`)
+/// and must be finite. Hand-written: nalgebra has no structured product.
+#[inline]
+pub fn predict_cv_structured(
+    mean: &StateVec,
+    cov: &StateCov,
+    dt: f64,
+    q: [f64; 2],
+) -> Option<(StateVec, StateCov)> {
+    let x = mean;
+    let m = StateVec::new(x[0] + dt * x[1], x[1], x[2] + dt * x[3], x[3]);
+    // A = F P: rows 0 and 2 take `dt` times the velocity row below them
+    let p = cov;
+    let mut a = *p;
+    for j in 0..4 {
+        a[(0, j)] = p[(0, j)] + dt * p[(1, j)];
+        a[(2, j)] = p[(2, j)] + dt * p[(3, j)];
+    }
+    // F P F^T = A F^T: columns 0 and 2 take `dt` times the velocity column beside them
+    let mut r = a;
+    for i in 0..4 {
+        r[(i, 0)] = a[(i, 0)] + a[(i, 1)] * dt;
+        r[(i, 2)] = a[(i, 2)] + a[(i, 3)] * dt;
+    }
+    let usable = |v: &f64| v.is_finite() && *v != 0.0;
+    if !(m.iter().all(usable) && r.iter().all(usable)) {
+        return None;
+    }
+    // Q = (G D) G^T as the dense product forms it: G D = [[h a, 0], [dt a, 0], [0, h b],
+    // [0, dt b]], h = dt^2 / 2, a = q_x^2, b = q_y^2
+    let h = 0.5 * dt * dt;
+    let (qa, qb) = (q[0] * q[0], q[1] * q[1]);
+    let (ha, da, hb, db) = (h * qa, dt * qa, h * qb, dt * qb);
+    let mut qm = StateCov::zeros();
+    qm[(0, 0)] = ha * h;
+    qm[(0, 1)] = ha * dt;
+    qm[(1, 0)] = da * h;
+    qm[(1, 1)] = da * dt;
+    qm[(2, 2)] = hb * h;
+    qm[(2, 3)] = hb * dt;
+    qm[(3, 2)] = db * h;
+    qm[(3, 3)] = db * dt;
+    if !qm.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    Some((m, symmetrize(&(r + qm))))
 }
 
 /// State transition of the coordinated turn with known turn rate `omega` (rad/s,
@@ -153,12 +226,42 @@ pub fn range_bearing_prediction(
 ) -> Option<PredictedMeasurement> {
     let pos = sensor.position();
     let h = range_bearing_jacobian(mean, &pos);
-    PredictedMeasurement::new(
-        range_bearing(mean, &pos),
-        innovation_covariance(&h, cov, &sensor.measurement_noise()),
-        h,
-        true,
-    )
+    let r = sensor.measurement_noise();
+    let s = sparse_innovation_covariance(&h, cov, &r)
+        .unwrap_or_else(|| innovation_covariance(&h, cov, &r));
+    PredictedMeasurement::new(range_bearing(mean, &pos), s, h, true)
+}
+
+/// [`innovation_covariance`] for an `H` whose columns 1 and 3 (the velocities) are zero,
+/// as a range-bearing Jacobian's are, without the products by those zeros: 8
+/// multiplications instead of 48, the same bits, or `None` where that cannot be vouched
+/// for (an `H` with a velocity column not zero, a non-finite entry of `H` or `P`, an
+/// entry of `H P H^T` that is zero or not finite). The same argument as
+/// [`predict_cv_structured`]'s: each entry of the dense product is a left-to-right sum in
+/// which the velocity terms are signed zeros, so where the entry is finite and not zero
+/// it is the sum of the other two terms in the same order.
+#[inline]
+pub fn sparse_innovation_covariance(h: &MeasurementMatrix, p: &StateCov, r: &Mat2) -> Option<Mat2> {
+    let zero_velocity =
+        h[(0, 1)] == 0.0 && h[(0, 3)] == 0.0 && h[(1, 1)] == 0.0 && h[(1, 3)] == 0.0;
+    if !(zero_velocity && h.iter().all(|v| v.is_finite()) && p.iter().all(|v| v.is_finite())) {
+        return None;
+    }
+    // columns 0 and 2 of H P (its only columns the product with H^T reads)
+    let hp0 = [
+        h[(0, 0)] * p[(0, 0)] + h[(0, 2)] * p[(2, 0)],
+        h[(1, 0)] * p[(0, 0)] + h[(1, 2)] * p[(2, 0)],
+    ];
+    let hp2 = [
+        h[(0, 0)] * p[(0, 2)] + h[(0, 2)] * p[(2, 2)],
+        h[(1, 0)] * p[(0, 2)] + h[(1, 2)] * p[(2, 2)],
+    ];
+    let entry = |i: usize, j: usize| hp0[i] * h[(j, 0)] + hp2[i] * h[(j, 2)];
+    let hph = Mat2::new(entry(0, 0), entry(0, 1), entry(1, 0), entry(1, 1));
+    if !hph.iter().all(|v| v.is_finite() && *v != 0.0) {
+        return None;
+    }
+    Some(symmetrize(&(hph + r)))
 }
 
 /// Predicted measurement in the sensor's own space: [`position_prediction`] for a
@@ -329,6 +432,161 @@ mod tests {
 
     /// PDA with two weights against the textbook formula written out independently
     /// (standard form `P_c = P - K S K^T`, sums expanded by hand).
+    /// The structured CV prediction against the dense products it stands for, bit for
+    /// bit, on covariances and states drawn with signed zeros, subnormals, huge values
+    /// (products that overflow), infinities and NaN among ordinary values; and it must
+    /// take the structured path on most ordinary inputs.
+    #[test]
+    fn structured_cv_prediction_is_the_dense_one_bit_for_bit() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
+        let value = |rng: &mut rand_chacha::ChaCha8Rng, odd: bool| -> f64 {
+            let ordinary = rng.random_range(-1e4..1e4);
+            if !odd {
+                return ordinary;
+            }
+            match rng.random_range(0..10) {
+                0 => 0.0,
+                1 => -0.0,
+                2 => 5e-324,
+                3 => -1e300,
+                4 => 1e300,
+                5 => f64::INFINITY,
+                6 => f64::NAN,
+                7 => 1e-200,
+                _ => ordinary,
+            }
+        };
+        let (mut structured, mut ordinary_cases) = (0, 0);
+        for case in 0..40_000 {
+            // one case in four carries odd values, one entry in eight of those
+            let odd_case = case % 4 == 0;
+            let draw = |rng: &mut rand_chacha::ChaCha8Rng| {
+                let odd = odd_case && rng.random_range(0..8) == 0;
+                value(rng, odd)
+            };
+            let x = StateVec::from_fn(|_, _| draw(&mut rng));
+            let mut p = StateCov::from_fn(|_, _| draw(&mut rng));
+            if case % 2 == 0 {
+                p = symmetrize(&(p * p.transpose()));
+            }
+            let dt = match rng.random_range(0..6) {
+                0 => 1e-300,
+                1 => 1e200,
+                _ => rng.random_range(0.01..20.0),
+            };
+            let q = match rng.random_range(0..6) {
+                0 => [0.0, -0.0],
+                1 => [1e200, 3.0],
+                _ => [rng.random_range(0.0..5.0), rng.random_range(0.0..5.0)],
+            };
+            let (mut dm, mut dp) = (x, p);
+            predict_linear(
+                &mut dm,
+                &mut dp,
+                &cv_transition(dt),
+                &process_noise(dt, q[0], q[1]),
+            );
+            if !odd_case && dt < 1e100 && dt > 1e-100 && q[0] < 1e100 {
+                ordinary_cases += 1;
+            }
+            let Some((sm, sp)) = predict_cv_structured(&x, &p, dt, q) else {
+                continue;
+            };
+            structured += 1;
+            let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+            assert_eq!(
+                bits(sm.as_slice()),
+                bits(dm.as_slice()),
+                "mean, case {case}"
+            );
+            assert_eq!(bits(sp.as_slice()), bits(dp.as_slice()), "cov, case {case}");
+            // and predict_cv itself gives the same
+            let (mut cm, mut cp) = (x, p);
+            predict_cv(&mut cm, &mut cp, dt, q);
+            assert_eq!(
+                bits(cp.as_slice()),
+                bits(dp.as_slice()),
+                "predict_cv, case {case}"
+            );
+        }
+        assert!(
+            structured as f64 > 0.9 * ordinary_cases as f64,
+            "the structured path ran {structured} times in {ordinary_cases} ordinary cases"
+        );
+    }
+
+    /// The sparse `H P H^T + R` of a range-bearing Jacobian against the dense products,
+    /// bit for bit, on states and covariances with signed zeros, huge values,
+    /// infinities and NaN among ordinary ones; and it must be taken on ordinary inputs.
+    #[test]
+    fn sparse_innovation_covariance_is_the_dense_one_bit_for_bit() {
+        use crate::models::range_bearing_jacobian;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(14);
+        let odd = [
+            0.0,
+            -0.0,
+            5e-324,
+            -1e300,
+            1e300,
+            f64::INFINITY,
+            f64::NAN,
+            1e-200,
+        ];
+        let draw = |rng: &mut rand_chacha::ChaCha8Rng, odd_case: bool, scale: f64| {
+            if odd_case && rng.random_range(0..8) == 0 {
+                odd[rng.random_range(0..odd.len())]
+            } else {
+                rng.random_range(-scale..scale)
+            }
+        };
+        let (mut sparse, mut ordinary) = (0, 0);
+        for case in 0..40_000 {
+            let odd_case = case % 4 == 0;
+            let x = StateVec::from_fn(|_, _| draw(&mut rng, odd_case, 3e5));
+            let mut p = StateCov::from_fn(|_, _| draw(&mut rng, odd_case, 300.0));
+            if case % 2 == 0 {
+                p = symmetrize(&(p * p.transpose()));
+            }
+            if odd_case && rng.random_range(0..4) == 0 {
+                // a position block of signed zeros: the sums' signs of zero then differ
+                for (i, j) in [(0, 0), (0, 2), (2, 0), (2, 2)] {
+                    p[(i, j)] = if rng.random_range(0..2) == 0 {
+                        0.0
+                    } else {
+                        -0.0
+                    };
+                }
+            }
+            let h = range_bearing_jacobian(&x, &Vec2::new(1000.0, -2000.0));
+            // a noise whose zeros are negative keeps the sign of a zero sum in S
+            let r = match case % 3 {
+                0 => Mat2::new(400.0, 0.0, 0.0, 4e-6),
+                1 => Mat2::new(-0.0, -0.0, -0.0, -0.0),
+                _ => Mat2::new(400.0, -0.0, -0.0, 4e-6),
+            };
+            let dense = innovation_covariance(&h, &p, &r);
+            ordinary += usize::from(!odd_case);
+            let Some(s) = sparse_innovation_covariance(&h, &p, &r) else {
+                continue;
+            };
+            sparse += 1;
+            let bits = |m: &Mat2| m.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&s), bits(&dense), "case {case}");
+        }
+        assert!(
+            sparse as f64 > 0.9 * ordinary as f64,
+            "{sparse} of {ordinary}"
+        );
+        // an H with a velocity column is not sparse
+        let mut h = range_bearing_jacobian(&StateVec::new(5.0, 1.0, 7.0, 1.0), &Vec2::zeros());
+        h[(0, 1)] = 0.5;
+        assert!(
+            sparse_innovation_covariance(&h, &StateCov::identity(), &Mat2::identity()).is_none()
+        );
+    }
+
     #[test]
     fn pda_two_weights_matches_formula() {
         let (x, p, pred, r) = prediction();
