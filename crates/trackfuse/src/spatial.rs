@@ -367,10 +367,14 @@ impl BoxGrid {
         } else if w[0] <= 0.0 {
             (1, cells as usize)
         } else {
-            let nx = (cells * w[0] / (w[1] * aspect))
-                .sqrt()
-                .ceil()
-                .clamp(1.0, cells);
+            let nx = (cells * w[0] / (w[1] * aspect)).sqrt().ceil();
+            // NaN when both products overflow (spans near f64::MAX, `inf / inf`): one
+            // column then (`NaN as usize` would be 0 columns)
+            let nx = if nx.is_nan() {
+                1.0
+            } else {
+                nx.clamp(1.0, cells)
+            };
             let ny = (cells / nx).ceil().clamp(1.0, cells);
             (nx as usize, ny as usize)
         };
@@ -674,6 +678,34 @@ mod tests {
         grid.for_each_within(&Vec2::new(1e12 + 0.25, 0.0), |i, _| near.push(i));
         near.sort_unstable();
         assert_eq!(near, vec![0, 1]);
+    }
+
+    /// Points spanning nearly the whole range of `f64` (so that the width and the cell
+    /// count overflow to `inf / inf`): the grid has cells and finds the points of a box.
+    /// It panicked before (0 columns; the local tracker's fuzz target found it).
+    #[test]
+    fn box_grid_of_points_near_the_largest_floats() {
+        let points = [
+            Vec2::new(1e308, 1e308),
+            Vec2::new(-1e308, -1e308),
+            Vec2::new(5.0, 5.0),
+            Vec2::new(f64::MAX, -f64::MAX),
+        ];
+        for aspect in [1.0, 1e-300, 1e300, f64::NAN] {
+            let mut grid = BoxGrid::default();
+            grid.rebuild(aspect, points.iter().copied());
+            let mut got = Vec::new();
+            grid.for_each_in_box([0.0, 0.0], [10.0, 10.0], |i, p| {
+                if p[0] >= 0.0 && p[0] <= 10.0 && p[1] >= 0.0 && p[1] <= 10.0 {
+                    got.push(i);
+                }
+            });
+            assert_eq!(got, vec![2], "aspect {aspect}");
+            let mut all = Vec::new();
+            grid.for_each_in_box([-f64::MAX; 2], [f64::MAX; 2], |i, _| all.push(i));
+            all.sort_unstable();
+            assert_eq!(all, vec![0, 1, 2, 3], "aspect {aspect}");
+        }
     }
 
     /// Brute-force connected components of the Eps graph: labels = smallest index.
