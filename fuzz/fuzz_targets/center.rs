@@ -3,7 +3,7 @@
 //! local tracks that pass the file contract's checks (every number finite, each
 //! covariance symmetric positive semi-definite, times increasing, one row per local
 //! track and scan) but are otherwise anything: states and covariances from ordinary to
-//! 1e300, a track that jumps, a sensor that reports nothing. No panic; `process_scan`
+//! any finite `f64`, a track that jumps, a sensor that reports nothing. No panic; `process_scan`
 //! returns its result or an error. Some scans also carry a row the readers would refuse
 //! (a NaN or infinite time, state or covariance cell, an asymmetric or indefinite
 //! covariance), which a library or Python caller can still pass: the center must refuse

@@ -4,7 +4,7 @@
 //! 1e-6 to 1e300, `pd` in [0, 1], a clutter density from 0 up), fed scans of
 //! measurements that pass measurements.csv's checks (finite values, ranges not
 //! negative, bearings of any size, times increasing, no repeated value in a scan), from
-//! ordinary to 1e300. No panic; `process_scan` returns its tracks or an error.
+//! ordinary to any finite `f64`. No panic; `process_scan` returns its tracks or an error.
 //! (`known` initiation needs a scenario's targets and is not drawn.)
 #![no_main]
 
