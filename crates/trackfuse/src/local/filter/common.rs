@@ -236,10 +236,10 @@ pub fn range_bearing_prediction(
 /// as a range-bearing Jacobian's are, without the products by those zeros: 8
 /// multiplications instead of 48, the same bits, or `None` where that cannot be vouched
 /// for (an `H` with a velocity column not zero, an entry of `H` or `P` not finite or
-/// above 1e150 in magnitude, an entry of `H P H^T` that is zero or not finite). The same argument as
-/// [`predict_cv_structured`]'s: each entry of the dense product is a left-to-right sum in
-/// which the velocity terms are signed zeros, so where the entry is finite and not zero
-/// it is the sum of the other two terms in the same order.
+/// above 1e150 in magnitude, an entry of `H P H^T` that is zero or not finite). The same
+/// argument as [`predict_cv_structured`]'s: each entry of the dense product is a
+/// left-to-right sum in which the velocity terms are signed zeros, so where the entry is
+/// finite and not zero it is the sum of the other two terms in the same order.
 #[inline]
 pub fn sparse_innovation_covariance(h: &MeasurementMatrix, p: &StateCov, r: &Mat2) -> Option<Mat2> {
     // below 1e150 every entry of H P is finite, so the dense product's terms with the
@@ -433,12 +433,10 @@ mod tests {
         (x, p, pred, r)
     }
 
-    /// PDA with two weights against the textbook formula written out independently
-    /// (standard form `P_c = P - K S K^T`, sums expanded by hand).
     /// The structured CV prediction against the dense products it stands for, bit for
     /// bit, on covariances and states drawn with signed zeros, subnormals, huge values
     /// (products that overflow), infinities and NaN among ordinary values; and it must
-    /// take the structured path on most ordinary inputs.
+    /// take the structured path on every input without huge values or zeros.
     #[test]
     fn structured_cv_prediction_is_the_dense_one_bit_for_bit() {
         use rand::{RngExt, SeedableRng};
@@ -610,6 +608,8 @@ mod tests {
         );
     }
 
+    /// PDA with two weights against the textbook formula written out independently
+    /// (standard form `P_c = P - K S K^T`, sums expanded by hand).
     #[test]
     fn pda_two_weights_matches_formula() {
         let (x, p, pred, r) = prediction();
