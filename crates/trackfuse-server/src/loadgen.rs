@@ -449,6 +449,7 @@ fn run_nats(args: &LoadgenArgs, url: &str, max_scans: u32, scan_wall: f64) -> Re
                         .subscribe(format!("{}.>", args.subject_prefix))
                         .await
                         .map_err(|e| anyhow::anyhow!("subscribing: {e}"))?;
+                    subscription_in_place(&c).await?;
                     let messages = sub.map(Ok::<_, std::convert::Infallible>);
                     tokio::spawn(async move {
                         let _keep = c;
@@ -561,6 +562,31 @@ fn run_nats(args: &LoadgenArgs, url: &str, max_scans: u32, scan_wall: f64) -> Re
         )?;
         Ok(())
     })
+}
+
+/// `--no-center core`: wait until the server has taken the subscriptions made on `c`.
+///
+/// `subscribe` only queues a SUB on `c`'s connection; the senders publish on another one,
+/// and core NATS keeps nothing for a subscription the server does not hold yet, so the
+/// first scan could be lost (it was, once in a CI run: 5 880 of 6 000 lines read back).
+/// The server handles one connection's operations in order, so a message published on
+/// `c` after the SUB and read back on `c` proves the SUB is in place. (The client has no
+/// PING of its own; `flush` only empties the socket's write buffer.)
+async fn subscription_in_place(c: &async_nats::Client) -> Result<()> {
+    use futures_util::StreamExt;
+    let inbox = c.new_inbox();
+    let mut probe = c
+        .subscribe(inbox.clone())
+        .await
+        .map_err(|e| anyhow::anyhow!("subscribing: {e}"))?;
+    c.publish(inbox, Vec::new().into())
+        .await
+        .map_err(|e| anyhow::anyhow!("publishing: {e}"))?;
+    match tokio::time::timeout(Duration::from_secs(10), probe.next()).await {
+        Ok(Some(_)) => Ok(()),
+        Ok(None) => bail!("the NATS connection closed before the subscription was in place"),
+        Err(_) => bail!("the NATS server did not confirm the subscription within 10 s"),
+    }
 }
 
 /// `--no-center jetstream`: the input stream (created when missing, as a center creates it),
