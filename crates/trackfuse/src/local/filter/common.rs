@@ -113,10 +113,20 @@ pub fn predict_cv_structured(
     dt: f64,
     q: [f64; 2],
 ) -> Option<(StateVec, StateCov)> {
-    let x = mean;
+    let (m, r, qm) = cv_terms(mean, cov, dt, q);
+    let usable = |v: &f64| v.is_finite() && *v != 0.0;
+    if !(m.iter().all(usable) && r.iter().all(usable) && qm.iter().all(|v| v.is_finite())) {
+        return None;
+    }
+    Some((m, symmetrize(&(r + qm))))
+}
+
+/// The terms of the structured CV prediction, unchecked: `F x`, `F P F^T` and `Q`, each
+/// entry the sum of the dense product's terms with a non-zero coefficient, in its order.
+#[inline]
+fn cv_terms(x: &StateVec, p: &StateCov, dt: f64, q: [f64; 2]) -> (StateVec, StateCov, StateCov) {
     let m = StateVec::new(x[0] + dt * x[1], x[1], x[2] + dt * x[3], x[3]);
     // A = F P: rows 0 and 2 take `dt` times the velocity row below them
-    let p = cov;
     let mut a = *p;
     for j in 0..4 {
         a[(0, j)] = p[(0, j)] + dt * p[(1, j)];
@@ -127,10 +137,6 @@ pub fn predict_cv_structured(
     for i in 0..4 {
         r[(i, 0)] = a[(i, 0)] + a[(i, 1)] * dt;
         r[(i, 2)] = a[(i, 2)] + a[(i, 3)] * dt;
-    }
-    let usable = |v: &f64| v.is_finite() && *v != 0.0;
-    if !(m.iter().all(usable) && r.iter().all(usable)) {
-        return None;
     }
     // Q = (G D) G^T as the dense product forms it: G D = [[h a, 0], [dt a, 0], [0, h b],
     // [0, dt b]], h = dt^2 / 2, a = q_x^2, b = q_y^2
@@ -146,10 +152,58 @@ pub fn predict_cv_structured(
     qm[(2, 3)] = hb * dt;
     qm[(3, 2)] = db * h;
     qm[(3, 3)] = db * dt;
-    if !qm.iter().all(|v| v.is_finite()) {
+    (m, r, qm)
+}
+
+/// The CV prediction with a known acceleration input `u` of covariance `P_u`, as the
+/// input-estimation filter (`mie`) forms it densely: `x = F x + G u` and
+/// `P = sym((F P F^T + Q) + G P_u G^T)`, `G` = [`noise_gain`](crate::models::noise_gain),
+/// without the products by the structural zeros of `F` and `G`; the same bits, or `None`
+/// where that cannot be vouched for (then the caller forms the dense products).
+///
+/// Why the bits are the same: call two values *alike* when they are equal or both zero
+/// (of any signs). For finite operands, sums and products of alike values are alike, and
+/// so is a sum with a term `0 y` (a signed zero) left out; each entry here is the dense
+/// entry's sum (see [`predict_cv_structured`]) without those terms, so, by induction over
+/// the operations, every entry is alike to the dense one, and one that is not zero is the
+/// same bits. The dense products are finite where every operand of a structural zero is
+/// finite (`0 x inf` is NaN); every input and intermediate here (`x`, `P`, `u`, `P_u`,
+/// `F P`, `G P_u`) reaches some result through sums and products by finite factors, where
+/// an infinity or NaN stays non-finite. So the check is: every result finite and not zero.
+/// Hand-written: nalgebra has no structured product.
+#[inline]
+pub fn predict_cv_input_structured(
+    mean: &StateVec,
+    cov: &StateCov,
+    dt: f64,
+    q: [f64; 2],
+    u: &Vec2,
+    pu: &Mat2,
+) -> Option<(StateVec, StateCov)> {
+    let (m, r, qm) = cv_terms(mean, cov, dt, q);
+    let h = 0.5 * dt * dt;
+    // G u = [h u_0, dt u_0, h u_1, dt u_1]
+    let m = m + StateVec::new(h * u[0], dt * u[0], h * u[1], dt * u[1]);
+    // B = G P_u (4x2): rows h and dt times P_u's first row, then its second
+    let b = [
+        [h * pu[(0, 0)], h * pu[(0, 1)]],
+        [dt * pu[(0, 0)], dt * pu[(0, 1)]],
+        [h * pu[(1, 0)], h * pu[(1, 1)]],
+        [dt * pu[(1, 0)], dt * pu[(1, 1)]],
+    ];
+    // E = B G^T: column k takes B's column 0 (k = 0, 1) or 1 (k = 2, 3) times G's entry
+    let e = StateCov::from_fn(|i, k| match k {
+        0 => b[i][0] * h,
+        1 => b[i][0] * dt,
+        2 => b[i][1] * h,
+        _ => b[i][1] * dt,
+    });
+    let p = symmetrize(&((r + qm) + e));
+    let usable = |v: &f64| v.is_finite() && *v != 0.0;
+    if !(m.iter().all(usable) && p.iter().all(usable)) {
         return None;
     }
-    Some((m, symmetrize(&(r + qm))))
+    Some((m, p))
 }
 
 /// State transition of the coordinated turn with known turn rate `omega` (rad/s,

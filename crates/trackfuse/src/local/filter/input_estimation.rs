@@ -87,8 +87,8 @@
 //! tracking. Part IV: decision-based methods", SPIE 4728, 2002.
 
 use super::common::{
-    check_process_noise, kalman_gain, pda_update_combined, sensor_prediction, update_with_combined,
-    valid_dt, Gain,
+    check_process_noise, kalman_gain, pda_update_combined, predict_cv_input_structured,
+    sensor_prediction, update_with_combined, valid_dt, Gain,
 };
 use super::{Filter, FilterContext, FilterState, PredictedMeasurement};
 use crate::models::{cv_transition, noise_gain, process_noise};
@@ -272,6 +272,26 @@ impl Layout {
     }
 }
 
+/// A candidate's signature over one prediction, `F D + G`, without the products by the
+/// transition's structural zeros and ones: `F D`'s rows 0 and 2 take `dt` times the row
+/// below them, and `G` is added whole. The same bits as the dense `F D + G` whenever the
+/// result is finite (else `None`, and the caller forms the dense product): each entry of
+/// `F D` is alike (equal, or both zero) to the dense one (see
+/// [`predict_cv_input_structured`]), and adding `G` makes it equal, since a zero of either
+/// sign plus `G`'s `+0` (or its non-zero entry) is the same value. A finite result proves
+/// `D` finite (each entry reaches its row with the factor 1), so no `0 x inf` made the
+/// dense product NaN. Hand-written: nalgebra has no structured product.
+#[inline]
+fn shifted_signature(d: &Signature, dt: f64, g: &Signature) -> Option<Signature> {
+    let mut fd = *d;
+    for j in 0..2 {
+        fd[(0, j)] = d[(0, j)] + dt * d[(1, j)];
+        fd[(2, j)] = d[(2, j)] + dt * d[(3, j)];
+    }
+    let out = fd + g;
+    out.iter().all(|v| v.is_finite()).then_some(out)
+}
+
 /// The input-estimation filter (see the module doc).
 #[derive(Debug, Clone)]
 pub struct InputEstimationFilter {
@@ -372,12 +392,19 @@ impl Filter for InputEstimationFilter {
         let f = cv_transition(dt);
         let g = noise_gain(dt);
         let (u, pu) = Layout::input(&state.aux);
-        let q = process_noise(dt, self.process_noise[0], self.process_noise[1]);
-        state.mean = f * state.mean + g * u;
-        state.cov = symmetrize(&(f * state.cov * f.transpose() + q + g * pu * g.transpose()));
+        if let Some((m, p)) =
+            predict_cv_input_structured(&state.mean, &state.cov, dt, self.process_noise, &u, &pu)
+        {
+            state.mean = m;
+            state.cov = p;
+        } else {
+            let q = process_noise(dt, self.process_noise[0], self.process_noise[1]);
+            state.mean = f * state.mean + g * u;
+            state.cov = symmetrize(&(f * state.cov * f.transpose() + q + g * pu * g.transpose()));
+        }
         for i in 0..Layout::count(&state.aux) {
             let mut c = Layout::get(&state.aux, i);
-            c.d = f * c.d + g;
+            c.d = shifted_signature(&c.d, dt, &g).unwrap_or_else(|| f * c.d + g);
             Layout::put(&mut state.aux, i, &c);
         }
     }
@@ -447,6 +474,182 @@ mod tests {
             ..InputEstimationParams::default()
         };
         InputEstimationFilter::new(p.clone(), &[1.0, 1.0].into()).unwrap()
+    }
+
+    /// The structured prediction (`predict_cv_input_structured` for the state with its
+    /// input, `shifted_signature` for each candidate) against the dense products it
+    /// stands for, bit for bit, on values drawn with signed zeros, subnormals, huge values
+    /// (products that overflow), infinities and NaN among ordinary ones, with no input
+    /// (`u = 0`, `P_u = 0`, the usual case), fresh candidates (`D = 0`) and a `dt` whose
+    /// `dt^2 / 2` underflows; and the structured path must be taken on ordinary inputs.
+    /// Then `predict` itself against the dense formula on states with candidates.
+    #[test]
+    fn structured_prediction_is_the_dense_one_bit_for_bit() {
+        use rand::{RngExt, SeedableRng};
+        type Rng = rand_chacha::ChaCha8Rng;
+        let mut rng = Rng::seed_from_u64(29);
+        let value = |rng: &mut Rng, odd: bool| -> f64 {
+            let ordinary = rng.random_range(-1e4..1e4);
+            if !odd {
+                return ordinary;
+            }
+            match rng.random_range(0..10) {
+                0 => 0.0,
+                1 => -0.0,
+                2 => 5e-324,
+                3 => -1e300,
+                4 => 1e300,
+                5 => f64::INFINITY,
+                6 => f64::NAN,
+                7 => 1e-200,
+                _ => ordinary,
+            }
+        };
+        let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+        let plain = |v: &[f64]| v.iter().all(|v| v.abs() < 1e100 && *v != 0.0);
+        let (mut taken, mut ordinary) = (0, 0);
+        let (mut d_taken, mut d_ordinary) = (0, 0);
+        for case in 0..40_000 {
+            // one case in four carries odd values (one entry in eight), one in four zeros
+            // of either sign (half the entries)
+            let (odd_case, zero_case) = (case % 4 == 0, case % 4 == 1);
+            let mut draw = || {
+                if zero_case && rng.random_range(0..2) == 0 {
+                    return if rng.random_range(0..2) == 0 { 0.0 } else { -0.0 };
+                }
+                let odd = odd_case && rng.random_range(0..8) == 0;
+                value(&mut rng, odd)
+            };
+            let x = StateVec::from_fn(|_, _| draw());
+            let mut p = StateCov::from_fn(|_, _| draw());
+            let mut u = Vec2::from_fn(|_, _| draw());
+            let mut pu = Mat2::from_fn(|_, _| draw());
+            let mut d = Signature::from_fn(|_, _| draw());
+            if rng.random_range(0..2) == 0 {
+                p = symmetrize(&(p * p.transpose()));
+            }
+            match rng.random_range(0..4) {
+                0 => (u, pu) = (Vec2::zeros(), Mat2::zeros()),
+                1 => pu = symmetrize(&(pu * pu.transpose())),
+                _ => {}
+            }
+            let dt = match rng.random_range(0..6) {
+                0 => 1e-300,
+                1 => 1e100,
+                _ => rng.random_range(0.01..20.0),
+            };
+            if rng.random_range(0..3) == 0 {
+                d = if rng.random_range(0..2) == 0 {
+                    Signature::zeros()
+                } else {
+                    noise_gain(rng.random_range(0.01..20.0))
+                };
+            }
+            let q = match rng.random_range(0..6) {
+                0 => [0.0, -0.0],
+                1 => [1e200, 3.0],
+                _ => [rng.random_range(0.0..5.0), rng.random_range(0.0..5.0)],
+            };
+            let (f, g) = (cv_transition(dt), noise_gain(dt));
+            let dm = f * x + g * u;
+            let dp = symmetrize(
+                &(f * p * f.transpose() + process_noise(dt, q[0], q[1]) + g * pu * g.transpose()),
+            );
+            let dd = f * d + g;
+            let inputs_plain = plain(x.as_slice())
+                && plain(p.as_slice())
+                && u.iter().chain(pu.iter()).all(|v| v.abs() < 1e100)
+                && dt < 1e100
+                && q[0] < 1e100;
+            if inputs_plain {
+                ordinary += 1;
+            }
+            if let Some((sm, sp)) = predict_cv_input_structured(&x, &p, dt, q, &u, &pu) {
+                let all = x.iter().chain(p.iter()).chain(u.iter()).chain(pu.iter());
+                assert!(
+                    all.clone().all(|v| v.is_finite()),
+                    "case {case}: non-finite input"
+                );
+                taken += 1;
+                assert_eq!(
+                    bits(sm.as_slice()),
+                    bits(dm.as_slice()),
+                    "mean, case {case}"
+                );
+                assert_eq!(bits(sp.as_slice()), bits(dp.as_slice()), "cov, case {case}");
+            }
+            if d.iter().all(|v| v.abs() < 1e100) && dt < 1e100 {
+                d_ordinary += 1;
+            }
+            if let Some(sd) = shifted_signature(&d, dt, &g) {
+                assert!(d.iter().all(|v| v.is_finite()), "case {case}: non-finite D");
+                d_taken += 1;
+                assert_eq!(bits(sd.as_slice()), bits(dd.as_slice()), "D, case {case}");
+            }
+        }
+        assert!(
+            taken >= ordinary && ordinary > 10_000,
+            "the structured state path ran {taken} times in {ordinary} ordinary cases"
+        );
+        assert!(
+            d_taken >= d_ordinary && d_ordinary > 20_000,
+            "the structured signature ran {d_taken} times in {d_ordinary} ordinary cases"
+        );
+        // `predict` on states with an input and candidates: the dense formula's bits
+        let filter = mie(5, true);
+        for case in 0..200 {
+            let mut draw = || rng.random_range(-1e3..1e3);
+            let mut state = filter.init(
+                StateVec::from_fn(|_, _| draw()),
+                symmetrize(
+                    &(StateCov::from_fn(|_, _| draw())
+                        * StateCov::from_fn(|_, _| draw()).transpose()),
+                ),
+            );
+            let u = Vec2::from_fn(|_, _| draw());
+            let pu = if case % 2 == 0 {
+                Mat2::zeros()
+            } else {
+                Mat2::new(4.0, 1.0, 1.0, 9.0)
+            };
+            Layout::set_input(&mut state.aux, &u, &pu);
+            for i in 1..(case % 5) {
+                Layout::push_new(&mut state.aux, 5);
+                let mut c = Layout::get(&state.aux, i);
+                c.d = Signature::from_fn(|_, _| draw());
+                Layout::put(&mut state.aux, i, &c);
+            }
+            let dt = rng.random_range(0.1..5.0);
+            let (f, g) = (cv_transition(dt), noise_gain(dt));
+            let dm = f * state.mean + g * u;
+            let dp = symmetrize(
+                &(f * state.cov * f.transpose()
+                    + process_noise(dt, 1.0, 1.0)
+                    + g * pu * g.transpose()),
+            );
+            let dds: Vec<Signature> = (0..Layout::count(&state.aux))
+                .map(|i| f * Layout::get(&state.aux, i).d + g)
+                .collect();
+            filter.predict(&mut state, dt);
+            assert_eq!(
+                bits(state.mean.as_slice()),
+                bits(dm.as_slice()),
+                "predict mean, case {case}"
+            );
+            assert_eq!(
+                bits(state.cov.as_slice()),
+                bits(dp.as_slice()),
+                "predict cov, case {case}"
+            );
+            for (i, dd) in dds.iter().enumerate() {
+                let d = Layout::get(&state.aux, i).d;
+                assert_eq!(
+                    bits(d.as_slice()),
+                    bits(dd.as_slice()),
+                    "predict D {i}, case {case}"
+                );
+            }
+        }
     }
 
     /// Noise-free measurements, filter started on the truth, a constant input u from the
