@@ -77,10 +77,16 @@ pub fn predict_cv(mean: &mut StateVec, cov: &mut StateCov, dt: f64, q: [f64; 2])
     if !valid_dt(dt) {
         return;
     }
-    if let Some((m, p)) = predict_cv_structured(mean, cov, dt, q) {
-        *mean = m;
-        *cov = p;
-        return;
+    // An x-y block of zeros (a position sensor's tracks, with its diagonal noise) makes
+    // that block of `F P F^T + Q` zero, which the structured path declines: skip it.
+    let xy_zero =
+        cov[(0, 2)] == 0.0 && cov[(0, 3)] == 0.0 && cov[(1, 2)] == 0.0 && cov[(1, 3)] == 0.0;
+    if !xy_zero {
+        if let Some((m, p)) = predict_cv_structured(mean, cov, dt, q) {
+            *mean = m;
+            *cov = p;
+            return;
+        }
     }
     predict_linear(
         mean,
