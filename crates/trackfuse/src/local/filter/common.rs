@@ -501,23 +501,7 @@ mod tests {
     fn structured_cv_prediction_is_the_dense_one_bit_for_bit() {
         use rand::{RngExt, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
-        let value = |rng: &mut rand_chacha::ChaCha8Rng, odd: bool| -> f64 {
-            let ordinary = rng.random_range(-1e4..1e4);
-            if !odd {
-                return ordinary;
-            }
-            match rng.random_range(0..10) {
-                0 => 0.0,
-                1 => -0.0,
-                2 => 5e-324,
-                3 => -1e300,
-                4 => 1e300,
-                5 => f64::INFINITY,
-                6 => f64::NAN,
-                7 => 1e-200,
-                _ => ordinary,
-            }
-        };
+        let value = crate::local::filter::testing::drawn_value;
         let (mut structured, mut ordinary_cases) = (0, 0);
         for case in 0..40_000 {
             // one case in four carries odd values, one entry in eight of those

@@ -493,23 +493,7 @@ mod tests {
         use rand::{RngExt, SeedableRng};
         type Rng = rand_chacha::ChaCha8Rng;
         let mut rng = Rng::seed_from_u64(29);
-        let value = |rng: &mut Rng, odd: bool| -> f64 {
-            let ordinary = rng.random_range(-1e4..1e4);
-            if !odd {
-                return ordinary;
-            }
-            match rng.random_range(0..10) {
-                0 => 0.0,
-                1 => -0.0,
-                2 => 5e-324,
-                3 => -1e300,
-                4 => 1e300,
-                5 => f64::INFINITY,
-                6 => f64::NAN,
-                7 => 1e-200,
-                _ => ordinary,
-            }
-        };
+        let value = crate::local::filter::testing::drawn_value;
         let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
         let plain = |v: &[f64]| v.iter().all(|v| v.abs() < 1e100 && *v != 0.0);
         let (mut taken, mut ordinary) = (0, 0);

@@ -262,3 +262,25 @@ fn check_detects_an_inconsistent_filter() {
     );
     assert!(r.anees > 2.0 * r.band.1, "{r:?}");
 }
+
+/// A value for the bit-for-bit tests of the structured products: uniform in `+-1e4`, or,
+/// when `odd`, with probability 0.8 one of `+0`, `-0`, the smallest subnormal, `+-1e300`,
+/// infinity, NaN and `1e-200` (else uniform too).
+pub(crate) fn drawn_value(rng: &mut rand_chacha::ChaCha8Rng, odd: bool) -> f64 {
+    use rand::RngExt;
+    let ordinary = rng.random_range(-1e4..1e4);
+    if !odd {
+        return ordinary;
+    }
+    match rng.random_range(0..10) {
+        0 => 0.0,
+        1 => -0.0,
+        2 => 5e-324,
+        3 => -1e300,
+        4 => 1e300,
+        5 => f64::INFINITY,
+        6 => f64::NAN,
+        7 => 1e-200,
+        _ => ordinary,
+    }
+}
