@@ -93,7 +93,8 @@ async fn reports_are_fused_at_their_instants_and_streamed() {
         .await
         .expect("start");
     let sub = TcpStream::connect(svc.subscriber_addr).await.expect("sub");
-    tokio::time::sleep(Duration::from_millis(50)).await;
+    // the gauge is up once the publisher holds the subscriber (a sleep was a race)
+    until("the subscriber", || svc.metrics.subscribers.get() == 1).await;
     // sensor 1 runs ahead of sensor 0: time, not arrival order, decides
     let s1: String = (0..10).map(|k| report(1, 2, k)).collect();
     let _c1 = send(&svc, &s1).await;
@@ -345,7 +346,7 @@ async fn a_subscriber_that_stops_reading_misses_instants_alone() {
         }
         (scans, gaps)
     });
-    tokio::time::sleep(Duration::from_millis(50)).await;
+    until("both subscribers", || svc.metrics.subscribers.get() == 2).await;
     // 300 tracks a sensor, 400 instants (80 MB of output): far more than the stuck
     // subscriber's socket buffers and queue hold
     let n_tracks = 300;
