@@ -77,16 +77,10 @@ pub fn predict_cv(mean: &mut StateVec, cov: &mut StateCov, dt: f64, q: [f64; 2])
     if !valid_dt(dt) {
         return;
     }
-    // An x-y block of zeros (a position sensor's tracks, with its diagonal noise) makes
-    // that block of `F P F^T + Q` zero, which the structured path declines: skip it.
-    let xy_zero =
-        cov[(0, 2)] == 0.0 && cov[(0, 3)] == 0.0 && cov[(1, 2)] == 0.0 && cov[(1, 3)] == 0.0;
-    if !xy_zero {
-        if let Some((m, p)) = predict_cv_structured(mean, cov, dt, q) {
-            *mean = m;
-            *cov = p;
-            return;
-        }
+    if let Some((m, p)) = predict_cv_structured(mean, cov, dt, q) {
+        *mean = m;
+        *cov = p;
+        return;
     }
     predict_linear(
         mean,
@@ -111,7 +105,9 @@ pub fn predict_cv(mean: &mut StateVec, cov: &mut StateCov, dt: f64, q: [f64; 2])
 /// finite results, since every input entry reaches some result through a coefficient 1
 /// or `dt > 0`) and no result zero; `Q` is computed term by term as `G D G^T` is
 /// (its structural zeros are `+0`, as the dense product's are for `q_x^2, q_y^2 >= 0`)
-/// and must be finite. Hand-written: nalgebra has no structured product.
+/// and must be finite. A covariance whose x-y block is zero (a position sensor's tracks,
+/// with a diagonal noise) makes that block of the result zero, so it is declined before
+/// any product. Hand-written: nalgebra has no structured product.
 #[inline]
 pub fn predict_cv_structured(
     mean: &StateVec,
@@ -119,25 +115,44 @@ pub fn predict_cv_structured(
     dt: f64,
     q: [f64; 2],
 ) -> Option<(StateVec, StateCov)> {
-    let (m, r, qm) = cv_terms(mean, cov, dt, q);
-    let usable = |v: &f64| v.is_finite() && *v != 0.0;
-    if !(m.iter().all(usable) && r.iter().all(usable) && qm.iter().all(|v| v.is_finite())) {
+    if cov[(0, 2)] == 0.0 && cov[(0, 3)] == 0.0 && cov[(1, 2)] == 0.0 && cov[(1, 3)] == 0.0 {
         return None;
     }
-    Some((m, symmetrize(&(r + qm))))
+    let (m, r, qm) = cv_terms(mean, cov, dt, q);
+    vouched(m, symmetrize(&(r + qm)))
+}
+
+/// A structured prediction's result where it is the dense products' bits: every entry
+/// finite and not zero (see [`predict_cv_input_structured`] for why that suffices).
+#[inline]
+fn vouched(m: StateVec, p: StateCov) -> Option<(StateVec, StateCov)> {
+    let usable = |v: &f64| v.is_finite() && *v != 0.0;
+    (m.iter().all(usable) && p.iter().all(usable)).then_some((m, p))
+}
+
+/// `F M` for the CV transition `F` ([`cv_transition`]) and any 4-row `M` (a state, a
+/// covariance, a 4x2 signature): rows 0 and 2 take `dt` times the velocity row below
+/// them. Each entry is the dense product's sum without its terms by a structural 0, in
+/// the same order (a factor 1 multiplies exactly).
+#[inline]
+pub(crate) fn transition_times<const C: usize>(
+    dt: f64,
+    m: &SMatrix<f64, 4, C>,
+) -> SMatrix<f64, 4, C> {
+    let mut out = *m;
+    for j in 0..C {
+        out[(0, j)] = m[(0, j)] + dt * m[(1, j)];
+        out[(2, j)] = m[(2, j)] + dt * m[(3, j)];
+    }
+    out
 }
 
 /// The terms of the structured CV prediction, unchecked: `F x`, `F P F^T` and `Q`, each
 /// entry the sum of the dense product's terms with a non-zero coefficient, in its order.
 #[inline]
 fn cv_terms(x: &StateVec, p: &StateCov, dt: f64, q: [f64; 2]) -> (StateVec, StateCov, StateCov) {
-    let m = StateVec::new(x[0] + dt * x[1], x[1], x[2] + dt * x[3], x[3]);
-    // A = F P: rows 0 and 2 take `dt` times the velocity row below them
-    let mut a = *p;
-    for j in 0..4 {
-        a[(0, j)] = p[(0, j)] + dt * p[(1, j)];
-        a[(2, j)] = p[(2, j)] + dt * p[(3, j)];
-    }
+    let m = transition_times(dt, x);
+    let a = transition_times(dt, p);
     // F P F^T = A F^T: columns 0 and 2 take `dt` times the velocity column beside them
     let mut r = a;
     for i in 0..4 {
@@ -204,12 +219,7 @@ pub fn predict_cv_input_structured(
         2 => b[i][1] * h,
         _ => b[i][1] * dt,
     });
-    let p = symmetrize(&((r + qm) + e));
-    let usable = |v: &f64| v.is_finite() && *v != 0.0;
-    if !(m.iter().all(usable) && p.iter().all(usable)) {
-        return None;
-    }
-    Some((m, p))
+    vouched(m, symmetrize(&((r + qm) + e)))
 }
 
 /// State transition of the coordinated turn with known turn rate `omega` (rad/s,

@@ -93,7 +93,7 @@
 
 use super::common::{
     check_process_noise, kalman_gain, pda_update_combined, predict_cv_input_structured,
-    sensor_prediction, update_with_combined, valid_dt, Gain,
+    sensor_prediction, transition_times, update_with_combined, valid_dt, Gain,
 };
 use super::{Filter, FilterContext, FilterState, PredictedMeasurement};
 use crate::models::{cv_transition, noise_gain, process_noise};
@@ -288,12 +288,7 @@ impl Layout {
 /// dense product NaN. Hand-written: nalgebra has no structured product.
 #[inline]
 fn shifted_signature(d: &Signature, dt: f64, g: &Signature) -> Option<Signature> {
-    let mut fd = *d;
-    for j in 0..2 {
-        fd[(0, j)] = d[(0, j)] + dt * d[(1, j)];
-        fd[(2, j)] = d[(2, j)] + dt * d[(3, j)];
-    }
-    let out = fd + g;
+    let out = transition_times(dt, d) + g;
     out.iter().all(|v| v.is_finite()).then_some(out)
 }
 
@@ -394,7 +389,6 @@ impl Filter for InputEstimationFilter {
         if !valid_dt(dt) {
             return;
         }
-        let f = cv_transition(dt);
         let g = noise_gain(dt);
         let (u, pu) = Layout::input(&state.aux);
         if let Some((m, p)) =
@@ -403,13 +397,14 @@ impl Filter for InputEstimationFilter {
             state.mean = m;
             state.cov = p;
         } else {
+            let f = cv_transition(dt);
             let q = process_noise(dt, self.process_noise[0], self.process_noise[1]);
             state.mean = f * state.mean + g * u;
             state.cov = symmetrize(&(f * state.cov * f.transpose() + q + g * pu * g.transpose()));
         }
         for i in 0..Layout::count(&state.aux) {
             let mut c = Layout::get(&state.aux, i);
-            c.d = shifted_signature(&c.d, dt, &g).unwrap_or_else(|| f * c.d + g);
+            c.d = shifted_signature(&c.d, dt, &g).unwrap_or_else(|| cv_transition(dt) * c.d + g);
             Layout::put(&mut state.aux, i, &c);
         }
     }
