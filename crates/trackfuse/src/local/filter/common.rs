@@ -70,8 +70,8 @@ pub fn predict_linear(mean: &mut StateVec, cov: &mut StateCov, f: &StateCov, q: 
 /// Computed by [`predict_cv_structured`] (the products with the transition's zeros and
 /// ones left out), which gives the bits of [`predict_linear`] with `F` =
 /// [`cv_transition`] and `Q` = [`process_noise`] whenever it returns a result; in the
-/// cases it cannot vouch for (a zero or non-finite entry) the dense products are
-/// computed, so the result is the same either way.
+/// cases it cannot vouch for (a non-finite entry) the dense products are computed, so
+/// the result is the same either way.
 #[inline]
 pub fn predict_cv(mean: &mut StateVec, cov: &mut StateCov, dt: f64, q: [f64; 2]) {
     if !valid_dt(dt) {
@@ -100,14 +100,24 @@ pub fn predict_cv(mean: &mut StateVec, cov: &mut StateCov, dt: f64, q: [f64; 2])
 /// zero when the other factor is finite, and adding a signed zero to a non-zero partial
 /// sum leaves it unchanged; so, by induction over the terms, each dense sum and the
 /// sum of its non-zero-coefficient terms alone (in the same order) are equal or both
-/// zero (perhaps of different signs). Hence every entry that is finite and not zero here
-/// is the dense product's entry, bit for bit. The check: every input finite (implied by
-/// finite results, since every input entry reaches some result through a coefficient 1
-/// or `dt > 0`) and no result zero; `Q` is computed term by term as `G D G^T` is
-/// (its structural zeros are `+0`, as the dense product's are for `q_x^2, q_y^2 >= 0`)
-/// and must be finite. A covariance whose x-y block is zero (a position sensor's tracks,
-/// with a diagonal noise) makes that block of the result zero, so it is declined before
-/// any product. Hand-written: nalgebra has no structured product.
+/// zero (perhaps of different signs): *alike*. Hence every entry of `F x` and of
+/// `F P F^T` that is finite and not zero here is the dense product's entry, bit for bit.
+///
+/// The covariance needs less: `Q` is computed term by term as `G D G^T` is, the same
+/// bits (its structural zeros are `+0`, as the dense product's are for `q_x^2, q_y^2 >=
+/// 0`), and none of its entries is `-0`. So an entry of `F P F^T` that is zero here and
+/// zero of the other sign there gives the same sum with `Q`'s entry: `Q`'s entry when
+/// that is not zero, else `+0` (two zeros sum to `-0` only when both are `-0`). Every
+/// entry of `F P F^T + Q` is therefore the dense one, and so is its symmetrisation, as
+/// soon as it is finite (every entry of `P` reaches the entry of the same place through
+/// the coefficient 1, so a finite result also says every input was finite and no
+/// structural zero met an infinity). The mean has no such term: an entry of `F x` that
+/// is zero (a velocity of exactly 0, say) may differ in sign, so a finite mean with a
+/// zero entry is formed by the dense `F x`, which is then the dense result by
+/// definition. A non-finite result is declined (the dense products then give it: the
+/// bits of a NaN are not something two evaluations promise to share). A position sensor's tracks (x-y block of `P` zero, with a diagonal noise)
+/// take this path too: that block is `+0` here as in the dense product. Hand-written:
+/// nalgebra has no structured product.
 #[inline]
 pub fn predict_cv_structured(
     mean: &StateVec,
@@ -115,15 +125,23 @@ pub fn predict_cv_structured(
     dt: f64,
     q: [f64; 2],
 ) -> Option<(StateVec, StateCov)> {
-    if cov[(0, 2)] == 0.0 && cov[(0, 3)] == 0.0 && cov[(1, 2)] == 0.0 && cov[(1, 3)] == 0.0 {
+    let (m, r, qm) = cv_terms(mean, cov, dt, q);
+    let p = symmetrize(&(r + qm));
+    if !m.iter().chain(p.iter()).all(|v| v.is_finite()) {
         return None;
     }
-    let (m, r, qm) = cv_terms(mean, cov, dt, q);
-    vouched(m, symmetrize(&(r + qm)))
+    let m = if m.iter().all(|v| *v != 0.0) {
+        m
+    } else {
+        cv_transition(dt) * mean
+    };
+    Some((m, p))
 }
 
-/// A structured prediction's result where it is the dense products' bits: every entry
-/// finite and not zero (see [`predict_cv_input_structured`] for why that suffices).
+/// The `mie` structured prediction's result where it is the dense products' bits: every
+/// entry finite and not zero (see [`predict_cv_input_structured`] for why that suffices;
+/// its `G P_u G^T` may hold a `-0`, so a zero covariance entry is not vouched for there,
+/// as it is in [`predict_cv_structured`]).
 #[inline]
 fn vouched(m: StateVec, p: StateCov) -> Option<(StateVec, StateCov)> {
     let usable = |v: &f64| v.is_finite() && *v != 0.0;
@@ -263,7 +281,8 @@ pub fn joseph_covariance(p: &StateCov, k: &Gain, h: &MeasurementMatrix, r: &Mat2
 }
 
 /// Predicted measurement of a linear model `z = H x + w`, `w ~ N(0, R)`; `None` if `S` is
-/// not positive definite.
+/// not positive definite. For `H` = [`POSITION_H`], `z_hat` and `S` are read off the
+/// state ([`position_terms`]) where that gives the dense products' bits.
 #[inline]
 pub fn linear_prediction(
     mean: &StateVec,
@@ -271,7 +290,48 @@ pub fn linear_prediction(
     h: &MeasurementMatrix,
     r: &Mat2,
 ) -> Option<PredictedMeasurement> {
-    PredictedMeasurement::new(h * mean, innovation_covariance(h, cov, r), *h, false)
+    let (z, s) = (*h == POSITION_H)
+        .then(|| position_terms(mean, cov, r))
+        .flatten()
+        .unwrap_or_else(|| (h * mean, innovation_covariance(h, cov, r)));
+    PredictedMeasurement::new(z, s, *h, false)
+}
+
+/// `H x` and [`innovation_covariance`] for `H` = [`POSITION_H`] without the products by
+/// its zeros: `z_hat = (x_0, x_2)` and `S = sym(P_pos + R)`, `P_pos` the position block of
+/// `P`; the same bits as the dense products, or `None` where that cannot be vouched for.
+///
+/// Why the bits are the same: each entry of `H P H^T` is a left-to-right sum in which
+/// every term but one is a product by a structural 0 of `H` (a signed zero when the
+/// other factor is finite) and the one is a product by 1, so it is *alike* (equal, or
+/// both zero of perhaps different signs; see [`predict_cv_structured`]) to the entry
+/// of `P` that term reads. Adding `R`'s entry then gives the same sum either way unless
+/// that entry is `-0` (two zeros sum to `-0` only when both are): so every `P` and `R`
+/// entry finite and no `R` entry `-0` (a diagonal noise's zeros are `+0`). `H x` has no
+/// such term: a zero position takes the dense `H x`. A non-finite state is declined.
+/// Hand-written: nalgebra has no structured product.
+#[inline]
+fn position_terms(mean: &StateVec, cov: &StateCov, r: &Mat2) -> Option<(Vec2, Mat2)> {
+    let finite = |v: &f64| v.is_finite();
+    let usable_r = r
+        .iter()
+        .all(|v| v.is_finite() && v.to_bits() != (-0.0f64).to_bits());
+    if !(usable_r && cov.iter().all(finite) && mean.iter().all(finite)) {
+        return None;
+    }
+    let s = Mat2::new(
+        cov[(0, 0)] + r[(0, 0)],
+        cov[(0, 2)] + r[(0, 1)],
+        cov[(2, 0)] + r[(1, 0)],
+        cov[(2, 2)] + r[(1, 1)],
+    );
+    let z = Vec2::new(mean[0], mean[2]);
+    let z = if z.iter().all(|v| *v != 0.0) {
+        z
+    } else {
+        POSITION_H * mean
+    };
+    Some((z, symmetrize(&s)))
 }
 
 /// Predicted measurement of a position sensor: `H = POSITION_H`,
@@ -526,6 +586,19 @@ mod tests {
             if rng.random_range(0..2) == 0 {
                 p = symmetrize(&(p * p.transpose()));
             }
+            // one case in five: a position sensor's track, the x-y blocks zeros of
+            // either sign
+            if rng.random_range(0..5) == 0 {
+                for (i, j) in [(0, 2), (0, 3), (1, 2), (1, 3)] {
+                    for (a, b) in [(i, j), (j, i)] {
+                        p[(a, b)] = if rng.random_range(0..2) == 0 {
+                            0.0
+                        } else {
+                            -0.0
+                        };
+                    }
+                }
+            }
             let dt = match rng.random_range(0..6) {
                 0 => 1e-300,
                 1 => 1e100,
@@ -544,10 +617,9 @@ mod tests {
                 &process_noise(dt, q[0], q[1]),
             );
             let finite = x.iter().chain(p.iter()).all(|v| v.is_finite());
-            let plain = x
-                .iter()
-                .chain(p.iter())
-                .all(|v| v.abs() < 1e100 && *v != 0.0);
+            // zeros are ordinary: only the mean's may not be vouched for, and that is
+            // then the dense `F x`
+            let plain = x.iter().chain(p.iter()).all(|v| v.abs() < 1e100);
             if plain && dt < 1e100 && q[0] < 1e100 {
                 ordinary_cases += 1;
             }
@@ -572,10 +644,109 @@ mod tests {
                 "predict_cv, case {case}"
             );
         }
-        // every input without huge values or zeros takes the structured path
+        // every input without huge values takes the structured path
         assert!(
             structured >= ordinary_cases && ordinary_cases > 20_000,
             "the structured path ran {structured} times in {ordinary_cases} ordinary cases"
+        );
+    }
+
+    /// A position sensor's `z_hat` and `S` read off the state against the dense products,
+    /// bit for bit, on states, covariances and noises with signed zeros, subnormals,
+    /// huge values, infinities and NaN among ordinary ones (and covariances whose x-y
+    /// blocks are zeros, as a position sensor's tracks have); and it must be taken on
+    /// every input with finite values and a noise without `-0`.
+    #[test]
+    fn position_prediction_is_the_dense_one_bit_for_bit() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(15);
+        let value = crate::local::filter::testing::drawn_value;
+        let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+        let (mut taken, mut ordinary) = (0, 0);
+        for case in 0..40_000 {
+            let odd_case = case % 4 == 0;
+            let draw = |rng: &mut rand_chacha::ChaCha8Rng| {
+                let odd = odd_case && rng.random_range(0..8) == 0;
+                value(rng, odd)
+            };
+            let mut x = StateVec::from_fn(|_, _| draw(&mut rng));
+            let mut p = StateCov::from_fn(|_, _| draw(&mut rng));
+            if rng.random_range(0..2) == 0 {
+                p = symmetrize(&(p * p.transpose()));
+            }
+            // a track exactly on an axis, at +0 or -0
+            if odd_case && rng.random_range(0..4) == 0 {
+                x[2 * rng.random_range(0..2)] = if rng.random_range(0..2) == 0 {
+                    0.0
+                } else {
+                    -0.0
+                };
+            }
+            if rng.random_range(0..3) == 0 {
+                for (i, j) in [(0, 2), (0, 3), (1, 2), (1, 3)] {
+                    for (a, b) in [(i, j), (j, i)] {
+                        p[(a, b)] = if rng.random_range(0..2) == 0 {
+                            0.0
+                        } else {
+                            -0.0
+                        };
+                    }
+                }
+            }
+            // a sensor's diagonal noise (zeros +0), the same with zeros of either sign,
+            // or any matrix with odd values
+            let sd = [rng.random_range(0.0..50.0), rng.random_range(0.0..50.0)];
+            let mut r = Mat2::new(sd[0] * sd[0], 0.0, 0.0, sd[1] * sd[1]);
+            match rng.random_range(0..3) {
+                0 => {}
+                1 => {
+                    for (a, b) in [(0, 1), (1, 0)] {
+                        r[(a, b)] = if rng.random_range(0..2) == 0 {
+                            0.0
+                        } else {
+                            -0.0
+                        };
+                    }
+                }
+                _ => r = Mat2::from_fn(|_, _| draw(&mut rng)),
+            }
+            let h = POSITION_H;
+            let dense =
+                PredictedMeasurement::new(h * x, innovation_covariance(&h, &p, &r), h, false);
+            let fast = linear_prediction(&x, &p, &h, &r);
+            match (&dense, &fast) {
+                (Some(d), Some(f)) => {
+                    assert_eq!(bits(f.z.as_slice()), bits(d.z.as_slice()), "z, case {case}");
+                    assert_eq!(bits(f.s.as_slice()), bits(d.s.as_slice()), "S, case {case}");
+                    assert_eq!(
+                        bits(f.s_inv.as_slice()),
+                        bits(d.s_inv.as_slice()),
+                        "S^-1, case {case}"
+                    );
+                    assert_eq!(f.log_norm.to_bits(), d.log_norm.to_bits(), "case {case}");
+                }
+                (None, None) => {}
+                _ => panic!("case {case}: one path refused what the other took"),
+            }
+            let finite = x
+                .iter()
+                .chain(p.iter())
+                .chain(r.iter())
+                .all(|v| v.is_finite());
+            let no_negative_zero = r.iter().all(|v| v.to_bits() != (-0.0f64).to_bits());
+            let structured = position_terms(&x, &p, &r);
+            if finite && no_negative_zero {
+                ordinary += 1;
+                assert!(structured.is_some(), "case {case}: declined");
+            }
+            if structured.is_some() {
+                taken += 1;
+                assert!(finite && no_negative_zero, "case {case}: taken");
+            }
+        }
+        assert!(
+            taken == ordinary && ordinary > 20_000,
+            "{taken} of {ordinary}"
         );
     }
 
