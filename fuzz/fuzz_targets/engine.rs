@@ -84,6 +84,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
     ));
     let _ = std::fs::remove_file(&journal);
     let Ok(mut ahead) = Engine::new(&setup, Some(&journal)) else {
+        let _ = std::fs::remove_file(&journal);
         return Ok(());
     };
     let mut plain = Engine::new(&setup, None).expect("the same setup builds twice");

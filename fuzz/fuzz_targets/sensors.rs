@@ -30,6 +30,8 @@ fuzz_target!(|data: &[u8]| {
         std::env::temp_dir().join(format!("trackfuse-fuzz-sensors-{}.csv", std::process::id()));
     write_sensors(&path, &sensors).expect("write sensors.csv");
     let bytes = std::fs::read(&path).expect("read back");
+    // not left behind in the temporary directory when the run ends
+    let _ = std::fs::remove_file(&path);
     let back = read_sensors_from(&bytes[..], "written.csv").expect("a written file reads back");
     assert_eq!(back, sensors);
 });
