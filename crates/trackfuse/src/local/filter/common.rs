@@ -282,7 +282,7 @@ pub fn joseph_covariance(p: &StateCov, k: &Gain, h: &MeasurementMatrix, r: &Mat2
 
 /// Predicted measurement of a linear model `z = H x + w`, `w ~ N(0, R)`; `None` if `S` is
 /// not positive definite. For `H` = [`POSITION_H`], `z_hat` and `S` are read off the
-/// state ([`position_terms`]) where that gives the dense products' bits.
+/// state (`position_terms`) where that gives the dense products' bits.
 #[inline]
 pub fn linear_prediction(
     mean: &StateVec,
