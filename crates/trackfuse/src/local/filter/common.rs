@@ -115,9 +115,10 @@ pub fn predict_cv(mean: &mut StateVec, cov: &mut StateCov, dt: f64, q: [f64; 2])
 /// is zero (a velocity of exactly 0, say) may differ in sign, so a finite mean with a
 /// zero entry is formed by the dense `F x`, which is then the dense result by
 /// definition. A non-finite result is declined (the dense products then give it: the
-/// bits of a NaN are not something two evaluations promise to share). A position sensor's tracks (x-y block of `P` zero, with a diagonal noise)
-/// take this path too: that block is `+0` here as in the dense product. Hand-written:
-/// nalgebra has no structured product.
+/// bits of a NaN are not something two evaluations promise to share). A position
+/// sensor's tracks (x-y block of `P` zero, with a diagonal noise) take this path too:
+/// that block is `+0` here as in the dense product. Hand-written: nalgebra has no
+/// structured product.
 #[inline]
 pub fn predict_cv_structured(
     mean: &StateVec,
