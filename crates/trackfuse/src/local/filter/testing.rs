@@ -284,3 +284,23 @@ pub(crate) fn drawn_value(rng: &mut rand_chacha::ChaCha8Rng, odd: bool) -> f64 {
         _ => ordinary,
     }
 }
+
+/// A zero of either sign, drawn (for the bit-for-bit tests).
+pub(crate) fn signed_zero(rng: &mut rand_chacha::ChaCha8Rng) -> f64 {
+    use rand::RngExt;
+    if rng.random_range(0..2) == 0 {
+        0.0
+    } else {
+        -0.0
+    }
+}
+
+/// `p`'s x-y blocks (rows 0-1 by columns 2-3, and the transpose) set to zeros of either
+/// sign, as a position sensor's track has them (for the bit-for-bit tests).
+pub(crate) fn zero_xy_block(rng: &mut rand_chacha::ChaCha8Rng, p: &mut crate::types::StateCov) {
+    for (i, j) in [(0, 2), (0, 3), (1, 2), (1, 3)] {
+        for (a, b) in [(i, j), (j, i)] {
+            p[(a, b)] = signed_zero(rng);
+        }
+    }
+}
