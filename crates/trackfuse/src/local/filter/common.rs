@@ -567,26 +567,16 @@ mod tests {
     /// The structured CV prediction against the dense products it stands for, bit for
     /// bit, on covariances and states drawn with signed zeros, subnormals, huge values
     /// (products that overflow), infinities and NaN among ordinary values; and it must
-    /// take the structured path on every input without huge values or zeros.
+    /// take the structured path on every input without huge values, zeros included.
     #[test]
     fn structured_cv_prediction_is_the_dense_one_bit_for_bit() {
         use rand::{RngExt, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
-        let value = crate::local::filter::testing::drawn_value;
         let (mut structured, mut ordinary_cases) = (0, 0);
         for case in 0..40_000 {
             // one case in four carries odd values, one entry in eight of those
             let odd_case = case % 4 == 0;
-            let draw = |rng: &mut rand_chacha::ChaCha8Rng| {
-                let odd = odd_case && rng.random_range(0..8) == 0;
-                value(rng, odd)
-            };
-            let x = StateVec::from_fn(|_, _| draw(&mut rng));
-            let mut p = StateCov::from_fn(|_, _| draw(&mut rng));
-            // a covariance (the product) or any matrix, odd values or not
-            if rng.random_range(0..2) == 0 {
-                p = symmetrize(&(p * p.transpose()));
-            }
+            let (x, mut p) = crate::local::filter::testing::drawn_state(&mut rng, odd_case);
             // one case in five: a position sensor's track, the x-y blocks zeros of
             // either sign
             if rng.random_range(0..5) == 0 {
@@ -651,10 +641,9 @@ mod tests {
     /// every input with finite values and a noise without `-0`.
     #[test]
     fn position_prediction_is_the_dense_one_bit_for_bit() {
-        use crate::local::filter::testing::{signed_zero, zero_xy_block};
+        use crate::local::filter::testing::{drawn_entry, drawn_state, signed_zero, zero_xy_block};
         use rand::{RngExt, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(15);
-        let value = crate::local::filter::testing::drawn_value;
         // every NaN as one: where both paths are dense (a declined input) they are the
         // same products written differently, and a NaN's sign is not promised across
         // two evaluations
@@ -666,15 +655,7 @@ mod tests {
         let (mut taken, mut ordinary) = (0, 0);
         for case in 0..40_000 {
             let odd_case = case % 4 == 0;
-            let draw = |rng: &mut rand_chacha::ChaCha8Rng| {
-                let odd = odd_case && rng.random_range(0..8) == 0;
-                value(rng, odd)
-            };
-            let mut x = StateVec::from_fn(|_, _| draw(&mut rng));
-            let mut p = StateCov::from_fn(|_, _| draw(&mut rng));
-            if rng.random_range(0..2) == 0 {
-                p = symmetrize(&(p * p.transpose()));
-            }
+            let (mut x, mut p) = drawn_state(&mut rng, odd_case);
             // a track exactly on an axis, at +0 or -0
             if odd_case && rng.random_range(0..4) == 0 {
                 x[2 * rng.random_range(0..2)] = signed_zero(&mut rng);
@@ -693,7 +674,7 @@ mod tests {
                         r[(a, b)] = signed_zero(&mut rng);
                     }
                 }
-                _ => r = Mat2::from_fn(|_, _| draw(&mut rng)),
+                _ => r = Mat2::from_fn(|_, _| drawn_entry(&mut rng, odd_case)),
             }
             let h = POSITION_H;
             let dense =

@@ -304,3 +304,27 @@ pub(crate) fn zero_xy_block(rng: &mut rand_chacha::ChaCha8Rng, p: &mut crate::ty
         }
     }
 }
+
+/// An entry of a bit-for-bit test's case: [`drawn_value`], odd with probability 1/8 in
+/// an `odd_case` (one case in four, in the tests that use it).
+pub(crate) fn drawn_entry(rng: &mut rand_chacha::ChaCha8Rng, odd_case: bool) -> f64 {
+    use rand::RngExt;
+    let odd = odd_case && rng.random_range(0..8) == 0;
+    drawn_value(rng, odd)
+}
+
+/// A state and a covariance of a bit-for-bit test's case, entry by entry
+/// ([`drawn_entry`]); the covariance is `sym(P P^T)` in half the cases (a covariance,
+/// odd values or not) and any matrix in the others.
+pub(crate) fn drawn_state(
+    rng: &mut rand_chacha::ChaCha8Rng,
+    odd_case: bool,
+) -> (crate::types::StateVec, crate::types::StateCov) {
+    use rand::RngExt;
+    let x = crate::types::StateVec::from_fn(|_, _| drawn_entry(rng, odd_case));
+    let mut p = crate::types::StateCov::from_fn(|_, _| drawn_entry(rng, odd_case));
+    if rng.random_range(0..2) == 0 {
+        p = crate::types::symmetrize(&(p * p.transpose()));
+    }
+    (x, p)
+}
