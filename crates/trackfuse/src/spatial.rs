@@ -304,8 +304,9 @@ impl EpsGrid {
 
 /// A uniform grid over 2-D points for axis-aligned box queries whose size differs per
 /// query (a track's gate, an initiation reach): the bounding box of the finite points is
-/// cut into about one cell per two points, each cell of the width-to-height ratio the
-/// caller gives (that of its typical query: the axes may have different units), the
+/// cut into about one cell per two points (or, for queries of a known size, cells of
+/// that size: [`BoxGrid::rebuild_for_queries`]), each cell of the width-to-height ratio
+/// the caller gives (that of its typical query: the axes may have different units), the
 /// points are bucketed by a counting sort (no comparison sort, no hash map), and a query
 /// visits the cells its box overlaps. Non-finite points sit in a list every query
 /// visits. The callers apply their exact tests to what it visits, so it is a prefilter
@@ -336,6 +337,48 @@ impl BoxGrid {
     /// Rebuild for `points` (point `i` is the `i`-th item), with cells of width / height
     /// `aspect` (about; 1 when `aspect` is not positive and finite).
     pub fn rebuild(&mut self, aspect: f64, points: impl IntoIterator<Item = Vec2>) {
+        self.rebuild_with(aspect, None, points);
+    }
+
+    /// [`Self::rebuild`] for queries whose boxes are typically `query` wide (`[width,
+    /// height]`, both positive): cells of about that size, as many as the points'
+    /// bounding box holds, but at least one per two points (as [`Self::rebuild`]) and at
+    /// most [`Self::MAX_CELLS_PER_POINT`] per point. The cells' width / height ratio is
+    /// the query's. A `query` that is not positive and finite gives [`Self::rebuild`]'s
+    /// grid with cells of aspect 1.
+    ///
+    /// Why: with one cell per two points, a query box much smaller than a cell still
+    /// visits every point of the cells it touches. A track's gate is such a box: on the
+    /// radar grid of `bench track-sweep` a gate's query visited 24 measurements at
+    /// 30 000 targets and 6 at 100, for less than one it kept; with these cells 8.5 and
+    /// 2.5. The visits are a prefilter only: the points in a box are visited either way,
+    /// in another order. At most two cells per point, because each cell costs the
+    /// rebuild a step (at four per point the rebuild's extra work ate what the fewer
+    /// visits saved; BENCHMARKS.md, "Gate cells of the gate's size").
+    pub fn rebuild_for_queries(&mut self, query: [f64; 2], points: impl IntoIterator<Item = Vec2>) {
+        let area = query[0] * query[1];
+        let sized =
+            query.iter().all(|q| *q > 0.0 && q.is_finite()) && area.is_finite() && area > 0.0;
+        if sized {
+            self.rebuild_with(query[0] / query[1], Some(area), points);
+        } else {
+            self.rebuild_with(1.0, None, points);
+        }
+    }
+
+    /// The most cells [`Self::rebuild_for_queries`] makes per point (a cell costs 4
+    /// bytes and a step of the rebuild's prefix sum, a point 24 bytes).
+    pub const MAX_CELLS_PER_POINT: usize = 2;
+
+    /// The grid with cells of width / height `aspect`, one per two points, or, given
+    /// `query_area`, one per `query_area` of the bounding box within the bounds of
+    /// [`Self::rebuild_for_queries`].
+    fn rebuild_with(
+        &mut self,
+        aspect: f64,
+        query_area: Option<f64>,
+        points: impl IntoIterator<Item = Vec2>,
+    ) {
         let aspect = if aspect > 0.0 && aspect.is_finite() {
             aspect
         } else {
@@ -358,8 +401,16 @@ impl BoxGrid {
                 }
             }
         }
-        let cells = (n_finite / 2).max(1) as f64;
         let w = [(hi[0] - lo[0]).max(0.0), (hi[1] - lo[1]).max(0.0)];
+        let fewest = (n_finite / 2).max(1) as f64;
+        let cells = match query_area.map(|a| w[0] * w[1] / a) {
+            // NaN (an infinite span) and a zero area (points on a line) keep the fewest
+            Some(c) if c.is_finite() && c > fewest => {
+                let most = (n_finite * Self::MAX_CELLS_PER_POINT) as f64;
+                c.min(most).floor()
+            }
+            _ => fewest,
+        };
         let (nx, ny) = if n_finite == 0 || w[0] <= 0.0 && w[1] <= 0.0 {
             (1usize, 1usize)
         } else if w[1] <= 0.0 {
@@ -691,9 +742,16 @@ mod tests {
             Vec2::new(5.0, 5.0),
             Vec2::new(f64::MAX, -f64::MAX),
         ];
-        for aspect in [1.0, 1e-300, 1e300, f64::NAN] {
+        for (aspect, sized) in [1.0, 1e-300, 1e300, f64::NAN]
+            .into_iter()
+            .flat_map(|a| [(a, false), (a, true)])
+        {
             let mut grid = BoxGrid::default();
-            grid.rebuild(aspect, points.iter().copied());
+            if sized {
+                grid.rebuild_for_queries([aspect, 1.0], points.iter().copied());
+            } else {
+                grid.rebuild(aspect, points.iter().copied());
+            }
             let mut got = Vec::new();
             grid.for_each_in_box([0.0, 0.0], [10.0, 10.0], |i, p| {
                 if p[0] >= 0.0 && p[0] <= 10.0 && p[1] >= 0.0 && p[1] <= 10.0 {
@@ -706,6 +764,40 @@ mod tests {
             all.sort_unstable();
             assert_eq!(all, vec![0, 1, 2, 3], "aspect {aspect}");
         }
+    }
+
+    /// Cells of the queries' size: a query box far smaller than the one-cell-per-two-points
+    /// cells visits fewer points (4 000 points on a 2 km x 2 km square, 10 m x 40 m boxes
+    /// around every fourth point).
+    #[test]
+    fn box_grid_sized_for_queries_visits_fewer_points() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let points: Vec<Vec2> = (0..4000)
+            .map(|_| Vec2::new(rng.random_range(0.0..2000.0), rng.random_range(0.0..2000.0)))
+            .collect();
+        let query = [10.0, 40.0];
+        let visits = |grid: &BoxGrid| {
+            let mut n = 0usize;
+            for p in points.iter().step_by(4) {
+                let (lo, hi) = ([p[0] - 5.0, p[1] - 20.0], [p[0] + 5.0, p[1] + 20.0]);
+                grid.for_each_in_box(lo, hi, |_, _| n += 1);
+            }
+            n as f64 / 1000.0
+        };
+        let mut fewest = BoxGrid::default();
+        fewest.rebuild(0.25, points.iter().copied());
+        let mut sized = BoxGrid::default();
+        sized.rebuild_for_queries(query, points.iter().copied());
+        // the square holds 10 000 boxes' worth: capped at two cells per point
+        let cells = sized.dims[0] * sized.dims[1];
+        assert!((8_000..=8_200).contains(&cells), "{cells} cells");
+        let (before, after) = (visits(&fewest), visits(&sized));
+        // each box holds its own centre: 1 + 0.001 (10 + c_x) (40 + c_y) expected with
+        // cells c_x by c_y: 5.2 for the 22 m x 89 m cells of a cell per two points, 2.8
+        // for the 11 m x 45 m of two cells per point
+        assert!(before > 4.5, "{before} visits: a cell per two points");
+        assert!(after < 3.2, "{after} visits: cells of the query's size");
     }
 
     /// Brute-force connected components of the Eps graph: labels = smallest index.
@@ -817,6 +909,9 @@ mod tests {
             snap in proptest::bool::ANY,
             nan in proptest::bool::ANY,
             aspect in prop_oneof![Just(1.0), 0.001f64..1000.0, Just(0.0), Just(f64::NAN)],
+            // Some: the grid sized for queries of that box (`rebuild_for_queries`), zero,
+            // negative and NaN sizes included
+            query in proptest::option::of((prop_oneof![0.01f64..1000.0, Just(0.0), Just(-1.0), Just(f64::NAN)], 0.0001f64..10.0)),
         ) {
             let mut points: Vec<Vec2> = pts
                 .iter()
@@ -826,7 +921,13 @@ mod tests {
                 points[0][1] = f64::NAN;
             }
             let mut grid = BoxGrid::default();
-            grid.rebuild(aspect, points.iter().copied());
+            match query {
+                Some((qx, qy)) => grid.rebuild_for_queries([qx, qy], points.iter().copied()),
+                None => grid.rebuild(aspect, points.iter().copied()),
+            }
+            let cells = grid.dims[0] * grid.dims[1];
+            let most = (points.len() * BoxGrid::MAX_CELLS_PER_POINT).max(1);
+            prop_assert!(cells <= most + grid.dims[0], "{} cells for {} points", cells, points.len());
             for &(cx, cy, hx, hy) in &boxes {
                 let (lo, hi) = ([cx - hx, cy - hy], [cx + hx, cy + hy]);
                 let mut seen = vec![0u32; points.len()];

@@ -45,8 +45,18 @@ impl GateGrid {
 
     /// Build the grid over `measurements` (the scan's, in the measurement space) unless
     /// it is built for this scan already; `angular`: the second coordinate is an angle;
-    /// `shape`: a typical gate, whose width / height ratio the cells take.
-    pub fn ensure(&mut self, measurements: &[Vec2], angular: bool, shape: &PredictedMeasurement) {
+    /// `shape` with `gamma`: a typical gate, whose bounding box the cells take as their
+    /// size ([`BoxGrid::rebuild_for_queries`]: between one cell per two measurements and
+    /// two per measurement). The callers pass the first track's gate: the tracks' gates
+    /// differ in size, but cells within a few times of a gate's size visit a few
+    /// measurements per gate either way.
+    pub fn ensure(
+        &mut self,
+        measurements: &[Vec2],
+        angular: bool,
+        shape: &PredictedMeasurement,
+        gamma: f64,
+    ) {
         if self.built.is_some() {
             return;
         }
@@ -58,8 +68,10 @@ impl GateGrid {
                 *z
             }
         }));
-        let aspect = (shape.s[(0, 0)] / shape.s[(1, 1)]).sqrt();
-        self.grid.rebuild(aspect, self.keys.iter().copied());
+        // the gate's bounding box: `|nu_i| <= sqrt(gamma S_ii)`
+        let query = [0, 1].map(|i| 2.0 * (gamma * shape.s[(i, i)]).sqrt());
+        self.grid
+            .rebuild_for_queries(query, self.keys.iter().copied());
         self.built = Some(angular);
     }
 
@@ -173,7 +185,7 @@ impl Gates {
         self.start.clear();
         self.entries.clear();
         if let Some(p) = predictions.first() {
-            grid.ensure(measurements, p.angular, p);
+            grid.ensure(measurements, p.angular, p, gamma);
         }
         for p in predictions {
             self.start.push(self.entries.len() as u32);

@@ -919,7 +919,8 @@ impl SensorTracker {
     fn update_tentative(&mut self) {
         self.candidates.clear();
         for (k, (_, p)) in self.tentative.iter().enumerate() {
-            self.gate_grid.ensure(&self.converted, p.angular, p);
+            self.gate_grid
+                .ensure(&self.converted, p.angular, p, self.gamma);
             let (used, converted, gamma) = (&self.used, &self.converted, self.gamma);
             let candidates = &mut self.candidates;
             self.gate_grid
