@@ -1227,6 +1227,11 @@ fn pair_within(d: Vec2, cov: &Mat2, r: f64, k: f64) -> bool {
     if shrink * shrink * (q1 / s1 + q2 / s2) <= k2 {
         return true;
     }
+    if r == 0.0 {
+        // the region is the ellipse, and the bound above its exact test (Newton's
+        // tolerance `-1e-12 / r` would be `-inf` and accept everything)
+        return false;
+    }
     let mut mu = 0.0f64;
     for _ in 0..100 {
         let (t1, t2) = (1.0 + mu * s1, 1.0 + mu * s2);
@@ -2272,6 +2277,41 @@ max_range = 60000.0
             "{accepted} accepted, {refused} refused"
         );
         assert!(newton > 20, "only {newton} cases reached Newton's method");
+    }
+
+    /// With no disc (`r = 0`, a `max_speed dt` that underflows) the gate is the error
+    /// ellipse's own test. Before, Newton's tolerance `-1e-12 / r` was `-inf` there and
+    /// every pair the two bounds left undecided was accepted.
+    #[test]
+    fn with_no_disc_the_pair_gate_is_the_ellipse() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let (mut accepted, mut refused) = (0, 0);
+        for case in 0..20_000 {
+            let sd1: f64 = 10f64.powf(rng.random_range(-2.0..4.0));
+            let sd2: f64 = sd1 / 10f64.powf(rng.random_range(0.0..3.0));
+            let angle: f64 = rng.random_range(0.0..std::f64::consts::PI);
+            let (co, si) = (angle.cos(), angle.sin());
+            let rot = Mat2::new(co, -si, si, co);
+            let cov = rot * Mat2::new(sd1 * sd1, 0.0, 0.0, sd2 * sd2) * rot.transpose();
+            let dir: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+            let d = Vec2::new(dir.cos(), dir.sin()) * sd1 * rng.random_range(0.0..4.0);
+            let m = d.dot(&(cov.try_inverse().expect("positive definite") * d));
+            if (m - 9.0).abs() < 1e-6 {
+                continue;
+            }
+            let got = pair_within(d, &cov, 0.0, 3.0);
+            assert_eq!(got, m <= 9.0, "case {case}: d {d:?} cov {cov:?}: {m}");
+            if got {
+                accepted += 1;
+            } else {
+                refused += 1;
+            }
+        }
+        assert!(
+            accepted > 1000 && refused > 1000,
+            "{accepted} accepted, {refused} refused"
+        );
     }
 
     /// `pair_region_area` against a count of grid points the gate accepts, and its
