@@ -918,9 +918,12 @@ impl SensorTracker {
     /// is in track order, so they sort as by `(d^2, track, measurement)`.
     fn update_tentative(&mut self) {
         self.candidates.clear();
-        for (k, (_, p)) in self.tentative.iter().enumerate() {
+        // built by step 2's gates already, unless no confirmed track was predicted
+        if let Some((_, p)) = self.tentative.first() {
             self.gate_grid
                 .ensure(&self.converted, p.angular, p, self.gamma);
+        }
+        for (k, (_, p)) in self.tentative.iter().enumerate() {
             let (used, converted, gamma) = (&self.used, &self.converted, self.gamma);
             let candidates = &mut self.candidates;
             self.gate_grid
@@ -2224,6 +2227,23 @@ max_range = 60000.0
         at(0.5 * (lo + hi))
     }
 
+    /// A covariance for the pair-gate tests: standard deviations `sd1 = 10^u` (`u` drawn
+    /// from `log10_sd1`) and `sd1 / 10^(0..3)` along axes at a drawn angle; returns it
+    /// with `sd1`.
+    fn drawn_pair_covariance(
+        rng: &mut rand_chacha::ChaCha8Rng,
+        log10_sd1: std::ops::Range<f64>,
+    ) -> (Mat2, f64) {
+        use rand::RngExt;
+        let sd1: f64 = 10f64.powf(rng.random_range(log10_sd1));
+        let sd2: f64 = sd1 / 10f64.powf(rng.random_range(0.0..3.0));
+        let angle: f64 = rng.random_range(0.0..std::f64::consts::PI);
+        let (c, s) = (angle.cos(), angle.sin());
+        let rot = Mat2::new(c, -s, s, c);
+        let cov = rot * Mat2::new(sd1 * sd1, 0.0, 0.0, sd2 * sd2) * rot.transpose();
+        (cov, sd1)
+    }
+
     /// `pair_within` decides as the brute-force distance does, for covariances from round
     /// to 10^6 : 1 (a far radar's cross-range against its range error), any
     /// orientation, displacements inside, near and far outside the disc (cases within
@@ -2234,12 +2254,7 @@ max_range = 60000.0
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         let (mut accepted, mut refused, mut newton) = (0, 0, 0);
         for _ in 0..400 {
-            let sd1: f64 = 10f64.powf(rng.random_range(0.5..3.5));
-            let sd2: f64 = sd1 / 10f64.powf(rng.random_range(0.0..3.0));
-            let angle: f64 = rng.random_range(0.0..std::f64::consts::PI);
-            let (c, s) = (angle.cos(), angle.sin());
-            let rot = Mat2::new(c, -s, s, c);
-            let cov = rot * Mat2::new(sd1 * sd1, 0.0, 0.0, sd2 * sd2) * rot.transpose();
+            let (cov, sd1) = drawn_pair_covariance(&mut rng, 0.5..3.5);
             let r: f64 = rng.random_range(50.0..2000.0);
             let dir: f64 = rng.random_range(0.0..std::f64::consts::TAU);
             let len = r + rng.random_range(-0.5..4.0) * sd1;
@@ -2288,12 +2303,7 @@ max_range = 60000.0
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
         let (mut accepted, mut refused) = (0, 0);
         for case in 0..20_000 {
-            let sd1: f64 = 10f64.powf(rng.random_range(-2.0..4.0));
-            let sd2: f64 = sd1 / 10f64.powf(rng.random_range(0.0..3.0));
-            let angle: f64 = rng.random_range(0.0..std::f64::consts::PI);
-            let (co, si) = (angle.cos(), angle.sin());
-            let rot = Mat2::new(co, -si, si, co);
-            let cov = rot * Mat2::new(sd1 * sd1, 0.0, 0.0, sd2 * sd2) * rot.transpose();
+            let (cov, sd1) = drawn_pair_covariance(&mut rng, -2.0..4.0);
             let dir: f64 = rng.random_range(0.0..std::f64::consts::TAU);
             let d = Vec2::new(dir.cos(), dir.sin()) * sd1 * rng.random_range(0.0..4.0);
             let m = d.dot(&(cov.try_inverse().expect("positive definite") * d));
