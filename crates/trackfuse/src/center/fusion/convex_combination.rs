@@ -245,6 +245,149 @@ mod tests {
         assert!((x[0] - 1.5).abs() < 1e-12 && (x[2] - 1.5).abs() < 1e-12);
     }
 
+    /// What [`ConvexCombination::fuse`] does when its fast path declines: the general
+    /// path, the reference the fast path must equal.
+    fn general_path(
+        members: &[&LocalTrack],
+        weights: &[f64],
+    ) -> Result<(StateVec, StateCov), CenterError> {
+        validate("cc", members, weights)?;
+        let members = canonical(members);
+        let fused = convex_combination(&members).ok_or_else(|| non_finite("cc", &members))?;
+        finish_fused("cc", &members, fused)
+    }
+
+    /// A drawn member covariance: `s Q diag(lambda) Q^T` with `lambda_0 = 1` and the
+    /// others `10^-u`, zero, or negative (within the contract's tolerance or beyond it),
+    /// `Q` a product of Givens rotations, the scale `s` from `1e-320` to `1e308` (most
+    /// draws ordinary, some at either end, where cells underflow, overflow or exceed
+    /// half the largest double), then one off-diagonal cell made asymmetric by nothing,
+    /// one unit in the last place, within the tolerance or beyond it, and rarely a cell
+    /// not finite.
+    fn drawn_covariance(rng: &mut crate::rng::StreamRng) -> StateCov {
+        use rand::RngExt;
+        let mut lambda = StateVec::repeat(1.0);
+        for l in lambda.iter_mut().skip(1) {
+            *l = match rng.random_range(0..60) {
+                0..=2 => 0.0,
+                3..=5 => -rng.random_range(0.0..1e-10),
+                12 => -rng.random_range(1e-8..1e-2),
+                _ => 10f64.powf(-rng.random_range(0.0..17.0)),
+            };
+        }
+        let mut q = StateCov::identity();
+        for i in 0..4 {
+            for j in i + 1..4 {
+                let (sn, c) = rng.random_range(-3.2f64..3.2).sin_cos();
+                let mut g = StateCov::identity();
+                g[(i, i)] = c;
+                g[(j, j)] = c;
+                g[(i, j)] = -sn;
+                g[(j, i)] = sn;
+                q = g * q;
+            }
+        }
+        let log_scale = match rng.random_range(0..11) {
+            0 => rng.random_range(-320.0..-290.0),
+            1 => rng.random_range(-110.0..-90.0),
+            2 => rng.random_range(90.0..110.0),
+            3 => rng.random_range(290.0..307.5),
+            // up to the largest doubles: cells above half of it, some overflowing
+            4 => rng.random_range(307.5..308.3),
+            _ => rng.random_range(-6.0..12.0),
+        };
+        let mut p = q * StateCov::from_diagonal(&lambda) * q.transpose();
+        // scaled after the product and in two steps, so that the extreme scales are
+        // reached without the rotation's arithmetic overflowing or underflowing first
+        let half = 10f64.powf(log_scale / 2.0);
+        p = crate::types::symmetrize(&(p * half * half));
+        let (i, j) = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)][rng.random_range(0..6)];
+        match rng.random_range(0..60) {
+            0..=9 => p[(i, j)] = f64::from_bits(p[(i, j)].to_bits() ^ 1),
+            10..=19 => p[(i, j)] += 1e-11 * crate::covariance::scale(&p),
+            20 => p[(i, j)] += 1e-6 * crate::covariance::scale(&p),
+            _ => {}
+        }
+        if rng.random_range(0..1000) == 0 {
+            p[(i, j)] = [f64::NAN, f64::INFINITY][rng.random_range(0..2)];
+        }
+        p
+    }
+
+    /// The fast path of 2 to 16 members gives what the general path gives, to the last
+    /// bit, error for error: on covariances of every kind the contract accepts and some
+    /// it refuses, at every scale, with repeated members, states not finite, and weight
+    /// counts that do not match.
+    #[test]
+    fn the_fast_path_is_the_general_path() {
+        use rand::RngExt;
+        let mut rng = crate::rng::stream(11, 0, "cc-fast-path", 0);
+        let (mut fused, mut refused, mut fast_taken, mut fast_scaled) = (0, 0, 0, 0);
+        for case in 0..40_000 {
+            let n = if rng.random_range(0..4) == 0 {
+                rng.random_range(2..=CANONICAL_INLINE + 1)
+            } else {
+                rng.random_range(2..5)
+            };
+            let mut tracks: Vec<LocalTrack> = (0..n)
+                .map(|k| {
+                    let mut t = local(rng.random_range(1..4), k as i64, 0.0, 0.0, 0.0, 0.0, 1.0);
+                    t.state = StateVec::from_fn(|_, _| rng.random_range(-1e4..1e4));
+                    if rng.random_range(0..1000) == 0 {
+                        t.state[rng.random_range(0..4)] = f64::NAN;
+                    }
+                    t.cov = drawn_covariance(&mut rng);
+                    t
+                })
+                .collect();
+            if rng.random_range(0..10) == 0 {
+                // a member given twice, bit for bit
+                let (a, b) = (rng.random_range(0..n), rng.random_range(0..n));
+                tracks[b] = tracks[a];
+            }
+            let members: Vec<&LocalTrack> = tracks.iter().collect();
+            let weights = vec![
+                1.0;
+                if rng.random_range(0..50) == 0 {
+                    n - 1
+                } else {
+                    n
+                }
+            ];
+            let fast = ConvexCombination.fuse(&members, &weights, &ctx());
+            if matches!(fast_convex_combination(&members, &weights), Ok(Some(_))) {
+                // a member's scale where the contract's check judges a scaled copy
+                let scaled = members
+                    .iter()
+                    .any(|m| !(1e-100..=1e100).contains(&crate::covariance::scale(&m.cov)));
+                (fast_taken, fast_scaled) = (fast_taken + 1, fast_scaled + usize::from(scaled));
+            }
+            let general = general_path(&members, &weights);
+            match (&fast, &general) {
+                (Ok((xf, pf)), Ok((xg, pg))) => {
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert!(
+                        bits(xf.as_slice()) == bits(xg.as_slice())
+                            && bits(pf.as_slice()) == bits(pg.as_slice()),
+                        "case {case}: {xf} {pf} against {xg} {pg}"
+                    );
+                    fused += 1;
+                }
+                (Err(ef), Err(eg)) => {
+                    assert_eq!(ef.to_string(), eg.to_string(), "case {case}");
+                    refused += 1;
+                }
+                _ => panic!("case {case}: {fast:?} against {general:?}\n{tracks:?}"),
+            }
+        }
+        // both outcomes are exercised, and the fast path at ordinary and extreme scales
+        assert!(
+            fused > 10_000 && refused > 5_000 && fast_taken > 6_000 && fast_scaled > 2_000,
+            "{fused} fused ({fast_taken} by the fast path, {fast_scaled} of them with a \
+             member at an extreme scale), {refused} refused"
+        );
+    }
+
     #[test]
     fn singular_and_single_members() {
         let a = local(1, 1, 5.0, 1.0, 6.0, 2.0, 0.0);
