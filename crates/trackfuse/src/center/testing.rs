@@ -125,3 +125,25 @@ pub fn fusion_ctx() -> FusionContext<'static> {
         process_noise: 1.0,
     }
 }
+
+/// The rotation `G_(2,3) ... G_(0,2) G_(0,1)`: the six Givens rotations of the 4-space
+/// by the first six `angles` (radians), in the order of the pairs `(0, 1), (0, 2), (0, 3), (1, 2),
+/// (1, 3), (2, 3)`, each applied on the left. The property tests rotate drawn
+/// eigenvalues with it into covariances of every orientation.
+pub fn givens_rotation(angles: &[f64]) -> StateCov {
+    let mut q = StateCov::identity();
+    let mut a = 0;
+    for i in 0..4 {
+        for j in i + 1..4 {
+            let (s, c) = angles[a].sin_cos();
+            a += 1;
+            let mut g = StateCov::identity();
+            g[(i, i)] = c;
+            g[(j, j)] = c;
+            g[(i, j)] = -s;
+            g[(j, i)] = s;
+            q = g * q;
+        }
+    }
+    q
+}

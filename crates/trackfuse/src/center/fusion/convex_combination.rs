@@ -202,7 +202,7 @@ impl FusionRule for ConvexCombination {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::center::testing::local;
+    use crate::center::testing::{givens_rotation, local};
     use crate::params::ParamTables;
 
     use crate::center::testing::fusion_ctx as ctx;
@@ -277,18 +277,8 @@ mod tests {
                 _ => 10f64.powf(-rng.random_range(0.0..17.0)),
             };
         }
-        let mut q = StateCov::identity();
-        for i in 0..4 {
-            for j in i + 1..4 {
-                let (sn, c) = rng.random_range(-3.2f64..3.2).sin_cos();
-                let mut g = StateCov::identity();
-                g[(i, i)] = c;
-                g[(j, j)] = c;
-                g[(i, j)] = -sn;
-                g[(j, i)] = sn;
-                q = g * q;
-            }
-        }
+        let angles: [f64; 6] = std::array::from_fn(|_| rng.random_range(-3.2..3.2));
+        let q = givens_rotation(&angles);
         let log_scale = match rng.random_range(0..11) {
             0 => rng.random_range(-320.0..-290.0),
             1 => rng.random_range(-110.0..-90.0),

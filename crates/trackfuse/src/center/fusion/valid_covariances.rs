@@ -5,7 +5,7 @@
 //! rule added there is covered.
 
 use crate::center::registry::CenterRegistry;
-use crate::center::testing::local;
+use crate::center::testing::{givens_rotation, local};
 use crate::center::{FusionCenter, FusionConfig, FusionContext};
 use crate::covariance::check_covariance;
 use crate::params::ParamTables;
@@ -63,20 +63,7 @@ fn covariance(r: &Raw) -> StateCov {
             _ => -(e / 16.0) * 1e-10,
         };
     }
-    let mut q = StateCov::identity();
-    let mut a = 0;
-    for i in 0..4 {
-        for j in i + 1..4 {
-            let (s, c) = r.angles[a].sin_cos();
-            a += 1;
-            let mut g = StateCov::identity();
-            g[(i, i)] = c;
-            g[(j, j)] = c;
-            g[(i, j)] = -s;
-            g[(j, i)] = s;
-            q = g * q;
-        }
-    }
+    let q = givens_rotation(&r.angles);
     let p = q * StateCov::from_diagonal(&lambda) * q.transpose() * 10f64.powf(r.log_scale);
     let mut p = crate::types::symmetrize(&p);
     let (pair, amount) = r.asymmetry;
